@@ -1,0 +1,63 @@
+#pragma once
+// Sources of RGB-D frames: TUM sequences, Redwood/Open3D and ICL-NUIM folders, a single PNG pair, an organized PCD.
+// Frame N of a TUM sequence is the N-th rgb/depth pair associated by nearest timestamp (TUM's associate.py).
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "input/frame.h"
+#include "scene/result.h"
+
+namespace rgbdcast {
+
+struct SourceOptions {
+  std::string intrinsics;         // preset name or JSON path; empty = guess from the source (see README)
+  std::optional<double> depth_scale;  // raw units per metre; overrides the intrinsics' value
+  std::string depth_path;         // for a single colour image: its depth PNG
+  std::string associations_path;  // TUM: read pairs from this file instead of associating rgb.txt/depth.txt
+  double max_time_difference_s = 0.02;
+};
+
+struct FrameEntry {
+  std::string color_path, depth_path;  // absolute
+  double color_timestamp = 0.0, depth_timestamp = 0.0;
+};
+
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+  virtual std::string kind() const = 0;  // "tum", "redwood", "pair", "pcd"
+  virtual size_t size() const = 0;
+  virtual const Intrinsics& intrinsics() const = 0;  // as given, with distortion
+  // Loads, validates and undistorts frame i. Errors: kNotFound (index past the end, missing file),
+  // kInvalidInput (corrupt image, depth not 16-bit, colour and depth of different sizes).
+  virtual Result<RgbdFrame> frame(size_t i) const = 0;
+  virtual const std::vector<FrameEntry>& entries() const = 0;
+  virtual std::string root() const = 0;  // the folder or file it was opened from
+};
+
+// Opens `path`: a folder with rgb.txt and depth.txt (TUM), a folder with color/ and depth/ (Redwood/Open3D,
+// ICL-NUIM), a colour image with options.depth_path, or a .pcd file.
+Result<std::unique_ptr<FrameSource>> open_frame_source(const std::string& path, const SourceOptions& options);
+
+// TUM's associate.py: pairs each rgb stamp with the nearest unused depth stamp within max_difference, greedily by
+// time difference; the result is sorted by rgb time. Inputs are (timestamp, path) lists.
+struct StampedPath {
+  double timestamp;
+  std::string path;
+};
+std::vector<FrameEntry> associate(const std::vector<StampedPath>& rgb, const std::vector<StampedPath>& depth,
+                                  double max_difference_s);
+// Reads a TUM list file (rgb.txt / depth.txt): "timestamp path" lines, '#' comments.
+Result<std::vector<StampedPath>> read_tum_list(const std::string& path);
+
+// Decodes and validates images (exposed for the service's uploads). Colour: any 8-bit image OpenCV reads
+// (grey and RGBA are converted); depth: a 16-bit single-channel PNG. Errors name what is wrong.
+Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std::string& what);
+Result<cv::Mat> decode_depth16(const std::vector<unsigned char>& bytes, const std::string& what);
+// Builds a frame from decoded images: checks sizes against each other and the intrinsics, converts depth to metres,
+// undistorts. color is RGB CV_8UC3, depth_raw CV_16UC1.
+Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw, const Intrinsics& intrinsics);
+
+}  // namespace rgbdcast

@@ -1,0 +1,46 @@
+#pragma once
+// The paper's reduction of one RGB-D frame (section 3.2): valid pixels -> statistical outlier removal -> voxel
+// grid -> greedy projection triangulation -> perimeter filter. Each stage is a separate piece (one file each) that
+// reports its output count and time; every parameter defaults to the paper's value.
+#include <string>
+#include <vector>
+
+#include "input/frame.h"
+#include "scene/mesh.h"
+#include "scene/result.h"
+
+namespace rgbdcast {
+
+struct ReductionParams {
+  int outlier_k = 50;              // neighbours for the mean distance (paper: K = 50)
+  double outlier_std_mul = 1.0;    // standard-deviation multiplier (paper: T = 1.0)
+  double voxel_size_m = 0.01;      // voxel edge (paper: 1 cm)
+  double max_edge_m = 0.05;        // d: greedy triangulation's maximum edge length (search radius)
+  double mu = 2.5;                 // greedy triangulation: neighbour distance multiplier
+  int max_neighbours = 100;        // greedy triangulation: nearest neighbours searched
+  int normal_k = 20;               // neighbours for normal estimation
+  double perimeter_factor = 3.0;   // drop triangles with perimeter > factor * d (paper: 3)
+
+  // Returns an error naming the first parameter out of range.
+  Status validate() const;
+};
+
+struct StageReport {
+  std::string name;   // valid, outliers, voxel, triangulate, perimeter, then later stages
+  std::string unit;   // "points" or "triangles" (or what the stage counts: "texels", "bytes")
+  size_t count = 0;
+  double ms = 0.0;
+};
+
+struct ReducedFrame {
+  PointCloud cloud;  // the voxel-grid cloud, camera frame
+  Mesh mesh;         // triangulated, perimeter-filtered; vertex-coloured; camera frame
+  std::vector<StageReport> stages;
+};
+
+Result<ReducedFrame> reduce_frame(const RgbdFrame& frame, const ReductionParams& params);
+
+// The full cloud of a frame (every valid pixel), for the paper's full-cloud comparison.
+PointCloud full_cloud(const RgbdFrame& frame);
+
+}  // namespace rgbdcast

@@ -1,0 +1,64 @@
+#pragma once
+// The one rendering interface. Backends (renderer/vulkan/, renderer/osmesa/) implement it; create_renderer() is the
+// single place that chooses one. A Renderer is used by one thread at a time; scenes stay resident on the device
+// between renders (upload once, render many views).
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "scene/camera.h"
+#include "scene/image.h"
+#include "scene/result.h"
+#include "scene/scene.h"
+
+namespace rgbdcast {
+
+enum class RenderMode { kMesh, kPoints };
+enum class BackendChoice { kAuto, kVulkan, kOsmesa };
+
+const char* to_string(RenderMode mode);
+const char* to_string(BackendChoice choice);
+
+struct RenderOptions {
+  RenderMode mode = RenderMode::kMesh;
+  float point_size_px = 1.0f;                 // splat edge length in pixels, points mode
+  std::array<std::uint8_t, 3> background{0, 0, 0};
+  bool want_depth = false;                    // read back depth too (for evaluation)
+};
+
+struct RenderTimings {
+  double render_ms = 0.0;    // command submission to GPU idle
+  double readback_ms = 0.0;  // copying the image(s) to host memory
+};
+
+struct RenderResult {
+  Image color;                 // RGBA8, alpha 255 where something was drawn, 0 on background
+  std::vector<float> depth_m;  // width*height metres along the camera z axis, 0 on background; empty unless asked
+  RenderTimings timings;
+};
+
+using ResidentSceneId = std::uint64_t;
+
+class Renderer {
+ public:
+  virtual ~Renderer() = default;
+  virtual std::string backend() const = 0;  // "vulkan" or "osmesa"
+  virtual std::string device() const = 0;   // the device or renderer string, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)"
+  // Copies a scene to the device. Fails on an empty scene (no triangles and no points). upload_ms is reported.
+  virtual Result<ResidentSceneId> upload(const Scene& scene, double* upload_ms = nullptr) = 0;
+  virtual void release(ResidentSceneId id) = 0;
+  // Renders a resident scene. Points mode draws each node's points, or the mesh vertices when a node has no points.
+  // Fails on an unknown id, a camera with non-finite values or a size outside 1..kMaxImageSize.
+  virtual Result<RenderResult> render(ResidentSceneId id, const ViewCamera& camera, const RenderOptions& options) = 0;
+};
+
+struct RendererSelection {
+  std::unique_ptr<Renderer> renderer;
+  std::string reason;  // why this backend: "requested", or what auto found ("no Vulkan device: ...")
+};
+
+// auto: Vulkan when a device is found, else OSMesa. When nothing works, one error says what is missing.
+Result<RendererSelection> create_renderer(BackendChoice choice);
+
+}  // namespace rgbdcast

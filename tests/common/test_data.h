@@ -1,0 +1,30 @@
+#pragma once
+// Where tests find the real captures of ../shared/data. A test that needs data it cannot find is skipped on a
+// developer's machine and fails under CI (CI=true), saying which path is missing.
+#include <gtest/gtest.h>
+
+#include <string>
+
+namespace rgbdcast::test {
+
+// Absolute path of a file or folder under ../shared/data.
+std::string data_path(const std::string& relative);
+// True when the path exists; otherwise records the skip or failure (see REQUIRE_DATA).
+bool have_data(const std::string& relative, std::string* message);
+// A fresh empty temporary directory for one test.
+std::string temp_dir(const std::string& tag);
+std::string source_path(const std::string& relative);
+std::string binary_path(const std::string& relative);
+
+}  // namespace rgbdcast::test
+
+#define REQUIRE_DATA(relative)                                        \
+  do {                                                                \
+    std::string rgbdcast_msg_;                                        \
+    if (!::rgbdcast::test::have_data(relative, &rgbdcast_msg_)) {     \
+      if (std::getenv("CI") && std::string(std::getenv("CI")) == "true") \
+        FAIL() << rgbdcast_msg_;                                      \
+      else                                                            \
+        GTEST_SKIP() << rgbdcast_msg_;                                \
+    }                                                                 \
+  } while (0)
