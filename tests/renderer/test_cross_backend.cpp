@@ -1,4 +1,6 @@
 // Vulkan and OSMesa render the same scene alike: within the golden tolerance of each other.
+#include <cstdio>
+
 #include "tests/common/test_data.h"
 #include "tests/renderer/image_compare.h"
 #include "tests/renderer/renderer_fixture.h"
@@ -28,6 +30,9 @@ TEST(CrossBackend, VulkanAndOsmesaAgree) {
       ASSERT_TRUE(a && b);
       const CompareResult c = compare_images(a->color, b->color);
       const std::string tag = std::string(to_string(mode)) + "_" + name;
+      const CompareResult exact = compare_images(a->color, b->color, 0, 0);
+      std::printf("%s: %ld pixels differ at all (%.3f %%), %ld beyond the golden tolerance\n", tag.c_str(),
+                  exact.bad_pixels, 100.0 * exact.bad_fraction, c.bad_pixels);
       if (!c.pass()) {
         const std::string out = binary_path("tests/renderer/golden/cross_" + tag);
         write_png(out + ".vulkan.png", a->color);
