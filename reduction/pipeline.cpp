@@ -1,5 +1,7 @@
 #include "reduction/pipeline.h"
 
+#include <pcl/console/print.h>
+
 #include <chrono>
 #include <cmath>
 
@@ -71,6 +73,9 @@ Mesh to_mesh(const Cloud& cloud, const std::vector<std::uint32_t>& triangles) {
 
 Result<ReducedFrame> reduce_frame(const RgbdFrame& frame, const ReductionParams& params) {
   if (auto st = params.validate(); !st) return st.error();
+  // PCL prints its own diagnostics (e.g. greedy triangulation's "not enough neighbours"); rgbdcast reports
+  // through Result and the stage report instead.
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
   if (frame.depth_m.empty() || frame.color_rgb.empty() || frame.depth_m.size() != frame.color_rgb.size())
     return make_error(ErrorCode::kInvalidInput, "frame has no images or colour and depth differ in size");
   ReducedFrame out;
