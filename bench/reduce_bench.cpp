@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
+#include <iterator>
 #include <map>
 #include <string>
 #include <vector>
 
 #include "input/frame_source.h"
 #include "reduction/pipeline.h"
+#include "reduction/stages.h"
 
 using namespace rgbdcast;
 
@@ -33,13 +35,32 @@ int main(int argc, char** argv) {
   auto frame = (*src)->frame(frame_index);
   if (!frame) return std::fprintf(stderr, "reduce_bench: %s\n", frame.error().message.c_str()), 1;
 
+  // How far the organized outlier search agrees with PCL's k-d tree search on this frame.
+  {
+    std::vector<int> pixel_of_point;
+    Cloud::Ptr valid = backproject_valid(*frame, &pixel_of_point);
+    const ReductionParams p;
+    std::vector<int> a = statistical_outliers_kdtree(valid, p.outlier_k, p.outlier_std_mul);
+    std::vector<int> b = statistical_outliers_organized(*valid, pixel_of_point, frame->depth_m.cols,
+                                                        frame->depth_m.rows, p.outlier_k, p.outlier_std_mul);
+    std::vector<int> both;
+    std::set_intersection(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(both));
+    const size_t removed_a = valid->size() - a.size(), removed_b = valid->size() - b.size();
+    std::printf("outlier agreement: %zu valid; kdtree keeps %zu (removes %zu), organized keeps %zu (removes %zu); "
+                "kept by both %zu, Jaccard %.4f\n\n",
+                valid->size(), a.size(), removed_a, b.size(), removed_b, both.size(),
+                double(both.size()) / double(a.size() + b.size() - both.size()));
+  }
+  for (OutlierMethod method : {OutlierMethod::kKdTree, OutlierMethod::kOrganized}) {
   std::vector<std::string> order;
   std::map<std::string, std::vector<double>> ms;
   std::map<std::string, size_t> count;
   std::map<std::string, std::string> unit;
   std::vector<double> total;
+  ReductionParams params;
+  params.outlier_method = method;
   for (int r = 0; r < runs; ++r) {
-    auto out = reduce_frame(*frame, ReductionParams{});
+    auto out = reduce_frame(*frame, params);
     if (!out) return std::fprintf(stderr, "reduce_bench: %s\n", out.error().message.c_str()), 1;
     double t = 0;
     for (const auto& s : out->stages) {
@@ -51,10 +72,12 @@ int main(int argc, char** argv) {
     }
     total.push_back(t);
   }
-  std::printf("reduce_bench: %s frame %d, %d runs (median ms)\n", input.c_str(), frame_index, runs);
+  std::printf("reduce_bench: %s frame %d, outliers=%s, %d runs (median ms)\n", input.c_str(), frame_index,
+              method == OutlierMethod::kKdTree ? "kdtree" : "organized", runs);
   std::printf("%-12s %10s %-10s %10s\n", "stage", "count", "unit", "median_ms");
   for (const auto& name : order)
     std::printf("%-12s %10zu %-10s %10.1f\n", name.c_str(), count[name], unit[name].c_str(), median(ms[name]));
-  std::printf("%-12s %10s %-10s %10.1f\n", "total", "", "", median(total));
+  std::printf("%-12s %10s %-10s %10.1f\n\n", "total", "", "", median(total));
+  }
   return 0;
 }

@@ -81,11 +81,17 @@ Result<ReducedFrame> reduce_frame(const RgbdFrame& frame, const ReductionParams&
   ReducedFrame out;
   StageTimer timer(&out.stages);
 
-  Cloud::Ptr valid = backproject_valid(frame);
+  std::vector<int> pixel_of_point;
+  Cloud::Ptr valid = backproject_valid(frame, &pixel_of_point);
   timer.done("valid", "points", valid->size());
   if (valid->empty()) return make_error(ErrorCode::kEmpty, "no valid depth in the frame");
 
-  Cloud::Ptr inliers = remove_statistical_outliers(valid, params.outlier_k, params.outlier_std_mul);
+  const std::vector<int> kept =
+      params.outlier_method == OutlierMethod::kOrganized
+          ? statistical_outliers_organized(*valid, pixel_of_point, frame.depth_m.cols, frame.depth_m.rows,
+                                           params.outlier_k, params.outlier_std_mul)
+          : statistical_outliers_kdtree(valid, params.outlier_k, params.outlier_std_mul);
+  auto inliers = std::make_shared<Cloud>(*valid, pcl::Indices(kept.begin(), kept.end()));
   timer.done("outliers", "points", inliers->size());
 
   Cloud::Ptr voxels = voxel_downsample(inliers, params.voxel_size_m);
