@@ -57,3 +57,46 @@ INSTANTIATE_TEST_SUITE_P(Backends, Golden, kBackends);
 
 }  // namespace
 }  // namespace rgbdcast::test
+
+namespace rgbdcast::test {
+namespace {
+
+// Upload once, render many: views at other sizes in between do not disturb a resident scene, the same view gives
+// the same bytes again, and two resident scenes do not mix.
+class Resident : public BackendTest {};
+
+TEST_P(Resident, UploadOnceRenderMany) {
+  double upload_ms = -1.0;
+  auto id = renderer_->upload(synthetic_scene(), &upload_ms);
+  ASSERT_TRUE(id) << id.error().message;
+  EXPECT_GE(upload_ms, 0.0);
+  Scene single;
+  single.nodes.push_back(synthetic_scene().nodes[2]);  // only the point cloud
+  auto id2 = renderer_->upload(single);
+  ASSERT_TRUE(id2);
+  EXPECT_NE(id.value(), id2.value());
+  RenderOptions opt;
+  opt.want_depth = true;
+  auto first = renderer_->render(id.value(), intrinsics_camera(), opt);
+  ASSERT_TRUE(first);
+  EXPECT_GE(first->timings.render_ms, 0.0);
+  EXPECT_GE(first->timings.readback_ms, 0.0);
+  ViewCamera wide = ViewCamera::from_capture(synthetic_scene().cameras[0], kMaxImageSize, 16);
+  auto edge = renderer_->render(id.value(), wide, opt);  // the largest width accepted
+  ASSERT_TRUE(edge) << edge.error().message;
+  EXPECT_EQ(edge->color.width, kMaxImageSize);
+  auto other = renderer_->render(id2.value(), look_at_camera(), opt);
+  ASSERT_TRUE(other);
+  auto again = renderer_->render(id.value(), intrinsics_camera(), opt);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(first->color.data, again->color.data);
+  EXPECT_EQ(first->depth_m, again->depth_m);
+  long differ = 0;
+  for (size_t i = 0; i < first->color.data.size(); ++i) differ += first->color.data[i] != other->color.data[i];
+  EXPECT_GT(differ, 1000) << "the second scene from another camera is another image";
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, Resident, kBackends);
+
+}  // namespace
+}  // namespace rgbdcast::test
