@@ -33,10 +33,20 @@ Status OdometryParams::validate() const {
 Result<PairEstimate> estimate_pair(const RgbdFrame& prev, const FrameFeatures& pf, const RgbdFrame& cur,
                                    const FrameFeatures& cf, const OdometryParams& params) {
   if (Status s = params.validate(); !s) return s.error();
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<FeatureMatch> matches = match_in_window(pf, cf, params.matching);
+  const double match_ms = ms_since(t0);
+  Result<PairEstimate> r = estimate_motion(prev, pf, cur, cf, matches, params);
+  if (r) r->match_ms = match_ms;
+  return r;
+}
+
+Result<PairEstimate> estimate_motion(const RgbdFrame& prev, const FrameFeatures& pf, const RgbdFrame& cur,
+                                     const FrameFeatures& cf, const std::vector<FeatureMatch>& matches,
+                                     const OdometryParams& params) {
+  if (Status s = params.validate(); !s) return s.error();
   PairEstimate out;
   auto t0 = std::chrono::steady_clock::now();
-  const std::vector<FeatureMatch> matches = match_in_window(pf, cf, params.matching);
-  out.match_ms = ms_since(t0);
   out.matches = static_cast<int>(matches.size());
   if (out.matches < params.min_matches) {
     const std::string where = params.matching.window_px > 0

@@ -40,6 +40,11 @@ struct PairEstimate {
 // Errors: kEmpty with a message such as "3 matches inside the 20x20 px window (need >= 5)" or RANSAC's failure.
 Result<PairEstimate> estimate_pair(const RgbdFrame& prev, const FrameFeatures& prev_features, const RgbdFrame& cur,
                                    const FrameFeatures& cur_features, const OdometryParams& params);
+// The same from matches already found (match_in_window(prev_features, cur_features, params.matching)), for callers
+// that record the match count even when the motion fails.
+Result<PairEstimate> estimate_motion(const RgbdFrame& prev, const FrameFeatures& prev_features, const RgbdFrame& cur,
+                                     const FrameFeatures& cur_features, const std::vector<FeatureMatch>& matches,
+                                     const OdometryParams& params);
 
 // Translation (m) and rotation angle (deg) of a rigid 4x4 transform.
 double translation_m(const Eigen::Matrix4d& t);

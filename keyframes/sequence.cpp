@@ -82,7 +82,10 @@ Result<SequenceResult> track_sequence(size_t frame_count, const FrameLoader& loa
       rec.tracked = true;
       rec.pose = Eigen::Matrix4d::Identity();
     } else {
-      Result<PairEstimate> pair = estimate_pair(prev->frame, prev->features, *frame, *features, params.odometry);
+      const std::vector<FeatureMatch> matches = match_in_window(prev->features, *features, params.odometry.matching);
+      rec.matches = static_cast<int>(matches.size());
+      Result<PairEstimate> pair =
+          estimate_motion(prev->frame, prev->features, *frame, *features, matches, params.odometry);
       if (!pair) {
         rec.message = "skipped: " + pair.error().message;
         finish(rec);
