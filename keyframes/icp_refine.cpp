@@ -26,7 +26,8 @@ struct Maps {
   cv::Mat vertex, normal;  // CV_32FC3
 };
 
-Maps make_maps(const RgbdFrame& f, double max_depth_m) {
+// Normals only on every step-th pixel (the source is subsampled; the target needs step 1).
+Maps make_maps(const RgbdFrame& f, double max_depth_m, int step) {
   const int w = f.depth_m.cols, h = f.depth_m.rows;
   const float nan = std::numeric_limits<float>::quiet_NaN();
   Maps m;
@@ -46,8 +47,9 @@ Maps make_maps(const RgbdFrame& f, double max_depth_m) {
       }
       m.vertex.at<cv::Vec3f>(v, u) = p;
     }
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u) {
+  m.normal.setTo(cv::Scalar::all(nan));
+  for (int v = 0; v < h; v += step)
+    for (int u = 0; u < w; u += step) {
       cv::Vec3f n(nan, nan, nan);
       if (u > 0 && v > 0 && u + 1 < w && v + 1 < h) {
         const cv::Vec3f c = m.vertex.at<cv::Vec3f>(v, u);
@@ -92,8 +94,8 @@ Result<IcpResult> refine_point_to_plane(const RgbdFrame& source, const RgbdFrame
     if (f->depth_m.empty() || f->depth_m.type() != CV_32FC1)
       return make_error(ErrorCode::kInvalidInput, "ICP: frame " + std::to_string(f->index) + " has no CV_32F depth");
 
-  const Maps src = make_maps(source, params.max_depth_m);
-  const Maps dst = make_maps(target, params.max_depth_m);
+  const Maps src = make_maps(source, params.max_depth_m, params.pixel_step);
+  const Maps dst = make_maps(target, params.max_depth_m, 1);
   const Intrinsics& k = target.intrinsics;
   const int tw = dst.vertex.cols, th = dst.vertex.rows;
   const double cos_gate = std::cos(params.max_normal_angle_deg * M_PI / 180.0);

@@ -31,7 +31,7 @@ std::vector<FeatureMatch> match_in_window(const FrameFeatures& prev, const Frame
     matcher = cv::makePtr<cv::FlannBasedMatcher>(cv::makePtr<cv::flann::KDTreeIndexParams>(4),
                                                  cv::makePtr<cv::flann::SearchParams>(64));
   else
-    matcher = cv::makePtr<cv::FlannBasedMatcher>(cv::makePtr<cv::flann::LshIndexParams>(12, 20, 2),
+    matcher = cv::makePtr<cv::FlannBasedMatcher>(cv::makePtr<cv::flann::LshIndexParams>(6, 12, 1),
                                                  cv::makePtr<cv::flann::SearchParams>(64));
   const int k = std::min(params.knn, prev.descriptors.rows);
   std::vector<std::vector<cv::DMatch>> knn;
