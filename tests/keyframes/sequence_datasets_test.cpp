@@ -5,6 +5,7 @@
 
 #include "keyframes/pose_error.h"
 #include "keyframes/sequence.h"
+#include "keyframes/sequence_report.h"
 #include "keyframes/trajectory_io.h"
 #include "tests/common/test_data.h"
 #include "tests/keyframes/test_frames.h"
@@ -206,6 +207,16 @@ TEST(KeyframesDatasets, BadFramesAreSkippedWithMessages) {
   EXPECT_FALSE(r->frames[4].tracked);
   EXPECT_NE(r->frames[4].message.find("out of order"), std::string::npos) << r->frames[4].message;
   EXPECT_EQ(r->skipped, 3u);
+  // The report's frames: one entry per frame, pose null when skipped, row-major 4x4 otherwise.
+  const nlohmann::json frames = frames_json(*r);
+  ASSERT_EQ(frames.size(), 5u);
+  EXPECT_TRUE(frames[1]["pose"].is_null());
+  EXPECT_FALSE(frames[1]["keyframe"].get<bool>());
+  ASSERT_EQ(frames[3]["pose"].size(), 4u);
+  EXPECT_DOUBLE_EQ(frames[3]["pose"][0][3].get<double>(), r->frames[3].pose(0, 3));
+  EXPECT_DOUBLE_EQ(frames[3]["pose"][2][0].get<double>(), r->frames[3].pose(2, 0));
+  EXPECT_EQ(frames[3]["index"].get<int>(), 3);
+  EXPECT_EQ(frames[3]["matches"].get<int>(), r->frames[3].matches);
 
   // Every frame unusable: one clear error naming the first reason.
   FrameLoader blank = [&](size_t i) -> Result<RgbdFrame> {
