@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -68,7 +69,10 @@ RunTimes run_once(const std::vector<RgbdFrame>& frames, FeatureType type, bool i
 int main(int argc, char** argv) {
   const int runs = argc > 1 ? std::max(1, std::atoi(argv[1])) : 7;
   std::vector<test::TestSequence> seqs = {test::augmented_icl_sequence(), test::tum_fr1_xyz_sequence()};
-  std::printf("keyframe stage, median of %d runs; ms are per frame; frames/s over the whole sequence\n\n", runs);
+  std::string load;
+  std::getline(std::ifstream("/proc/loadavg"), load);
+  std::printf("keyframe stage, median of %d runs; ms are per frame; frames/s over the whole sequence\n", runs);
+  std::printf("load average at start: %s (figures are only comparable on an idle machine)\n\n", load.c_str());
   std::printf("%-26s %-6s %-4s %7s %9s %9s %9s %9s %9s %8s %8s\n", "dataset", "feat", "icp", "frames", "frames/s",
               "detect", "match", "ransac", "icp", "matches", "inliers");
   for (const test::TestSequence& seq : seqs) {

@@ -6,6 +6,17 @@
 // matches is skipped (its record says why) and the next frame is tried against the same last tracked frame.
 // on_keyframe is called for each keyframe, in order, with the frame and its record (pose filled in): the place to
 // reduce it and add it to a scene. Its error is noted in the record and processing goes on.
+//
+// With the input module (input/frame_source.h):
+//   auto source = open_frame_source(path, options);                  // Result<unique_ptr<FrameSource>>
+//   SequenceParams params;  params.from = N;  params.to = M;  params.odometry.features.type = FeatureType::kOrb;
+//   auto result = track_sequence((*source)->size(), [&](size_t i) { return (*source)->frame(i); }, params,
+//       [&](const RgbdFrame& f, const FrameRecord& r) -> Status {    // per keyframe: reduce, place at r.pose
+//         auto reduced = reduce_frame(f, reduction_params);  if (!reduced) return reduced.error();
+//         scene.nodes.push_back({name, reduced->mesh, {}, r.pose});  // + a CaptureCamera at r.pose
+//         return ok_status(); },
+//       [&](const FrameRecord& r, size_t done, size_t total) { /* progress bar */ });
+//   report["frames"] = frames_json(*result);                          // keyframes/sequence_report.h
 #include <Eigen/Core>
 #include <cstddef>
 #include <functional>
