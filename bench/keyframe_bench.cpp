@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "keyframes/frame_odometry.h"
-#include "tests/keyframes/test_frames.h"
+#include "input/frame_source.h"
 
 using namespace rgbdcast;
 
@@ -68,25 +68,31 @@ RunTimes run_once(const std::vector<RgbdFrame>& frames, FeatureType type, bool i
 
 int main(int argc, char** argv) {
   const int runs = argc > 1 ? std::max(1, std::atoi(argv[1])) : 7;
-  std::vector<test::TestSequence> seqs = {test::augmented_icl_sequence(), test::tum_fr1_xyz_sequence()};
+  const std::vector<std::string> datasets = {"augmented_icl_livingroom", "tum/rgbd_dataset_freiburg1_xyz"};
   std::string load;
   std::getline(std::ifstream("/proc/loadavg"), load);
   std::printf("keyframe stage, median of %d runs; ms are per frame; frames/s over the whole sequence\n", runs);
   std::printf("load average at start: %s (figures are only comparable on an idle machine)\n\n", load.c_str());
-  std::printf("%-26s %-6s %-4s %7s %9s %9s %9s %9s %9s %8s %8s\n", "dataset", "feat", "icp", "frames", "frames/s",
+  std::printf("%-32s %-6s %-4s %7s %9s %9s %9s %9s %9s %8s %8s\n", "dataset", "feat", "icp", "frames", "frames/s",
               "detect", "match", "ransac", "icp", "matches", "inliers");
-  for (const test::TestSequence& seq : seqs) {
+  for (const std::string& name : datasets) {
     std::vector<RgbdFrame> frames;
-    for (size_t i = 0; i < seq.frames.size(); ++i) {
-      Result<RgbdFrame> f = seq.loader()(i);
+    Result<std::unique_ptr<FrameSource>> source =
+        open_frame_source(std::string(RGBDCAST_DATA_DIR) + "/" + name, SourceOptions{});
+    if (!source) {
+      std::fprintf(stderr, "%s: %s\n", name.c_str(), source.error().message.c_str());
+      continue;
+    }
+    for (size_t i = 0; i < (*source)->size(); ++i) {
+      Result<RgbdFrame> f = (*source)->frame(i);
       if (!f) {
-        std::fprintf(stderr, "%s: %s\n", seq.name.c_str(), f.error().message.c_str());
+        std::fprintf(stderr, "%s: %s\n", name.c_str(), f.error().message.c_str());
         continue;
       }
       frames.push_back(std::move(*f));
     }
     if (frames.size() < 2) {
-      std::fprintf(stderr, "%s: fewer than 2 frames, skipped (is ../shared/data there?)\n", seq.name.c_str());
+      std::fprintf(stderr, "%s: fewer than 2 frames, skipped\n", name.c_str());
       continue;
     }
     for (bool icp : {false, true})
@@ -103,7 +109,7 @@ int main(int argc, char** argv) {
           ic.push_back(last.icp_ms);
         }
         const double n = static_cast<double>(frames.size()), pairs = n - 1;
-        std::printf("%-26s %-6s %-4s %7zu %9.1f %9.1f %9.1f %9.2f %9.1f %8.0f %8.0f%s\n", seq.name.c_str(),
+        std::printf("%-32s %-6s %-4s %7zu %9.1f %9.1f %9.1f %9.2f %9.1f %8.0f %8.0f%s\n", name.c_str(),
                     to_string(type), icp ? "yes" : "no", frames.size(), 1000.0 * n / median(total), median(det) / n,
                     median(mat) / pairs, median(ran) / pairs, median(ic) / pairs, last.matches / pairs,
                     last.inliers / pairs, last.failed ? "  (some pairs failed)" : "");

@@ -32,7 +32,7 @@ Result<RpeResult> run_augmented_icl(FeatureType type, bool icp, const std::strin
   SequenceParams params;
   params.odometry.features.type = type;
   params.odometry.refine_icp = icp;
-  Result<SequenceResult> r = track_sequence(seq.frames.size(), seq.loader(), params);
+  Result<SequenceResult> r = track_sequence(seq.size(), seq.loader(), params);
   if (!r) return r.error();
   print_frames(label, *r);
   Result<Trajectory> gt = read_redwood_log(test::data_path("augmented_icl_livingroom/trajectory.log"));
@@ -73,7 +73,7 @@ TEST(KeyframesDatasets, AugmentedIclKeyframesByMotion) {
   SequenceParams params;
   params.keyframes.max_translation_m = 0.05;
   std::vector<size_t> called;
-  Result<SequenceResult> r = track_sequence(seq.frames.size(), seq.loader(), params,
+  Result<SequenceResult> r = track_sequence(seq.size(), seq.loader(), params,
                                             [&](const RgbdFrame& f, const FrameRecord& rec) {
                                               EXPECT_EQ(static_cast<size_t>(f.index), rec.index);
                                               called.push_back(rec.index);
@@ -85,7 +85,7 @@ TEST(KeyframesDatasets, AugmentedIclKeyframesByMotion) {
   EXPECT_EQ(r->keyframes, 2u);
   EXPECT_NE(r->frames[3].message.find("translation"), std::string::npos);
   // Default thresholds (15 cm, 10 deg, 70 % overlap): 10 cm over the 5 frames is one keyframe.
-  Result<SequenceResult> d = track_sequence(seq.frames.size(), seq.loader(), SequenceParams{});
+  Result<SequenceResult> d = track_sequence(seq.size(), seq.loader(), SequenceParams{});
   ASSERT_TRUE(d) << d.error().message;
   EXPECT_EQ(d->keyframes, 1u);
 }
@@ -96,7 +96,7 @@ TEST(KeyframesDatasets, AugmentedIclKeyframesByMotion) {
 TEST(KeyframesDatasets, IclNuimWindowFails) {
   REQUIRE_DATA("icl_nuim_livingroom/pose.txt");
   const test::TestSequence seq = test::icl_nuim_sequence();
-  Result<SequenceResult> r = track_sequence(seq.frames.size(), seq.loader(), SequenceParams{});
+  Result<SequenceResult> r = track_sequence(seq.size(), seq.loader(), SequenceParams{});
   ASSERT_TRUE(r) << r.error().message;
   print_frames("icl-nuim window 20", *r);
   EXPECT_EQ(r->tracked, 1u);
@@ -122,10 +122,12 @@ TEST(KeyframesDatasets, IclNuimWindowFails) {
 TEST(KeyframesDatasets, IclNuimGlobalMatchingAndNegativeFy) {
   REQUIRE_DATA("icl_nuim_livingroom/pose.txt");
   const test::TestSequence seq = test::icl_nuim_sequence();
+  ASSERT_TRUE(seq.source) << seq.error;
+  ASSERT_NEAR(seq.source->intrinsics().fy, 480.0, 1e-9);  // the input module's y-down ICL convention
   SequenceParams params;
   params.odometry.matching.window_px = 0;
   params.odometry.refine_icp = false;
-  Result<SequenceResult> r = track_sequence(seq.frames.size(), seq.loader(), params);
+  Result<SequenceResult> r = track_sequence(seq.size(), seq.loader(), params);
   ASSERT_TRUE(r) << r.error().message;
   print_frames("icl-nuim global", *r);
   ASSERT_GE(r->tracked, 2u);
@@ -154,13 +156,13 @@ TEST(KeyframesDatasets, IclNuimGlobalMatchingAndNegativeFy) {
 TEST(KeyframesDatasets, TumFr1XyzSmallMotion) {
   REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz/rgb.txt");
   const test::TestSequence seq = test::tum_fr1_xyz_sequence();
-  ASSERT_EQ(seq.frames.size(), 3u);
+  ASSERT_EQ(seq.size(), 3u);
   std::vector<Eigen::Matrix4d> last;
   for (FeatureType t : {FeatureType::kSift, FeatureType::kOrb}) {
     SequenceParams params;
     params.odometry.features.type = t;
     params.odometry.refine_icp = false;
-    Result<SequenceResult> r = track_sequence(seq.frames.size(), seq.loader(), params);
+    Result<SequenceResult> r = track_sequence(seq.size(), seq.loader(), params);
     ASSERT_TRUE(r) << r.error().message;
     print_frames(std::string("tum fr1 ") + to_string(t), *r);
     ASSERT_EQ(r->tracked, 3u);

@@ -1,37 +1,30 @@
 #pragma once
-// Frames of the real captures in ../shared/data for the keyframes tests and bench, read directly with OpenCV
-// (colour -> RGB, 16-bit depth -> metres, TUM fr1 undistorted with its published distortion). To be replaced by the
-// input module's open_frame_source once it is on main.
+// The real captures of ../shared/data as the keyframes tests and bench see them: opened with the input module's
+// open_frame_source (layout, intrinsics and depth unit guessed from the folder: Redwood/Open3D with
+// camera_primesense.json and mm depth; ICL-NUIM with fy = +480, i.e. rgbdcast's y-down camera; TUM fr1 with its
+// distortion, undistorted on load).
+#include <memory>
 #include <string>
-#include <vector>
 
-#include "input/frame.h"
+#include "input/frame_source.h"
 #include "keyframes/sequence.h"
-#include "scene/intrinsics.h"
-#include "scene/result.h"
 
 namespace rgbdcast::test {
 
-struct FramePaths {
-  std::string color, depth;
-  double timestamp = 0.0;
-};
-
 struct TestSequence {
   std::string name;
-  Intrinsics intrinsics;  // pinhole after undistortion is what frames carry; distortion applied on load
-  std::vector<FramePaths> frames;
+  std::shared_ptr<FrameSource> source;  // null when the data is missing (REQUIRE_DATA skips or fails first)
+  std::string error;                    // why source is null
+  size_t size() const { return source ? source->size() : 0; }
   FrameLoader loader() const;
 };
 
-// Loads one frame: colour (any 8-bit image) and a 16-bit depth PNG scaled by intrinsics.depth_scale.
-Result<RgbdFrame> load_rgbd(const FramePaths& paths, const Intrinsics& intrinsics, int index);
-
-// 5 consecutive frames, 525/525/319.5/239.5 read from camera_primesense.json, depth 1000 = 1 m.
+TestSequence open_test_sequence(const std::string& name, const std::string& data_relative);
+// 5 consecutive frames, 525/525/319.5/239.5 from camera_primesense.json, depth 1000 = 1 m.
 TestSequence augmented_icl_sequence();
-// 5 widely spaced frames, fx 481.2, fy +480 (rgbdcast's y-down convention; ICL's files say -480), depth 5000 = 1 m.
+// 5 widely spaced frames, fx 481.2, fy +480, depth 5000 = 1 m.
 TestSequence icl_nuim_sequence();
-// 3 consecutive frames of fr1/xyz (rgb/depth pairs from rgb.txt/depth.txt in order), fr1 intrinsics and distortion.
+// 3 consecutive frames of fr1/xyz (rgb/depth associated within 20 ms), fr1 intrinsics and distortion.
 TestSequence tum_fr1_xyz_sequence();
 
 }  // namespace rgbdcast::test
