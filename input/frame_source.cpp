@@ -1,0 +1,324 @@
+#include "input/frame_source.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+#include "input/intrinsics_io.h"
+#include "input/pcd_source.h"
+
+namespace fs = std::filesystem;
+
+namespace rgbdcast {
+
+// ---------------------------------------------------------------------------------------------------------------
+// Decoding and validation
+
+Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std::string& what) {
+  if (bytes.empty()) return make_error(ErrorCode::kInvalidInput, what + ": empty file");
+  cv::Mat img;
+  try {
+    img = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception&) {
+    img.release();
+  }
+  if (img.empty()) return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (corrupt or unknown format)");
+  if (img.depth() != CV_8U)
+    return make_error(ErrorCode::kInvalidInput, what + ": colour image must be 8-bit per channel");
+  cv::Mat rgb;
+  switch (img.channels()) {
+    case 1: cv::cvtColor(img, rgb, cv::COLOR_GRAY2RGB); break;
+    case 3: cv::cvtColor(img, rgb, cv::COLOR_BGR2RGB); break;
+    case 4: cv::cvtColor(img, rgb, cv::COLOR_BGRA2RGB); break;
+    default: return make_error(ErrorCode::kInvalidInput, what + ": unsupported channel count");
+  }
+  return rgb;
+}
+
+Result<cv::Mat> decode_depth16(const std::vector<unsigned char>& bytes, const std::string& what) {
+  if (bytes.empty()) return make_error(ErrorCode::kInvalidInput, what + ": empty file");
+  cv::Mat img;
+  try {
+    img = cv::imdecode(bytes, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
+  } catch (const cv::Exception&) {
+    img.release();
+  }
+  if (img.empty()) return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (corrupt or unknown format)");
+  if (img.depth() != CV_16U || img.channels() != 1)
+    return make_error(ErrorCode::kInvalidInput, what + ": depth must be a 16-bit single-channel image (got " +
+                                                    std::to_string(8 * img.elemSize1()) + "-bit, " +
+                                                    std::to_string(img.channels()) + " channel(s))");
+  return img;
+}
+
+static Result<std::vector<unsigned char>> read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return make_error(ErrorCode::kNotFound, "cannot open " + path);
+  std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return bytes;
+}
+
+Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw, const Intrinsics& intrinsics) {
+  if (color_rgb.size() != depth_raw.size())
+    return make_error(ErrorCode::kInvalidInput, "colour (" + std::to_string(color_rgb.cols) + "x" +
+                                                    std::to_string(color_rgb.rows) + ") and depth (" +
+                                                    std::to_string(depth_raw.cols) + "x" +
+                                                    std::to_string(depth_raw.rows) + ") have different sizes");
+  if (color_rgb.cols != intrinsics.width || color_rgb.rows != intrinsics.height)
+    return make_error(ErrorCode::kInvalidInput,
+                      "images are " + std::to_string(color_rgb.cols) + "x" + std::to_string(color_rgb.rows) +
+                          " but the intrinsics are for " + std::to_string(intrinsics.width) + "x" +
+                          std::to_string(intrinsics.height));
+  if (cv::countNonZero(depth_raw) == 0) return make_error(ErrorCode::kEmpty, "no valid depth (every pixel is 0)");
+  RgbdFrame f;
+  f.intrinsics = intrinsics.pinhole();
+  cv::Mat depth_m;
+  depth_raw.convertTo(depth_m, CV_32F, 1.0 / intrinsics.depth_scale);
+  if (intrinsics.has_distortion()) {
+    // Both images are resampled onto the ideal pinhole camera with the same K: colour bilinear, depth nearest
+    // (interpolating depth across an edge would invent points between foreground and background).
+    cv::Mat K = (cv::Mat_<double>(3, 3) << intrinsics.fx, 0, intrinsics.cx, 0, intrinsics.fy, intrinsics.cy, 0, 0, 1);
+    cv::Mat D(1, 5, CV_64F);
+    for (int i = 0; i < 5; ++i) D.at<double>(i) = intrinsics.distortion[i];
+    cv::Mat map1, map2;
+    cv::initUndistortRectifyMap(K, D, cv::Mat(), K, color_rgb.size(), CV_32FC1, map1, map2);
+    cv::remap(color_rgb, f.color_rgb, map1, map2, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+    cv::remap(depth_m, f.depth_m, map1, map2, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+  } else {
+    f.color_rgb = color_rgb.clone();
+    f.depth_m = depth_m;
+  }
+  return f;
+}
+
+static Result<RgbdFrame> load_pair(const FrameEntry& e, const Intrinsics& intrinsics) {
+  auto cbytes = read_file(e.color_path);
+  if (!cbytes) return cbytes.error();
+  auto dbytes = read_file(e.depth_path);
+  if (!dbytes) return dbytes.error();
+  auto color = decode_color(*cbytes, e.color_path);
+  if (!color) return color.error();
+  auto depth = decode_depth16(*dbytes, e.depth_path);
+  if (!depth) return depth.error();
+  auto frame = make_frame(*color, *depth, intrinsics);
+  if (!frame) return make_error(frame.error().code, e.depth_path + ": " + frame.error().message);
+  frame->timestamp = e.color_timestamp;
+  frame->color_path = e.color_path;
+  frame->depth_path = e.depth_path;
+  return frame;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// TUM association
+
+Result<std::vector<StampedPath>> read_tum_list(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return make_error(ErrorCode::kNotFound, "cannot open " + path);
+  std::vector<StampedPath> out;
+  std::string line;
+  int lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ss(line);
+    StampedPath sp;
+    if (!(ss >> sp.timestamp >> sp.path) || !std::isfinite(sp.timestamp))
+      return make_error(ErrorCode::kInvalidInput, path + ":" + std::to_string(lineno) + ": expected \"timestamp path\"");
+    out.push_back(sp);
+  }
+  return out;
+}
+
+std::vector<FrameEntry> associate(const std::vector<StampedPath>& rgb, const std::vector<StampedPath>& depth,
+                                  double max_difference_s) {
+  // As associate.py: all candidate pairs within the limit, taken greedily by smallest difference, each stamp once.
+  struct Candidate {
+    double diff;
+    size_t r, d;
+  };
+  std::vector<Candidate> candidates;
+  std::vector<size_t> depth_order(depth.size());
+  for (size_t i = 0; i < depth.size(); ++i) depth_order[i] = i;
+  std::sort(depth_order.begin(), depth_order.end(),
+            [&](size_t a, size_t b) { return depth[a].timestamp < depth[b].timestamp; });
+  for (size_t r = 0; r < rgb.size(); ++r) {
+    const double t = rgb[r].timestamp;
+    auto lo = std::lower_bound(depth_order.begin(), depth_order.end(), t - max_difference_s,
+                               [&](size_t d, double v) { return depth[d].timestamp < v; });
+    for (auto it = lo; it != depth_order.end() && depth[*it].timestamp <= t + max_difference_s; ++it) {
+      const double diff = std::abs(depth[*it].timestamp - t);
+      if (diff < max_difference_s) candidates.push_back({diff, r, *it});
+    }
+  }
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const Candidate& a, const Candidate& b) { return a.diff < b.diff; });
+  std::vector<bool> rgb_used(rgb.size()), depth_used(depth.size());
+  std::vector<FrameEntry> out;
+  for (const auto& c : candidates) {
+    if (rgb_used[c.r] || depth_used[c.d]) continue;
+    rgb_used[c.r] = depth_used[c.d] = true;
+    out.push_back({rgb[c.r].path, depth[c.d].path, rgb[c.r].timestamp, depth[c.d].timestamp});
+  }
+  std::sort(out.begin(), out.end(),
+            [](const FrameEntry& a, const FrameEntry& b) { return a.color_timestamp < b.color_timestamp; });
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Sources
+
+namespace {
+
+class ListSource : public FrameSource {
+ public:
+  ListSource(std::string kind, std::string root, std::vector<FrameEntry> entries, Intrinsics k)
+      : kind_(std::move(kind)), root_(std::move(root)), entries_(std::move(entries)), k_(std::move(k)) {}
+  std::string kind() const override { return kind_; }
+  size_t size() const override { return entries_.size(); }
+  const Intrinsics& intrinsics() const override { return k_; }
+  const std::vector<FrameEntry>& entries() const override { return entries_; }
+  std::string root() const override { return root_; }
+  Result<RgbdFrame> frame(size_t i) const override {
+    if (i >= entries_.size())
+      return make_error(ErrorCode::kNotFound, "frame " + std::to_string(i) + " is past the end (" + root_ + " has " +
+                                                  std::to_string(entries_.size()) + " frames)");
+    auto f = load_pair(entries_[i], k_);
+    if (f) f->index = static_cast<int>(i);
+    return f;
+  }
+
+ private:
+  std::string kind_, root_;
+  std::vector<FrameEntry> entries_;
+  Intrinsics k_;
+};
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+Result<Intrinsics> pick_intrinsics(const SourceOptions& o, const std::string& guess) {
+  auto k = resolve_intrinsics(o.intrinsics.empty() ? guess : o.intrinsics);
+  if (!k) return k;
+  if (o.depth_scale) {
+    if (!(*o.depth_scale > 0) || !std::isfinite(*o.depth_scale))
+      return make_error(ErrorCode::kInvalidArgument, "--depth-scale must be positive");
+    k->depth_scale = *o.depth_scale;
+  }
+  return k;
+}
+
+// Numbered images in a folder, sorted by their number (1.png, 2.png, ... or 00000.jpg, ...).
+std::vector<std::string> numbered_images(const fs::path& dir) {
+  std::vector<std::pair<long, std::string>> items;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string ext = lower(e.path().extension().string());
+    if (ext != ".png" && ext != ".jpg" && ext != ".jpeg") continue;
+    const std::string stem = e.path().stem().string();
+    char* end = nullptr;
+    long n = std::strtol(stem.c_str(), &end, 10);
+    if (end == stem.c_str()) n = -1;
+    items.emplace_back(n, e.path().string());
+  }
+  std::sort(items.begin(), items.end());
+  std::vector<std::string> out;
+  for (auto& [n, p] : items) out.push_back(p);
+  return out;
+}
+
+Result<std::unique_ptr<FrameSource>> open_tum(const fs::path& dir, const SourceOptions& o) {
+  std::vector<FrameEntry> entries;
+  if (!o.associations_path.empty()) {
+    std::ifstream in(o.associations_path);
+    if (!in) return make_error(ErrorCode::kNotFound, "cannot open associations file " + o.associations_path);
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.empty() || line[0] == '#') continue;
+      std::istringstream ss(line);
+      FrameEntry e;
+      if (!(ss >> e.color_timestamp >> e.color_path >> e.depth_timestamp >> e.depth_path))
+        return make_error(ErrorCode::kInvalidInput, o.associations_path + ": expected \"t_rgb rgb/.. t_depth depth/..\"");
+      e.color_path = (dir / e.color_path).string();
+      e.depth_path = (dir / e.depth_path).string();
+      entries.push_back(e);
+    }
+  } else {
+    auto rgb = read_tum_list((dir / "rgb.txt").string());
+    if (!rgb) return rgb.error();
+    auto depth = read_tum_list((dir / "depth.txt").string());
+    if (!depth) return depth.error();
+    entries = associate(*rgb, *depth, o.max_time_difference_s);
+    for (auto& e : entries) {
+      e.color_path = (dir / e.color_path).string();
+      e.depth_path = (dir / e.depth_path).string();
+    }
+  }
+  const std::string name = lower(dir.string());
+  std::string guess = "kinect";
+  if (name.find("freiburg1") != std::string::npos) guess = "fr1";
+  else if (name.find("freiburg2") != std::string::npos) guess = "fr2";
+  else if (name.find("freiburg3") != std::string::npos) guess = "fr3";
+  auto k = pick_intrinsics(o, guess);
+  if (!k) return k.error();
+  return std::unique_ptr<FrameSource>(new ListSource("tum", dir.string(), std::move(entries), *k));
+}
+
+Result<std::unique_ptr<FrameSource>> open_numbered(const fs::path& dir, const SourceOptions& o) {
+  auto colors = numbered_images(dir / "color");
+  auto depths = numbered_images(dir / "depth");
+  if (colors.size() != depths.size())
+    return make_error(ErrorCode::kInvalidInput, dir.string() + ": color/ has " + std::to_string(colors.size()) +
+                                                    " images but depth/ has " + std::to_string(depths.size()));
+  std::vector<FrameEntry> entries;
+  for (size_t i = 0; i < colors.size(); ++i) entries.push_back({colors[i], depths[i], double(i), double(i)});
+  // Redwood/Open3D: millimetre depth and an Open3D camera JSON beside the folders; ICL-NUIM: TUM-style 5000/m.
+  std::string guess = "kinect";
+  double scale = 1000.0;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string fname = lower(e.path().filename().string());
+    if (e.path().extension() == ".json" && (fname.find("camera") != std::string::npos || fname.find("intrinsic") != std::string::npos))
+      guess = e.path().string();
+  }
+  if (guess == "kinect" && lower(dir.string()).find("icl_nuim") != std::string::npos) {
+    guess = "icl";
+    scale = 5000.0;
+  }
+  auto k = pick_intrinsics(o, guess);
+  if (!k) return k.error();
+  if (!o.depth_scale) k->depth_scale = scale;  // the layout decides the unit unless --depth-scale says otherwise
+  return std::unique_ptr<FrameSource>(new ListSource("redwood", dir.string(), std::move(entries), *k));
+}
+
+}  // namespace
+
+Result<std::unique_ptr<FrameSource>> open_frame_source(const std::string& path, const SourceOptions& options) {
+  std::error_code ec;
+  const fs::path p(path);
+  if (!fs::exists(p, ec)) return make_error(ErrorCode::kNotFound, "no such file or folder: " + path);
+  if (fs::is_directory(p)) {
+    if (fs::exists(p / "rgb.txt") || !options.associations_path.empty()) return open_tum(p, options);
+    if (fs::is_directory(p / "color") && fs::is_directory(p / "depth")) return open_numbered(p, options);
+    return make_error(ErrorCode::kInvalidInput,
+                      path + ": not a TUM folder (rgb.txt, depth.txt) nor a color/ + depth/ folder");
+  }
+  if (lower(p.extension().string()) == ".pcd") {
+    auto k = pick_intrinsics(options, "kinect");
+    if (!k) return k.error();
+    return open_pcd_source(path, *k);
+  }
+  if (options.depth_path.empty())
+    return make_error(ErrorCode::kInvalidArgument, path + ": a single colour image needs its depth image (--depth)");
+  if (!fs::exists(options.depth_path, ec)) return make_error(ErrorCode::kNotFound, "no such file: " + options.depth_path);
+  auto k = pick_intrinsics(options, "kinect");
+  if (!k) return k.error();
+  std::vector<FrameEntry> entries{{fs::absolute(p).string(), fs::absolute(options.depth_path).string(), 0.0, 0.0}};
+  return std::unique_ptr<FrameSource>(new ListSource("pair", path, std::move(entries), *k));
+}
+
+}  // namespace rgbdcast
