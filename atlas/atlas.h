@@ -5,7 +5,7 @@
 //    UVs at its cell's corners.
 //  - kFrame: the baseline: the whole colour frame is the texture and each vertex's UV is its projected pixel
 //    (projective texturing, affine across each triangle, so large oblique triangles are distorted). Shared vertices
-//    are kept.
+//    are kept (reordered for compression when reorder_triangles; vertices no triangle uses are dropped).
 // Input: mesh positions in the camera frame of color_rgb (CV_8UC3, RGB order) which is already undistorted, so
 // `pinhole` must be the pinhole intrinsics (distortion ignored) of that image. Triangles with a vertex at z <= 0 or
 // no area are dropped (counted). The texture is returned as pixels (Mesh::texture, RGB8) and JPEG-encoded

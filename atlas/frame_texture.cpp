@@ -1,5 +1,7 @@
 #include "atlas/frame_texture.h"
 
+#include <meshoptimizer.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -87,6 +89,22 @@ Result<AtlasResult> build_frame_texture(const Mesh& mesh, const cv::Mat& color_r
     out.indices.insert(out.indices.end(), {a, b, c});
   }
   if (out.indices.empty()) return make_error(ErrorCode::kEmpty, "frame texture: no triangle in front of the camera");
+  if (options.reorder_triangles) {
+    // Vertex-cache order for the triangles, then vertices in first-use order (unused ones dropped): neighbours end up
+    // next to each other in every stream, which is what meshopt's delta codecs want.
+    std::vector<std::uint32_t> tri(out.indices.size());
+    meshopt_optimizeVertexCache(tri.data(), out.indices.data(), out.indices.size(), out.positions.size());
+    std::vector<std::uint32_t> remap(out.positions.size());
+    const size_t used = meshopt_optimizeVertexFetchRemap(remap.data(), tri.data(), tri.size(), out.positions.size());
+    std::vector<Eigen::Vector3f> pos(used);
+    std::vector<Eigen::Vector2f> uvs(used);
+    for (size_t i = 0; i < remap.size(); ++i)
+      if (remap[i] != ~0u) pos[remap[i]] = out.positions[i], uvs[remap[i]] = out.uvs[i];
+    for (auto& i : tri) i = remap[i];
+    out.positions = std::move(pos);
+    out.uvs = std::move(uvs);
+    out.indices = std::move(tri);
+  }
   out.texture = image_from_rgb_mat(color_rgb);
   r.width = color_rgb.cols;
   r.height = color_rgb.rows;

@@ -20,7 +20,10 @@
 // LINEAR filters and CLAMP_TO_EDGE (no mipmaps: atlas cells would bleed into each other). COLOR_0 is linear (glTF)
 // and stored as normalized uint16; the reader converts it back to sRGB bytes. Scene::extras_json goes into the glTF
 // scene's extras. With `quantize`, KHR_mesh_quantization: positions as int16 with the dequantization (translation +
-// uniform scale) on the geometry's child node, UVs as normalized uint16. With `meshopt`, EXT_meshopt_compression.
+// uniform scale) on the geometry's child node; UVs that all sit on texel corners (the atlas) as uint16 texel
+// coordinates with KHR_texture_transform scale (1/width, 1/height) on the baseColorTexture, other UVs in [0,1] as
+// normalized uint16. A triangle list whose indices are 0, 1, 2, ... (the atlas mesh) is written without indices.
+// With `meshopt`, EXT_meshopt_compression (vertex and index codecs) on top.
 #include <cstdint>
 #include <string>
 #include <vector>

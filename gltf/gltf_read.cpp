@@ -149,8 +149,32 @@ Status read_colors(const tinygltf::Model& model, int index, size_t n, std::vecto
   return ok_status();
 }
 
-Status read_texture(const tinygltf::Model& model, int material, Mesh* mesh, int* texcoord) {
+// KHR_texture_transform on a texture reference: uv' = T(offset) R(rotation) S(scale) uv (the extension's matrix).
+Eigen::Matrix3d texture_transform(const tinygltf::TextureInfo& info) {
+  Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
+  auto it = info.extensions.find("KHR_texture_transform");
+  if (it == info.extensions.end() || !it->second.IsObject()) return m;
+  const nlohmann::json t = glb::to_json(it->second);
+  auto pair = [&](const char* key, double d0, double d1) -> Eigen::Vector2d {
+    if (t.contains(key) && t[key].is_array() && t[key].size() == 2 && t[key][0].is_number() && t[key][1].is_number())
+      return {t[key][0].get<double>(), t[key][1].get<double>()};
+    return {d0, d1};
+  };
+  const Eigen::Vector2d offset = pair("offset", 0, 0), scale = pair("scale", 1, 1);
+  const double r = t.contains("rotation") && t["rotation"].is_number() ? t["rotation"].get<double>() : 0.0;
+  Eigen::Matrix3d T = Eigen::Matrix3d::Identity(), R = Eigen::Matrix3d::Identity(), S = Eigen::Matrix3d::Identity();
+  T(0, 2) = offset.x();
+  T(1, 2) = offset.y();
+  R << std::cos(r), std::sin(r), 0, -std::sin(r), std::cos(r), 0, 0, 0, 1;
+  S(0, 0) = scale.x();
+  S(1, 1) = scale.y();
+  m = T * R * S;
+  return m.allFinite() ? m : Eigen::Matrix3d::Identity();
+}
+
+Status read_texture(const tinygltf::Model& model, int material, Mesh* mesh, int* texcoord, Eigen::Matrix3d* uv_transform) {
   *texcoord = -1;
+  *uv_transform = Eigen::Matrix3d::Identity();
   if (material < 0) return ok_status();
   if (static_cast<size_t>(material) >= model.materials.size()) return bad("material index out of range");
   const auto& info = model.materials[material].pbrMetallicRoughness.baseColorTexture;
@@ -178,6 +202,7 @@ Status read_texture(const tinygltf::Model& model, int material, Mesh* mesh, int*
   }
   if (info.texCoord < 0 || info.texCoord > 7) return bad("texCoord set out of range");
   *texcoord = info.texCoord;
+  *uv_transform = texture_transform(info);
   return ok_status();
 }
 
@@ -214,7 +239,8 @@ Status read_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
     for (size_t i = 0; i < m.indices.size(); ++i) m.indices[i] = static_cast<std::uint32_t>(i);
   }
   int texcoord = -1;
-  if (auto st = read_texture(model, prim.material, &m, &texcoord); !st) return st;
+  Eigen::Matrix3d uv_transform;
+  if (auto st = read_texture(model, prim.material, &m, &texcoord, &uv_transform); !st) return st;
   if (texcoord >= 0) {
     auto uv_it = prim.attributes.find("TEXCOORD_" + std::to_string(texcoord));
     if (uv_it == prim.attributes.end()) return bad("textured primitive without TEXCOORD_" + std::to_string(texcoord));
@@ -222,7 +248,8 @@ Status read_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
     if (auto st = read_accessor(model, uv_it->second, 2, &uv, "TEXCOORD"); !st) return st;
     if (uv.size() / 2 != m.positions.size()) return bad("TEXCOORD count differs from POSITION");
     m.uvs.resize(m.positions.size());
-    for (size_t i = 0; i < m.uvs.size(); ++i) m.uvs[i] = Eigen::Vector2f(float(uv[2 * i]), float(uv[2 * i + 1]));
+    for (size_t i = 0; i < m.uvs.size(); ++i)
+      m.uvs[i] = (uv_transform * Eigen::Vector3d(uv[2 * i], uv[2 * i + 1], 1.0)).head<2>().cast<float>();
   }
   return ok_status();
 }

@@ -12,6 +12,7 @@
 #include "gltf/color_space.h"
 #include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
+#include "gltf/image_probe.h"
 #include "gltf/json_value.h"
 #include "gltf/meshopt_buffers.h"
 
@@ -100,9 +101,30 @@ class ModelBuilder {
                         {double(qhi.x()), double(qhi.y()), double(qhi.z())});
   }
 
-  int add_uvs(const std::vector<Eigen::Vector2f>& uvs) {
-    bool unit = true;
-    for (const auto& uv : uvs) unit = unit && uv.x() >= 0 && uv.x() <= 1 && uv.y() >= 0 && uv.y() <= 1;
+  // TEXCOORD_0. Quantized: UVs that sit on texel corners (the atlas puts every vertex on one) are stored as texel
+  // coordinates in uint16 with KHR_texture_transform scaling them by 1/size (*texel_units = true): small, regular
+  // deltas that meshopt compresses well. Other UVs in [0,1] become normalized uint16; anything else stays float.
+  int add_uvs(const std::vector<Eigen::Vector2f>& uvs, int tex_w, int tex_h, bool* texel_units) {
+    *texel_units = false;
+    bool unit = true, on_texels = opt_.quantize && tex_w > 0 && tex_h > 0 && tex_w <= 65535 && tex_h <= 65535;
+    for (const auto& uv : uvs) {
+      unit = unit && uv.x() >= 0 && uv.x() <= 1 && uv.y() >= 0 && uv.y() <= 1;
+      if (on_texels) {
+        const double x = double(uv.x()) * tex_w, y = double(uv.y()) * tex_h;
+        on_texels = std::abs(x - std::round(x)) < 2e-3 && std::abs(y - std::round(y)) < 2e-3 && x >= 0 && y >= 0 &&
+                    x <= 65535 && y <= 65535;
+      }
+    }
+    if (on_texels) {
+      std::vector<std::uint16_t> data(uvs.size() * 2);
+      for (size_t i = 0; i < uvs.size(); ++i) {
+        data[2 * i] = static_cast<std::uint16_t>(std::lround(double(uvs[i].x()) * tex_w));
+        data[2 * i + 1] = static_cast<std::uint16_t>(std::lround(double(uvs[i].y()) * tex_h));
+      }
+      const int v = add_view(data.data(), data.size() * 2, 4, TINYGLTF_TARGET_ARRAY_BUFFER, true);
+      uses_quantization_ = uses_texture_transform_ = *texel_units = true;
+      return add_accessor(v, kUShort, false, uvs.size(), TINYGLTF_TYPE_VEC2);
+    }
     if (opt_.quantize && unit) {
       std::vector<std::uint16_t> data(uvs.size() * 2);
       for (size_t i = 0; i < uvs.size(); ++i)
@@ -126,7 +148,12 @@ class ModelBuilder {
     return add_accessor(v, kUShort, true, colors.size(), TINYGLTF_TYPE_VEC3);
   }
 
+  // -1 (no indices: a non-indexed primitive) when the indices are just 0, 1, 2, ... over all vertices, as in the
+  // atlas mesh where every triangle has its own vertices.
   int add_indices(const std::vector<std::uint32_t>& idx, size_t vertex_count) {
+    bool sequential = idx.size() == vertex_count;
+    for (size_t i = 0; sequential && i < idx.size(); ++i) sequential = idx[i] == i;
+    if (sequential) return -1;
     if (vertex_count <= 65535) {  // 65535 itself is the primitive-restart value, never an index
       std::vector<std::uint16_t> data(idx.begin(), idx.end());
       const int v = add_view(data.data(), data.size() * 2, 0, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER, true);
@@ -136,12 +163,17 @@ class ModelBuilder {
     return add_accessor(v, kUInt, false, idx.size(), TINYGLTF_TYPE_SCALAR);
   }
 
-  int add_material(const std::string& name, int texture) {
+  int add_material(const std::string& name, int texture, int tex_w = 0, int tex_h = 0) {
     tinygltf::Material m;
     m.name = name;
     m.pbrMetallicRoughness.metallicFactor = 0.0;
     m.pbrMetallicRoughness.roughnessFactor = 1.0;
     if (texture >= 0) m.pbrMetallicRoughness.baseColorTexture.index = texture;
+    if (texture >= 0 && tex_w > 0) {  // UVs in texel units (add_uvs)
+      tinygltf::Value::Object t;
+      t["scale"] = tinygltf::Value(tinygltf::Value::Array{tinygltf::Value(1.0 / tex_w), tinygltf::Value(1.0 / tex_h)});
+      m.pbrMetallicRoughness.baseColorTexture.extensions["KHR_texture_transform"] = tinygltf::Value(t);
+    }
     m.doubleSided = true;
     m.extensions["KHR_materials_unlit"] = tinygltf::Value(tinygltf::Value::Object());
     model_.materials.push_back(m);
@@ -198,7 +230,7 @@ class ModelBuilder {
   tinygltf::Model model_;
   const GlbWriteOptions& opt_;
   size_t geometry_bytes_ = 0, texture_bytes_ = 0;
-  bool uses_quantization_ = false;
+  bool uses_quantization_ = false, uses_texture_transform_ = false;
 };
 
 Status check_mesh(const Mesh& m, const std::string& name) {
@@ -246,9 +278,14 @@ Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteO
       tinygltf::Node dequant;
       prim.attributes["POSITION"] = b.add_positions(m.positions, &dequant);
       quantized_positions = quantized_positions || options.quantize;
-      int texture = -1;
+      int texture = -1, tex_w = 0, tex_h = 0;
+      bool texel_units = false;
       if (m.textured()) {
-        prim.attributes["TEXCOORD_0"] = b.add_uvs(m.uvs);
+        tex_w = m.texture.width;
+        tex_h = m.texture.height;
+        if (m.texture.empty() && !glb::probe_image_size(m.texture_encoded.data(), m.texture_encoded.size(), &tex_w, &tex_h))
+          return invalid(name + ": texture_encoded is not a JPEG/PNG");
+        prim.attributes["TEXCOORD_0"] = b.add_uvs(m.uvs, tex_w, tex_h, &texel_units);
         auto t = b.add_texture(m);
         if (!t) return t.error();
         texture = t.value();
@@ -256,7 +293,8 @@ Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteO
         prim.attributes["COLOR_0"] = b.add_colors(m.colors);
       }
       prim.indices = b.add_indices(m.indices, m.positions.size());
-      prim.material = b.add_material(name + "_material", texture);
+      prim.material = texel_units ? b.add_material(name + "_material", texture, tex_w, tex_h)
+                                  : b.add_material(name + "_material", texture);
       group.children.push_back(b.add_mesh_node(name + "_mesh", prim, dequant));
     }
     if (sn.points.size() > 0) {
@@ -315,6 +353,10 @@ Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteO
   if (quantized_positions || b.uses_quantization_) {
     b.model_.extensionsUsed.push_back("KHR_mesh_quantization");
     b.model_.extensionsRequired.push_back("KHR_mesh_quantization");
+  }
+  if (b.uses_texture_transform_) {
+    b.model_.extensionsUsed.push_back("KHR_texture_transform");
+    b.model_.extensionsRequired.push_back("KHR_texture_transform");
   }
 
   std::ostringstream os;

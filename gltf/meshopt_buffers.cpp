@@ -150,7 +150,10 @@ Result<GlbChunks> meshopt_decompress(const GlbChunks& in) {
     out.has_bin = true;
     json& buffers = doc.at("buffers");
     json& views = doc.at("bufferViews");
-    if (!buffers.is_array() || !views.is_array()) return bad("buffers/bufferViews are not arrays");
+    if (!buffers.is_array() || !views.is_array() || buffers.empty()) return bad("buffers/bufferViews are not arrays");
+    if (buffers[0].contains("uri")) return bad("buffer 0 must be the BIN chunk");
+    if (buffers[0].at("byteLength").get<size_t>() > in.bin.size())
+      return bad("buffer 0 is longer than the BIN chunk (truncated file)");
     for (size_t v = 0; v < views.size(); ++v) {
       json& view = views[v];
       if (!view.is_object() || !view.contains("extensions") || !view["extensions"].contains(kExt)) continue;

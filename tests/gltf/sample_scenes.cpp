@@ -61,6 +61,19 @@ Scene sample_scene() {
   Eigen::Affine3d t = Eigen::Translation3d(0.2, -0.1, 0.3) * Eigen::AngleAxisd(0.3, Eigen::Vector3d(0, 1, 0.2).normalized());
   b.to_world = t.matrix();
   s.nodes.push_back(b);
+  // Atlas-like: every triangle has its own vertices (indices 0, 1, 2, ...) and UVs on texel corners.
+  SceneNode c;
+  c.name = "atlas_like";
+  c.mesh.texture = gradient_texture(32, 16);
+  for (int t = 0; t < 8; ++t) {
+    const float x = 0.1f * t;
+    c.mesh.positions.insert(c.mesh.positions.end(), {{x, 0, 1}, {x + 0.1f, 0, 1}, {x, 0.1f, 1.05f}});
+    const float u0 = (t % 4) * 8.0f, v0 = (t / 4) * 8.0f;
+    c.mesh.uvs.insert(c.mesh.uvs.end(), {{(u0 + 1) / 32, (v0 + 1) / 16}, {(u0 + 4) / 32, (v0 + 1) / 16},
+                                         {(u0 + 1) / 32, (v0 + 4) / 16}});
+    for (int k = 0; k < 3; ++k) c.mesh.indices.push_back(static_cast<std::uint32_t>(3 * t + k));
+  }
+  s.nodes.push_back(c);
   CaptureCamera cam;
   cam.intrinsics.fx = 517.3;
   cam.intrinsics.fy = 516.5;

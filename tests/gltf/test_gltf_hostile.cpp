@@ -50,11 +50,13 @@ TEST(GltfHostile, TruncatedChunksWithConsistentLengthsAreErrors) {
     auto chunks = glb::parse_glb(glb.data(), glb.size());
     ASSERT_TRUE(chunks.ok());
     int rejected = 0, total = 0;
-    for (size_t n = 0; n < chunks->bin.size(); n += 7) {
+    // pack_glb pads the chunk to 4 bytes again, so cuts inside the last 4 bytes give back the same file.
+    for (size_t n = 0; ((n + 3) & ~size_t(3)) < chunks->bin.size(); n += 7) {
       std::vector<std::uint8_t> bin(chunks->bin.begin(), chunks->bin.begin() + n);
       const auto bytes = glb::pack_glb(chunks->json, bin);
       auto r = decode_glb(bytes.data(), bytes.size());
       ++total;
+      if (r.ok()) std::printf("meshopt=%d: BIN cut to %zu of %zu bytes still decodes\n", meshopt, n, chunks->bin.size());
       if (!r.ok()) {
         ++rejected;
         EXPECT_EQ(r.error().code, ErrorCode::kInvalidInput) << r.error().message;

@@ -119,6 +119,14 @@ TEST_P(GltfRoundTrip, WritesValidGlbAndReadsItBack) {
   EXPECT_EQ(doc["cameras"][0]["type"], "perspective");
   EXPECT_NEAR(doc["cameras"][0]["perspective"]["aspectRatio"].get<double>(), 640.0 / 480.0, 1e-12);
   EXPECT_EQ(doc["scenes"][0]["extras"]["stages"]["triangles"], 40168);
+  // The atlas-like node: no indices, texel-unit UVs with KHR_texture_transform when quantized.
+  bool non_indexed = false, texture_transform = false;
+  for (const auto& m : doc["meshes"]) non_indexed = non_indexed || !m["primitives"][0].contains("indices");
+  for (const auto& m : doc["materials"])
+    texture_transform = texture_transform ||
+                        m["pbrMetallicRoughness"].value("baseColorTexture", nlohmann::json::object()).contains("extensions");
+  EXPECT_TRUE(non_indexed);
+  EXPECT_EQ(texture_transform, v.quantize);
   bool has_points = false;
   for (const auto& m : doc["meshes"]) has_points = has_points || m["primitives"][0].value("mode", 4) == 0;
   EXPECT_TRUE(has_points);
