@@ -101,11 +101,13 @@ class ModelBuilder {
                         {double(qhi.x()), double(qhi.y()), double(qhi.z())});
   }
 
-  // TEXCOORD_0. Quantized: UVs that sit on texel corners (the atlas puts every vertex on one) are stored as texel
-  // coordinates in uint16 with KHR_texture_transform scaling them by 1/size (*texel_units = true): small, regular
-  // deltas that meshopt compresses well. Other UVs in [0,1] become normalized uint16; anything else stays float.
-  int add_uvs(const std::vector<Eigen::Vector2f>& uvs, int tex_w, int tex_h, bool* texel_units) {
-    *texel_units = false;
+  // TEXCOORD_0. Quantized: UVs that all sit on texel corners (the atlas puts every vertex on one) are stored as
+  // texel coordinates in uint16 with KHR_texture_transform scaling them by 1/size; other UVs in [0,1] as uint16 in
+  // 1/8 texel units the same way (error <= 1/16 texel) when the texture is at most 8191 texels wide. Small, regular
+  // deltas are what meshopt compresses well. Otherwise normalized uint16, or float for UVs outside [0,1].
+  // *units_per_texel is 0 when no texture transform is needed.
+  int add_uvs(const std::vector<Eigen::Vector2f>& uvs, int tex_w, int tex_h, int* units_per_texel) {
+    *units_per_texel = 0;
     bool unit = true, on_texels = opt_.quantize && tex_w > 0 && tex_h > 0 && tex_w <= 65535 && tex_h <= 65535;
     for (const auto& uv : uvs) {
       unit = unit && uv.x() >= 0 && uv.x() <= 1 && uv.y() >= 0 && uv.y() <= 1;
@@ -115,14 +117,17 @@ class ModelBuilder {
                     x <= 65535 && y <= 65535;
       }
     }
-    if (on_texels) {
+    const int units = on_texels ? 1 : (opt_.quantize && unit && tex_w > 0 && tex_h > 0 && 8 * tex_w <= 65535 &&
+                                       8 * tex_h <= 65535) ? 8 : 0;
+    if (units > 0) {
       std::vector<std::uint16_t> data(uvs.size() * 2);
       for (size_t i = 0; i < uvs.size(); ++i) {
-        data[2 * i] = static_cast<std::uint16_t>(std::lround(double(uvs[i].x()) * tex_w));
-        data[2 * i + 1] = static_cast<std::uint16_t>(std::lround(double(uvs[i].y()) * tex_h));
+        data[2 * i] = static_cast<std::uint16_t>(std::lround(double(uvs[i].x()) * tex_w * units));
+        data[2 * i + 1] = static_cast<std::uint16_t>(std::lround(double(uvs[i].y()) * tex_h * units));
       }
       const int v = add_view(data.data(), data.size() * 2, 4, TINYGLTF_TARGET_ARRAY_BUFFER, true);
-      uses_quantization_ = uses_texture_transform_ = *texel_units = true;
+      uses_quantization_ = uses_texture_transform_ = true;
+      *units_per_texel = units;
       return add_accessor(v, kUShort, false, uvs.size(), TINYGLTF_TYPE_VEC2);
     }
     if (opt_.quantize && unit) {
@@ -163,15 +168,17 @@ class ModelBuilder {
     return add_accessor(v, kUInt, false, idx.size(), TINYGLTF_TYPE_SCALAR);
   }
 
-  int add_material(const std::string& name, int texture, int tex_w = 0, int tex_h = 0) {
+  // uv_units_w/h > 0: TEXCOORD_0 is in 1/uv_units of the texture (KHR_texture_transform scale).
+  int add_material(const std::string& name, int texture, int uv_units_w = 0, int uv_units_h = 0) {
     tinygltf::Material m;
     m.name = name;
     m.pbrMetallicRoughness.metallicFactor = 0.0;
     m.pbrMetallicRoughness.roughnessFactor = 1.0;
     if (texture >= 0) m.pbrMetallicRoughness.baseColorTexture.index = texture;
-    if (texture >= 0 && tex_w > 0) {  // UVs in texel units (add_uvs)
+    if (texture >= 0 && uv_units_w > 0) {  // integer UVs (add_uvs)
       tinygltf::Value::Object t;
-      t["scale"] = tinygltf::Value(tinygltf::Value::Array{tinygltf::Value(1.0 / tex_w), tinygltf::Value(1.0 / tex_h)});
+      t["scale"] = tinygltf::Value(
+          tinygltf::Value::Array{tinygltf::Value(1.0 / uv_units_w), tinygltf::Value(1.0 / uv_units_h)});
       m.pbrMetallicRoughness.baseColorTexture.extensions["KHR_texture_transform"] = tinygltf::Value(t);
     }
     m.doubleSided = true;
@@ -279,13 +286,13 @@ Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteO
       prim.attributes["POSITION"] = b.add_positions(m.positions, &dequant);
       quantized_positions = quantized_positions || options.quantize;
       int texture = -1, tex_w = 0, tex_h = 0;
-      bool texel_units = false;
+      int units_per_texel = 0;
       if (m.textured()) {
         tex_w = m.texture.width;
         tex_h = m.texture.height;
         if (m.texture.empty() && !glb::probe_image_size(m.texture_encoded.data(), m.texture_encoded.size(), &tex_w, &tex_h))
           return invalid(name + ": texture_encoded is not a JPEG/PNG");
-        prim.attributes["TEXCOORD_0"] = b.add_uvs(m.uvs, tex_w, tex_h, &texel_units);
+        prim.attributes["TEXCOORD_0"] = b.add_uvs(m.uvs, tex_w, tex_h, &units_per_texel);
         auto t = b.add_texture(m);
         if (!t) return t.error();
         texture = t.value();
@@ -293,8 +300,9 @@ Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteO
         prim.attributes["COLOR_0"] = b.add_colors(m.colors);
       }
       prim.indices = b.add_indices(m.indices, m.positions.size());
-      prim.material = texel_units ? b.add_material(name + "_material", texture, tex_w, tex_h)
-                                  : b.add_material(name + "_material", texture);
+      prim.material = units_per_texel ? b.add_material(name + "_material", texture, tex_w * units_per_texel,
+                                                       tex_h * units_per_texel)
+                                      : b.add_material(name + "_material", texture);
       group.children.push_back(b.add_mesh_node(name + "_mesh", prim, dequant));
     }
     if (sn.points.size() > 0) {

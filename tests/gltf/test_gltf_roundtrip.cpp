@@ -40,7 +40,8 @@ void expect_same_scene(const Scene& a, const Scene& b, bool quantized) {
       if (is_mesh ? na.mesh.triangle_count() == 0 : na.points.size() == 0) continue;
       ASSERT_LT(bi, b.nodes.size());
       const SceneNode& nb = b.nodes[bi++];
-      const double tol = quantized ? 0.0005 : 1e-6;
+      // Quantized positions: within half a step per axis (step = the default 1 mm quantum for these small scenes).
+      const double tol = quantized ? 0.5 * GlbWriteOptions{}.position_quantum_m * std::sqrt(3.0) + 1e-6 : 1e-6;
       if (is_mesh) {
         ASSERT_EQ(nb.mesh.positions.size(), na.mesh.positions.size());
         // meshopt's index codec may rotate a triangle's vertices (winding kept): compare rotated to the smallest.
@@ -51,7 +52,8 @@ void expect_same_scene(const Scene& a, const Scene& b, bool quantized) {
         if (na.mesh.textured()) {
           ASSERT_EQ(nb.mesh.uvs.size(), na.mesh.uvs.size());
           for (size_t i = 0; i < na.mesh.uvs.size(); ++i)
-            EXPECT_LT((nb.mesh.uvs[i] - na.mesh.uvs[i]).norm(), 2e-5);
+            EXPECT_LT((nb.mesh.uvs[i] - na.mesh.uvs[i]).cwiseAbs().maxCoeff(),
+                      quantized ? 1.0 / (16.0 * na.mesh.texture.width) + 1e-6 : 1e-6);
           EXPECT_EQ(nb.mesh.texture.width, na.mesh.texture.width);
           EXPECT_EQ(nb.mesh.texture.height, na.mesh.texture.height);
           EXPECT_EQ(nb.mesh.texture_mime, "image/jpeg");
