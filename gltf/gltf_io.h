@@ -66,8 +66,9 @@ Status write_glb_file(const Scene& scene, const std::string& path, const GlbWrit
 
 // Decodes GLB bytes from an untrusted source: any GLB rgbdcast writes and ordinary textured-mesh GLBs. Textures are
 // decoded to Mesh::texture (RGB8). A truncated or malformed file is an kInvalidInput error, never a crash.
-// One SceneNode per mesh primitive (triangles -> mesh, points -> points); positions as stored (quantized files keep
-// integer positions and the dequantization in to_world).
+// One SceneNode per mesh primitive (triangles -> mesh, points -> points). Positions are floats: quantized positions
+// are dequantized with their node's translation + scale (so an rgbdcast file gives back metres and its to_world);
+// UVs have KHR_texture_transform applied (0..1 over the texture, origin top-left).
 Result<Scene> decode_glb(const std::uint8_t* data, size_t size);
 Result<Scene> read_glb_file(const std::string& path);
 

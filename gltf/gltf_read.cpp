@@ -290,6 +290,26 @@ CaptureCamera read_camera(const tinygltf::Model& model, const tinygltf::Node& no
   return cam;
 }
 
+// KHR_mesh_quantization files keep integer positions and put the dequantization (translation + scale) on the
+// mesh's node. When a node holding integer positions has only translation and scale (no rotation, no matrix), that
+// transform is applied to the positions here, so that positions are metres in the node's parent frame and to_world
+// stays the placement (rigid for rgbdcast files) rather than a scale into integer units.
+void bake_dequantization(const tinygltf::Model& model, const tinygltf::Node& node, const tinygltf::Primitive& prim,
+                         const Eigen::Matrix4d& parent_to_world, SceneNode* sn) {
+  auto pos = prim.attributes.find("POSITION");
+  if (pos == prim.attributes.end() || pos->second < 0 || static_cast<size_t>(pos->second) >= model.accessors.size())
+    return;
+  if (model.accessors[pos->second].componentType == TINYGLTF_COMPONENT_TYPE_FLOAT) return;
+  if (node.matrix.size() == 16 || node.rotation.size() == 4) return;
+  const Eigen::Matrix4d local = node_matrix(node);
+  auto apply = [&](std::vector<Eigen::Vector3f>& ps) {
+    for (auto& p : ps) p = (local * Eigen::Vector4d(p.x(), p.y(), p.z(), 1.0)).head<3>().cast<float>();
+  };
+  apply(sn->mesh.positions);
+  apply(sn->points.positions);
+  sn->to_world = parent_to_world;
+}
+
 }  // namespace
 
 Result<Scene> decode_glb(const std::uint8_t* data, size_t size) {
@@ -353,6 +373,7 @@ Result<Scene> decode_glb(const std::uint8_t* data, size_t size) {
         if (mesh.primitives.size() > 1) sn.name += "#" + std::to_string(p);
         sn.to_world = C * world;
         if (auto st = read_primitive(model, mesh.primitives[p], &sn); !st) return st;
+        bake_dequantization(model, node, mesh.primitives[p], C * parent, &sn);
         scene.nodes.push_back(std::move(sn));
       }
     }

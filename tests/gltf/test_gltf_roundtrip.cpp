@@ -40,6 +40,8 @@ void expect_same_scene(const Scene& a, const Scene& b, bool quantized) {
       if (is_mesh ? na.mesh.triangle_count() == 0 : na.points.size() == 0) continue;
       ASSERT_LT(bi, b.nodes.size());
       const SceneNode& nb = b.nodes[bi++];
+      // The reader undoes the dequantization node: to_world is the original placement, positions are metres.
+      EXPECT_LT((nb.to_world - na.to_world).norm(), 1e-9);
       // Quantized positions: within half a step per axis (step = the default 1 mm quantum for these small scenes).
       const double tol = quantized ? 0.5 * GlbWriteOptions{}.position_quantum_m * std::sqrt(3.0) + 1e-6 : 1e-6;
       if (is_mesh) {
