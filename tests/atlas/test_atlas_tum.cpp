@@ -53,6 +53,10 @@ Fixture* fixture() {
     auto reduced = reduce_frame(fx->frame, ReductionParams{});
     if (reduced) fx->reduced = std::move(reduced.value());
     fx->dir = test::temp_dir("atlas-tum");
+    // GLBs and screenshots are removed at exit unless RGBDCAST_KEEP_TEST_OUTPUT is set (then the paths are printed).
+    std::atexit([] {
+      if (!std::getenv("RGBDCAST_KEEP_TEST_OUTPUT")) fs::remove_all(fixture()->dir);
+    });
     return fx;
   }();
   return f;
@@ -195,6 +199,7 @@ static void render_in_chromium(const Mesh& mesh, const RgbdFrame& frame, bool me
   kill(pid, SIGTERM);
   int status = 0;
   waitpid(pid, &status, 0);
+  fs::remove_all(profile);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   ASSERT_TRUE(posted.has_value()) << "the page did not report within 90 s; see " << log;
   ASSERT_EQ(posted->first, "/result") << posted->second;

@@ -78,7 +78,9 @@ TEST(GltfHostile, RandomByteFlipsNeverCrash) {
   for (bool meshopt : {false, true}) {
     const auto glb = sample_glb(true, meshopt);
     int ok = 0, failed = 0;
-    for (int trial = 0; trial < 1500; ++trial) {
+    // RGBDCAST_FUZZ_TRIALS raises the count for a longer run (e.g. under ASan/UBSan).
+    const int trials = std::getenv("RGBDCAST_FUZZ_TRIALS") ? std::atoi(std::getenv("RGBDCAST_FUZZ_TRIALS")) : 1500;
+    for (int trial = 0; trial < trials; ++trial) {
       auto bad = glb;
       const int flips = 1 + trial % 8;
       for (int f = 0; f < flips; ++f) {
@@ -92,8 +94,9 @@ TEST(GltfHostile, RandomByteFlipsNeverCrash) {
         // Whatever was accepted is internally consistent.
         for (const auto& n : r->nodes) {
           for (auto i : n.mesh.indices) ASSERT_LT(i, n.mesh.positions.size());
-          if (!n.mesh.texture.empty())
+          if (!n.mesh.texture.empty()) {
             ASSERT_EQ(n.mesh.texture.data.size(), size_t(n.mesh.texture.width) * n.mesh.texture.height * 3);
+          }
         }
       } else {
         ++failed;
@@ -144,9 +147,27 @@ TEST(GltfHostile, MangledDocumentsAreErrors) {
       EXPECT_EQ(r.error().code, ErrorCode::kInvalidInput) << name << ": " << r.error().message;
     }
   }
-  // Not JSON at all, and a JPEG that claims to be huge.
+  // Not JSON at all.
   {
     const auto bytes = glb::pack_glb("{\"asset\":", chunks->bin);
     EXPECT_EQ(decode_glb(bytes.data(), bytes.size()).error().code, ErrorCode::kInvalidInput);
+  }
+  // A JPEG whose frame header claims 60000 x 60000 pixels (10 GB decoded) is refused before decoding.
+  {
+    auto bin = chunks->bin;
+    const auto& view = doc["bufferViews"][doc["images"][0]["bufferView"].get<int>()];
+    const size_t off = view.value("byteOffset", size_t(0)), len = view["byteLength"].get<size_t>();
+    bool patched = false;
+    for (size_t i = off; i + 9 < off + len && !patched; ++i)
+      if (bin[i] == 0xFF && (bin[i + 1] == 0xC0 || bin[i + 1] == 0xC2)) {
+        bin[i + 5] = 0xEA, bin[i + 6] = 0x60, bin[i + 7] = 0xEA, bin[i + 8] = 0x60;
+        patched = true;
+      }
+    ASSERT_TRUE(patched);
+    const auto bytes = glb::pack_glb(chunks->json, bin);
+    auto r = decode_glb(bytes.data(), bytes.size());
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().code, ErrorCode::kInvalidInput);
+    EXPECT_NE(r.error().message.find("8192"), std::string::npos) << r.error().message;
   }
 }
