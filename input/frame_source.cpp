@@ -29,7 +29,7 @@ static bool truncated_png(const std::vector<unsigned char>& b) {
 
 Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std::string& what) {
   if (bytes.empty()) return make_error(ErrorCode::kInvalidInput, what + ": empty file");
-  if (truncated_png(bytes)) return make_error(ErrorCode::kInvalidInput, what + ": truncated PNG (no IEND chunk)");
+  if (truncated_png(bytes)) return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (truncated PNG: no IEND chunk)");
   cv::Mat img;
   try {
     img = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
@@ -51,7 +51,7 @@ Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std:
 
 Result<cv::Mat> decode_depth16(const std::vector<unsigned char>& bytes, const std::string& what) {
   if (bytes.empty()) return make_error(ErrorCode::kInvalidInput, what + ": empty file");
-  if (truncated_png(bytes)) return make_error(ErrorCode::kInvalidInput, what + ": truncated PNG (no IEND chunk)");
+  if (truncated_png(bytes)) return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (truncated PNG: no IEND chunk)");
   cv::Mat img;
   try {
     img = cv::imdecode(bytes, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
