@@ -5,6 +5,7 @@
 namespace rgbdcast::app {
 
 void register_reduce(CLI::App& app);
+void register_serve(CLI::App& app);
 
 }  // namespace rgbdcast::app
 
