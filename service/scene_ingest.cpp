@@ -45,10 +45,11 @@ nlohmann::json scene_stats(const Scene& scene, size_t glb_bytes) {
   } else {
     stats["capture_camera"] = nullptr;
   }
-  // Stage timings travel in the GLB's extras when rgbdcast wrote it ({"stages": [{name, unit, count, ms}]}).
+  // Stage timings travel in the GLB's extras when rgbdcast wrote it ({"rgbdcast": {"stages": [...]}}).
   stats["stages"] = nlohmann::json::array();
   if (!scene.extras_json.empty()) {
     auto extras = nlohmann::json::parse(scene.extras_json, nullptr, false);
+    if (extras.is_object() && extras.contains("rgbdcast")) extras = extras["rgbdcast"];
     if (extras.is_object() && extras.contains("stages") && extras["stages"].is_array())
       stats["stages"] = extras["stages"];
   }
