@@ -106,7 +106,8 @@ void run_reduce(const ReduceArgs& a) {
                         {"timestamp", frame->timestamp},
                         {"intrinsics", intrinsics_json(frame->intrinsics)},
                         {"params",
-                         {{"outlier_k", a.params.outlier_k},
+                         {{"outliers", a.params.outlier_method == OutlierMethod::kKdTree ? "kdtree" : "organized"},
+                          {"outlier_k", a.params.outlier_k},
                           {"outlier_std_mul", a.params.outlier_std_mul},
                           {"voxel_size_m", a.params.voxel_size_m},
                           {"max_edge_m", a.params.max_edge_m},
@@ -134,6 +135,11 @@ void register_reduce(CLI::App& app) {
   cmd->add_option("--intrinsics", args->intrinsics, "fr1|fr2|fr3|kinect|icl or a JSON file (default: guessed)");
   cmd->add_option("--depth-scale", args->depth_scale, "Raw depth units per metre (TUM 5000, mm sensors 1000)");
   cmd->add_option("--associations", args->associations, "TUM associations file (t_rgb rgb t_depth depth)");
+  cmd->add_option("--outliers", args->params.outlier_method,
+                  "Outlier neighbour search: kdtree (PCL, the paper's) or organized (image window, faster)")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, OutlierMethod>{
+          {"kdtree", OutlierMethod::kKdTree}, {"organized", OutlierMethod::kOrganized}}))
+      ->capture_default_str();
   cmd->add_option("--outlier-k", args->params.outlier_k, "Statistical outlier removal: neighbours K")->capture_default_str();
   cmd->add_option("--outlier-std", args->params.outlier_std_mul, "Statistical outlier removal: std-dev multiplier T")
       ->capture_default_str();

@@ -21,7 +21,8 @@ struct Hit {
   int material = -1;
 };
 
-// Room: x in [-2, 2], y in [-1.5, 1.2] (y down: floor at y = 1.2), z in [-1, 4]. A box and a sphere on the floor.
+// Room: x in [-1.3, 1.3], y in [-1.5, 0.6] (y down: floor at y = 0.6), z in [-1, 2.4]. A crate and a ball on the
+// floor, a checkerboard poster on the back wall.
 void intersect_plane(const Eigen::Vector3d& o, const Eigen::Vector3d& d, int axis, double value, int material,
                      const Eigen::Vector3d& normal, Hit* hit) {
   if (std::abs(d[axis]) < 1e-12) return;
@@ -69,14 +70,14 @@ void intersect_sphere(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const 
 
 Hit trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
   Hit h;
-  intersect_plane(o, d, 1, 1.2, 0, {0, -1, 0}, &h);    // floor
+  intersect_plane(o, d, 1, 0.6, 0, {0, -1, 0}, &h);    // floor
   intersect_plane(o, d, 1, -1.5, 1, {0, 1, 0}, &h);    // ceiling
-  intersect_plane(o, d, 2, 4.0, 2, {0, 0, -1}, &h);    // back wall
-  intersect_plane(o, d, 0, -2.0, 3, {1, 0, 0}, &h);    // left wall
-  intersect_plane(o, d, 0, 2.0, 4, {-1, 0, 0}, &h);    // right wall
+  intersect_plane(o, d, 2, 2.4, 2, {0, 0, -1}, &h);    // back wall
+  intersect_plane(o, d, 0, -1.3, 3, {1, 0, 0}, &h);    // left wall
+  intersect_plane(o, d, 0, 1.3, 4, {-1, 0, 0}, &h);    // right wall
   intersect_plane(o, d, 2, -1.0, 2, {0, 0, 1}, &h);    // wall behind the camera
-  intersect_box(o, d, {-1.1, 0.5, 2.2}, {-0.3, 1.2, 3.0}, 5, &h);  // a crate
-  intersect_sphere(o, d, {0.7, 0.85, 2.4}, 0.35, 6, &h);           // a ball
+  intersect_box(o, d, {-0.75, 0.1, 1.3}, {-0.2, 0.6, 1.85}, 5, &h);  // a crate
+  intersect_sphere(o, d, {0.45, 0.35, 1.5}, 0.25, 6, &h);            // a ball
   return h;
 }
 
@@ -95,9 +96,9 @@ cv::Vec3b shade(int material, const Eigen::Vector3d& p, const Eigen::Vector3d& n
     }
     case 1: r = g = b = 225; break;  // ceiling
     case 2: {  // back wall: a checkerboard poster on a light wall
-      const bool in_poster = p.x() > -1.0 && p.x() < 1.0 && p.y() > -0.9 && p.y() < 0.3;
+      const bool in_poster = p.x() > -0.8 && p.x() < 0.8 && p.y() > -0.8 && p.y() < 0.2;
       if (in_poster) {
-        const int c = checker(p.x() + 1.0, p.y() + 0.9, 0.2);
+        const int c = checker(p.x() + 0.8, p.y() + 0.8, 0.2);
         r = c ? 30 : 235;
         g = c ? 60 : 220;
         b = c ? 140 : 60;
@@ -123,7 +124,7 @@ cv::Vec3b shade(int material, const Eigen::Vector3d& p, const Eigen::Vector3d& n
       break;
     }
     case 6: {  // ball: red and white segments
-      const double a = std::atan2(p.z() - 2.4, p.x() - 0.7);
+      const double a = std::atan2(p.z() - 1.5, p.x() - 0.45);
       const bool red = (int(std::floor(a / (M_PI / 4))) & 1) != 0;
       r = red ? 210 : 240; g = red ? 40 : 240; b = red ? 40 : 235;
       break;
@@ -163,8 +164,8 @@ int main(int argc, char** argv) {
     const double t = 1000.0 + f / 30.0;
     // The camera drifts right and turns slightly left, like a robot creeping forward.
     Eigen::Matrix3d R = Eigen::AngleAxisd(-0.01 * f, Eigen::Vector3d::UnitY()).toRotationMatrix() *
-                        Eigen::AngleAxisd(0.12, Eigen::Vector3d::UnitX()).toRotationMatrix();
-    Eigen::Vector3d C(-0.2 + 0.01 * f, -0.1, 0.0 + 0.005 * f);
+                        Eigen::AngleAxisd(-0.30, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    Eigen::Vector3d C(-0.1 + 0.01 * f, -0.45, 0.0 + 0.005 * f);
     cv::Mat rgb(H, W, CV_8UC3), depth(H, W, CV_16UC1, cv::Scalar(0));
     cv::Mat zbuf(H, W, CV_64F);
     for (int v = 0; v < H; ++v) {

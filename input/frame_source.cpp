@@ -19,8 +19,17 @@ namespace rgbdcast {
 // ---------------------------------------------------------------------------------------------------------------
 // Decoding and validation
 
+// A PNG that does not end in an IEND chunk was cut short; saying so here spares the user libpng's own complaint.
+static bool truncated_png(const std::vector<unsigned char>& b) {
+  static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (b.size() < 8 || !std::equal(sig, sig + 8, b.begin())) return false;
+  static const unsigned char iend[8] = {'I', 'E', 'N', 'D', 0xae, 0x42, 0x60, 0x82};
+  return b.size() < 20 || !std::equal(iend, iend + 8, b.end() - 8);
+}
+
 Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std::string& what) {
   if (bytes.empty()) return make_error(ErrorCode::kInvalidInput, what + ": empty file");
+  if (truncated_png(bytes)) return make_error(ErrorCode::kInvalidInput, what + ": truncated PNG (no IEND chunk)");
   cv::Mat img;
   try {
     img = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
@@ -42,6 +51,7 @@ Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std:
 
 Result<cv::Mat> decode_depth16(const std::vector<unsigned char>& bytes, const std::string& what) {
   if (bytes.empty()) return make_error(ErrorCode::kInvalidInput, what + ": empty file");
+  if (truncated_png(bytes)) return make_error(ErrorCode::kInvalidInput, what + ": truncated PNG (no IEND chunk)");
   cv::Mat img;
   try {
     img = cv::imdecode(bytes, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);

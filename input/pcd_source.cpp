@@ -1,5 +1,6 @@
 #include "input/pcd_source.h"
 
+#include <pcl/console/print.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
 
@@ -23,6 +24,7 @@ class PcdSource : public FrameSource {
   Result<RgbdFrame> frame(size_t i) const override {
     if (i != 0) return make_error(ErrorCode::kNotFound, "frame " + std::to_string(i) + " is past the end (a PCD holds 1 frame)");
     pcl::PointCloud<pcl::PointXYZRGBA> cloud;
+    pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // errors come back as Result, not on stderr
     int rc = -1;
     try {
       pcl::PCDReader reader;

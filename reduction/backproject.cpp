@@ -4,13 +4,17 @@
 
 namespace rgbdcast {
 
-Cloud::Ptr backproject_valid(const RgbdFrame& frame) {
+Cloud::Ptr backproject_valid(const RgbdFrame& frame, std::vector<int>* pixel_of_point) {
   auto cloud = std::make_shared<Cloud>();
   const int w = frame.depth_m.cols, h = frame.depth_m.rows;
   cloud->reserve(static_cast<size_t>(w) * h);
   const Intrinsics& k = frame.intrinsics;
   const double inv_fx = 1.0 / k.fx, inv_fy = 1.0 / k.fy;
   const bool organized = !frame.xyz_m.empty();
+  if (pixel_of_point) {
+    pixel_of_point->clear();
+    pixel_of_point->reserve(static_cast<size_t>(w) * h);
+  }
   for (int v = 0; v < h; ++v) {
     const float* depth = frame.depth_m.ptr<float>(v);
     const cv::Vec3b* rgb = frame.color_rgb.ptr<cv::Vec3b>(v);
@@ -33,6 +37,7 @@ Cloud::Ptr backproject_valid(const RgbdFrame& frame) {
       p.g = rgb[u][1];
       p.b = rgb[u][2];
       cloud->push_back(p);
+      if (pixel_of_point) pixel_of_point->push_back(v * w + u);
     }
   }
   cloud->width = static_cast<std::uint32_t>(cloud->size());

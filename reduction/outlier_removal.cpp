@@ -4,14 +4,14 @@
 
 namespace rgbdcast {
 
-Cloud::Ptr remove_statistical_outliers(const Cloud::ConstPtr& cloud, int k, double std_mul) {
-  auto out = std::make_shared<Cloud>();
+std::vector<int> statistical_outliers_kdtree(const Cloud::ConstPtr& cloud, int k, double std_mul) {
   pcl::StatisticalOutlierRemoval<CloudPoint> sor;
   sor.setInputCloud(cloud);
   sor.setMeanK(k);
   sor.setStddevMulThresh(std_mul);
-  sor.filter(*out);
-  return out;
+  pcl::Indices kept;
+  sor.filter(kept);
+  return std::vector<int>(kept.begin(), kept.end());
 }
 
 }  // namespace rgbdcast

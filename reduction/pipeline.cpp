@@ -1,5 +1,7 @@
 #include "reduction/pipeline.h"
 
+#include <pcl/console/print.h>
+
 #include <chrono>
 #include <cmath>
 
@@ -71,16 +73,25 @@ Mesh to_mesh(const Cloud& cloud, const std::vector<std::uint32_t>& triangles) {
 
 Result<ReducedFrame> reduce_frame(const RgbdFrame& frame, const ReductionParams& params) {
   if (auto st = params.validate(); !st) return st.error();
+  // PCL prints its own diagnostics (e.g. greedy triangulation's "not enough neighbours"); rgbdcast reports
+  // through Result and the stage report instead.
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
   if (frame.depth_m.empty() || frame.color_rgb.empty() || frame.depth_m.size() != frame.color_rgb.size())
     return make_error(ErrorCode::kInvalidInput, "frame has no images or colour and depth differ in size");
   ReducedFrame out;
   StageTimer timer(&out.stages);
 
-  Cloud::Ptr valid = backproject_valid(frame);
+  std::vector<int> pixel_of_point;
+  Cloud::Ptr valid = backproject_valid(frame, &pixel_of_point);
   timer.done("valid", "points", valid->size());
   if (valid->empty()) return make_error(ErrorCode::kEmpty, "no valid depth in the frame");
 
-  Cloud::Ptr inliers = remove_statistical_outliers(valid, params.outlier_k, params.outlier_std_mul);
+  const std::vector<int> kept =
+      params.outlier_method == OutlierMethod::kOrganized
+          ? statistical_outliers_organized(*valid, pixel_of_point, frame.depth_m.cols, frame.depth_m.rows,
+                                           params.outlier_k, params.outlier_std_mul)
+          : statistical_outliers_kdtree(valid, params.outlier_k, params.outlier_std_mul);
+  auto inliers = std::make_shared<Cloud>(*valid, pcl::Indices(kept.begin(), kept.end()));
   timer.done("outliers", "points", inliers->size());
 
   Cloud::Ptr voxels = voxel_downsample(inliers, params.voxel_size_m);

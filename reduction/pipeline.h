@@ -11,7 +11,13 @@
 
 namespace rgbdcast {
 
+enum class OutlierMethod {
+  kKdTree,     // PCL StatisticalOutlierRemoval over a k-d tree of the whole cloud (the paper's)
+  kOrganized,  // the same statistic with neighbours from the depth image's pixel window (much faster)
+};
+
 struct ReductionParams {
+  OutlierMethod outlier_method = OutlierMethod::kKdTree;
   int outlier_k = 50;              // neighbours for the mean distance (paper: K = 50)
   double outlier_std_mul = 1.0;    // standard-deviation multiplier (paper: T = 1.0)
   double voxel_size_m = 0.01;      // voxel edge (paper: 1 cm)

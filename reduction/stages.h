@@ -10,12 +10,18 @@
 
 namespace rgbdcast {
 
-// valid: every pixel with depth > 0 (or a finite organized point), coloured. Camera frame, metres.
-Cloud::Ptr backproject_valid(const RgbdFrame& frame);
+// valid: every pixel with depth > 0 (or a finite organized point), coloured, in row-major pixel order. Camera
+// frame, metres. pixel_of_point (optional) receives each point's pixel index v * width + u.
+Cloud::Ptr backproject_valid(const RgbdFrame& frame, std::vector<int>* pixel_of_point = nullptr);
 
 // outliers: PCL StatisticalOutlierRemoval. A point is kept when its mean distance to its k nearest neighbours is
-// at most mean + std_mul * stddev of those mean distances over the cloud.
-Cloud::Ptr remove_statistical_outliers(const Cloud::ConstPtr& cloud, int k, double std_mul);
+// at most mean + std_mul * stddev of those mean distances over the cloud. Returns the kept indices, ascending.
+std::vector<int> statistical_outliers_kdtree(const Cloud::ConstPtr& cloud, int k, double std_mul);
+
+// outliers, organized variant: the same statistic with the neighbours searched among the valid pixels of the image
+// window around each point's pixel (see organized_outlier_removal.cpp). Returns the kept indices, ascending.
+std::vector<int> statistical_outliers_organized(const Cloud& cloud, const std::vector<int>& pixel_of_point, int width,
+                                                int height, int k, double std_mul);
 
 // voxel: PCL VoxelGrid; one point (the centroid, colours averaged) per occupied voxel of edge voxel_size_m.
 Cloud::Ptr voxel_downsample(const Cloud::ConstPtr& cloud, double voxel_size_m);

@@ -1,0 +1,83 @@
+// Per-stage times of the reduction on real frames: median of N runs per stage, printed as a table.
+// usage: reduce_bench [--input DIR] [--intrinsics fr1] [--frame 0] [--runs 5]
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <iterator>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "input/frame_source.h"
+#include "reduction/pipeline.h"
+#include "reduction/stages.h"
+
+using namespace rgbdcast;
+
+static double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
+}
+
+int main(int argc, char** argv) {
+  std::string input = RGBDCAST_DATA_DIR "/tum/rgbd_dataset_freiburg1_xyz", intrinsics = "fr1";
+  int frame_index = 0, runs = 5;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (!std::strcmp(argv[i], "--input")) input = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--intrinsics")) intrinsics = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--frame")) frame_index = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--runs")) runs = std::max(1, std::atoi(argv[i + 1]));
+  }
+  SourceOptions o;
+  o.intrinsics = intrinsics;
+  auto src = open_frame_source(input, o);
+  if (!src) return std::fprintf(stderr, "reduce_bench: %s\n", src.error().message.c_str()), 1;
+  auto frame = (*src)->frame(frame_index);
+  if (!frame) return std::fprintf(stderr, "reduce_bench: %s\n", frame.error().message.c_str()), 1;
+
+  // How far the organized outlier search agrees with PCL's k-d tree search on this frame.
+  {
+    std::vector<int> pixel_of_point;
+    Cloud::Ptr valid = backproject_valid(*frame, &pixel_of_point);
+    const ReductionParams p;
+    std::vector<int> a = statistical_outliers_kdtree(valid, p.outlier_k, p.outlier_std_mul);
+    std::vector<int> b = statistical_outliers_organized(*valid, pixel_of_point, frame->depth_m.cols,
+                                                        frame->depth_m.rows, p.outlier_k, p.outlier_std_mul);
+    std::vector<int> both;
+    std::set_intersection(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(both));
+    const size_t removed_a = valid->size() - a.size(), removed_b = valid->size() - b.size();
+    std::printf("outlier agreement: %zu valid; kdtree keeps %zu (removes %zu), organized keeps %zu (removes %zu); "
+                "kept by both %zu, Jaccard %.4f\n\n",
+                valid->size(), a.size(), removed_a, b.size(), removed_b, both.size(),
+                double(both.size()) / double(a.size() + b.size() - both.size()));
+  }
+  for (OutlierMethod method : {OutlierMethod::kKdTree, OutlierMethod::kOrganized}) {
+  std::vector<std::string> order;
+  std::map<std::string, std::vector<double>> ms;
+  std::map<std::string, size_t> count;
+  std::map<std::string, std::string> unit;
+  std::vector<double> total;
+  ReductionParams params;
+  params.outlier_method = method;
+  for (int r = 0; r < runs; ++r) {
+    auto out = reduce_frame(*frame, params);
+    if (!out) return std::fprintf(stderr, "reduce_bench: %s\n", out.error().message.c_str()), 1;
+    double t = 0;
+    for (const auto& s : out->stages) {
+      if (r == 0) order.push_back(s.name);
+      ms[s.name].push_back(s.ms);
+      count[s.name] = s.count;
+      unit[s.name] = s.unit;
+      t += s.ms;
+    }
+    total.push_back(t);
+  }
+  std::printf("reduce_bench: %s frame %d, outliers=%s, %d runs (median ms)\n", input.c_str(), frame_index,
+              method == OutlierMethod::kKdTree ? "kdtree" : "organized", runs);
+  std::printf("%-12s %10s %-10s %10s\n", "stage", "count", "unit", "median_ms");
+  for (const auto& name : order)
+    std::printf("%-12s %10zu %-10s %10.1f\n", name.c_str(), count[name], unit[name].c_str(), median(ms[name]));
+  std::printf("%-12s %10s %-10s %10.1f\n\n", "total", "", "", median(total));
+  }
+  return 0;
+}

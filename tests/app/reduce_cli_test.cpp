@@ -1,0 +1,108 @@
+// The rgbdcast reduce command as a user runs it: real data in, GLB and report out; bad input gives one line on
+// stderr, a non-zero exit and no output file.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "tests/common/run_command.h"
+#include "tests/common/test_data.h"
+
+namespace fs = std::filesystem;
+
+namespace rgbdcast {
+namespace {
+
+std::string q(const std::string& s) { return "'" + s + "'"; }
+
+TEST(ReduceCli, Fr1XyzFrame0WritesAGlbAndAReport) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  const std::string dir = test::temp_dir("reduce-cli");
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --input " +
+                             q(test::data_path("tum/rgbd_dataset_freiburg1_xyz")) +
+                             " --frame 0 --intrinsics fr1 --out " + dir + "/f0.glb --report " + dir + "/f0.json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(dir + "/f0.glb"));
+  std::ifstream in(dir + "/f0.json");
+  nlohmann::json j = nlohmann::json::parse(in);
+  const auto& stages = j.at("stages");
+  ASSERT_GE(stages.size(), 5u);
+  const char* names[] = {"valid", "outliers", "voxel", "triangulate", "perimeter"};
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_EQ(stages[i].at("name"), names[i]);
+    EXPECT_TRUE(stages[i].contains("ms"));
+  }
+  EXPECT_TRUE(stages[0].contains("points"));
+  EXPECT_TRUE(stages[3].contains("triangles"));
+  const long voxel = stages[2].at("points");
+  EXPECT_GE(voxel, 10000);
+  EXPECT_LE(voxel, 40000);
+  EXPECT_GT(j.at("triangles").get<long>(), 10000);
+  EXPECT_EQ(j.at("bytes").get<long>(), static_cast<long>(fs::file_size(dir + "/f0.glb")));
+  EXPECT_GT(j.at("total_ms").get<double>(), 0.0);
+  EXPECT_NE(r.out.find("triangulate"), std::string::npos) << "the stage table is printed";
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << "left behind: " << e.path();
+}
+
+TEST(ReduceCli, RunsOnTheBuiltInSample) {
+  const std::string dir = test::temp_dir("reduce-sample");
+  auto mk = test::run_command(test::binary_path("assets/make_sample") + " " + dir + "/room 1");
+  ASSERT_EQ(mk.exit_code, 0) << mk.err;
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --input " + dir + "/room --intrinsics kinect --out " +
+                             dir + "/room.glb");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_GT(fs::file_size(dir + "/room.glb"), 1000u);
+}
+
+struct BadCase {
+  const char* name;
+  std::string args;     // after "reduce"
+  std::string message;  // expected in the one-line error
+};
+
+class ReduceCliBadInput : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = test::temp_dir("reduce-bad");
+    cv::imwrite(dir_ + "/c.png", cv::Mat(480, 640, CV_8UC3, cv::Scalar(10, 20, 30)));
+    cv::imwrite(dir_ + "/d.png", cv::Mat(480, 640, CV_16UC1, cv::Scalar(5000)));
+    cv::imwrite(dir_ + "/zero.png", cv::Mat(480, 640, CV_16UC1, cv::Scalar(0)));
+    cv::imwrite(dir_ + "/d8.png", cv::Mat(480, 640, CV_8UC1, cv::Scalar(50)));
+    cv::imwrite(dir_ + "/small.png", cv::Mat(240, 320, CV_16UC1, cv::Scalar(5000)));
+    std::ofstream(dir_ + "/corrupt.png", std::ios::binary) << "\x89PNG\r\n\x1a\nthis is not a png";
+    std::ofstream(dir_ + "/corrupt.pcd") << "VERSION 0.7\nFIELDS x y z\nrubbish\n";
+  }
+  void expect_fails(const std::string& args, const std::string& message) {
+    const std::string out = dir_ + "/out.glb";
+    auto r = test::run_command(test::rgbdcast_binary() + " reduce " + args + " --out " + out);
+    EXPECT_NE(r.exit_code, 0) << args;
+    EXPECT_NE(r.err.find("error: "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(message), std::string::npos) << "expected \"" << message << "\" in: " << r.err;
+    // One line from rgbdcast (the last line of stderr), and no output file, not even a temporary one.
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << args;
+    for (const auto& e : fs::directory_iterator(dir_))
+      EXPECT_EQ(e.path().filename().string().find("out.glb"), std::string::npos) << e.path();
+  }
+  std::string dir_;
+};
+
+TEST_F(ReduceCliBadInput, MissingFile) { expect_fails("--input " + dir_ + "/nope.png --depth " + dir_ + "/d.png", "no such file"); }
+TEST_F(ReduceCliBadInput, CorruptPng) { expect_fails("--input " + dir_ + "/corrupt.png --depth " + dir_ + "/d.png", "not a readable image"); }
+TEST_F(ReduceCliBadInput, CorruptPcd) { expect_fails("--input " + dir_ + "/corrupt.pcd", "PCD"); }
+TEST_F(ReduceCliBadInput, DepthNot16Bit) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d8.png", "16-bit"); }
+TEST_F(ReduceCliBadInput, DifferentSizes) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/small.png", "different sizes"); }
+TEST_F(ReduceCliBadInput, AllZeroDepth) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/zero.png", "no valid depth"); }
+TEST_F(ReduceCliBadInput, NegativeVoxelSize) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d.png --voxel-size -0.01", "voxel size"); }
+TEST_F(ReduceCliBadInput, ZeroVoxelSize) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d.png --voxel-size 0", "voxel size"); }
+TEST_F(ReduceCliBadInput, FramePastTheEnd) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  expect_fails("--input " + q(test::data_path("tum/rgbd_dataset_freiburg1_xyz")) + " --frame 7", "past the end");
+}
+TEST_F(ReduceCliBadInput, UnknownIntrinsics) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d.png --intrinsics fr9", "unknown intrinsics"); }
+
+}  // namespace
+}  // namespace rgbdcast
