@@ -37,7 +37,10 @@ const char* error_name_for(int status) {
 
 std::string error_body(int status, const std::string& detail) {
   // Replacement on invalid UTF-8: a detail may quote what a client sent.
-  return nlohmann::json{{"error", error_name_for(status)}, {"detail", detail}}.dump(
+  nlohmann::ordered_json body;  // "error" first, for people reading it
+  body["error"] = error_name_for(status);
+  body["detail"] = detail;
+  return body.dump(
              -1, ' ', false, nlohmann::json::error_handler_t::replace) +
          "\n";
 }

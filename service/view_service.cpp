@@ -200,12 +200,13 @@ void ViewService::Impl::routes() {
   });
   // Called for every response >= 400, ours included: only fills a body when there is none (404 of an unknown
   // route, 413 from the payload limit, 400 of a request the library could not parse).
-  server.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+  const size_t limit_bytes = options.max_body_bytes;
+  server.set_error_handler([limit_bytes](const httplib::Request& req, httplib::Response& res) {
     if (!res.body.empty()) return;
     std::string detail;
     switch (res.status) {
       case 404: detail = "no route " + req.method + " " + req.path; break;
-      case 413: detail = "request body over the limit"; break;
+      case 413: detail = "request body over the limit of " + std::to_string(limit_bytes) + " bytes (--max-body-mib)"; break;
       default: detail = "request rejected by the HTTP layer"; break;
     }
     res.set_content(error_body(res.status, detail), "application/json");
