@@ -4,6 +4,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "app/cli_error.h"
 #include "app/commands.h"
 #include "app/report.h"
 #include "gltf/gltf_io.h"
@@ -21,12 +22,7 @@ struct ReduceArgs {
   ReductionParams params;
 };
 
-[[noreturn]] void fail(const Error& e) {
-  std::cerr << "rgbdcast reduce: error: " << e.message << "\n";
-  const bool bad_input = e.code == ErrorCode::kInvalidInput || e.code == ErrorCode::kInvalidArgument ||
-                         e.code == ErrorCode::kNotFound || e.code == ErrorCode::kEmpty;
-  throw CLI::RuntimeError(bad_input ? 2 : 1);
-}
+[[noreturn]] void fail(const Error& e) { app::fail("reduce", e); }
 
 nlohmann::json intrinsics_json(const Intrinsics& k) {
   return {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"width", k.width}, {"height", k.height}};

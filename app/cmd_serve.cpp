@@ -7,6 +7,7 @@
 #include <iostream>
 #include <thread>
 
+#include "app/cli_error.h"
 #include "app/commands.h"
 #include "service/view_service.h"
 
@@ -48,10 +49,7 @@ void register_serve(CLI::App& app) {
     pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
     auto created = service::ViewService::create(*opts);
-    if (!created) {
-      std::cerr << "rgbdcast serve: error: " << created.error().message << "\n";
-      throw CLI::RuntimeError(created.error().code == ErrorCode::kInvalidArgument ? 2 : 1);
-    }
+    if (!created) fail("serve", created.error());
     auto& svc = *created;
     const std::string host = opts->bind == "0.0.0.0" ? "127.0.0.1" : opts->bind;
     std::printf("rgbdcast serve: renderer %s (%s; %s)\n", svc->backend().c_str(), svc->device().c_str(),
@@ -70,10 +68,7 @@ void register_serve(CLI::App& app) {
     // Wake the waiter if the server stopped for another reason.
     pthread_kill(waiter.native_handle(), SIGTERM);
     waiter.join();
-    if (!st) {
-      std::cerr << "rgbdcast serve: error: " << st.error().message << "\n";
-      throw CLI::RuntimeError(1);
-    }
+    if (!st) fail("serve", st.error());
     std::printf("rgbdcast serve: stopped\n");
   });
 }

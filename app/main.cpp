@@ -9,6 +9,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "rgbdcast 0.1.0");
   rgbdcast::app::register_reduce(app);
+  rgbdcast::app::register_render(app);
+  rgbdcast::app::register_eval(app);
   rgbdcast::app::register_serve(app);
   try {
     app.parse(argc, argv);
