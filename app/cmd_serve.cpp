@@ -18,6 +18,7 @@ void register_serve(CLI::App& app) {
   auto opts = std::make_shared<service::ServeOptions>();
   auto max_body_mib = std::make_shared<double>(64.0);
   auto backend = std::make_shared<std::string>("auto");
+  auto imports = std::make_shared<std::vector<std::string>>();
   cmd->add_option("--data-dir", opts->data_dir, "Folder of the scene store (created when missing)")
       ->capture_default_str();
   cmd->add_option("--bind", opts->bind, "Address to listen on (0.0.0.0 for every interface)")->capture_default_str();
@@ -36,7 +37,10 @@ void register_serve(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0, 100000));
 
-  cmd->callback([opts, max_body_mib, backend] {
+  cmd->add_option("--import", *imports, "GLB files to store at start (skipped when already stored)")
+      ->check(CLI::ExistingFile);
+
+  cmd->callback([opts, max_body_mib, backend, imports] {
     opts->max_body_bytes = static_cast<size_t>(*max_body_mib * 1024.0 * 1024.0);
     opts->backend = *backend == "vulkan"   ? BackendChoice::kVulkan
                     : *backend == "osmesa" ? BackendChoice::kOsmesa
@@ -54,9 +58,16 @@ void register_serve(CLI::App& app) {
     const std::string host = opts->bind == "0.0.0.0" ? "127.0.0.1" : opts->bind;
     std::printf("rgbdcast serve: renderer %s (%s; %s)\n", svc->backend().c_str(), svc->device().c_str(),
                 svc->backend_reason().c_str());
+    const std::string base = "http://" + host + ":" + std::to_string(svc->port());
+    for (const auto& path : *imports) {
+      auto imported = svc->import_glb_file(path);
+      if (!imported) fail("serve", imported.error());
+      const std::string id = (*imported)["id"];
+      std::printf("rgbdcast serve: %s is scene %s\n  view:  %s/v1/scenes/%s/view?pose=capture\n  model: %s/v1/scenes/%s/model.glb\n",
+                  path.c_str(), id.c_str(), base.c_str(), id.c_str(), base.c_str(), id.c_str());
+    }
     std::printf("rgbdcast serve: %zu scenes in %s\n", svc->scene_count(), opts->data_dir.c_str());
-    std::printf("rgbdcast serve: listening on http://%s:%d/ (operator page), API under /v1/scenes\n", host.c_str(),
-                svc->port());
+    std::printf("rgbdcast serve: listening on %s/ (operator page), API under /v1/scenes\n", base.c_str());
     std::fflush(stdout);
 
     std::thread waiter([&svc, signals] {

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <fstream>
 #include <regex>
 
 #include <nlohmann/json.hpp>
@@ -336,6 +337,20 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
     impl->port = options.port;
   }
   return std::unique_ptr<ViewService>(new ViewService(std::move(impl)));
+}
+
+Result<nlohmann::json> ViewService::import_glb_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return make_error(ErrorCode::kNotFound, "cannot read " + path);
+  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
+  const std::string etag = etag_of(bytes.data(), bytes.size());
+  for (const auto& s : impl_->store->list())
+    if (s.etag == etag) return s.metadata;
+  auto ingested = ingest_glb(std::move(bytes));
+  if (!ingested) return make_error(ingested.error().code, path + ": " + ingested.error().message);
+  auto stored = impl_->store->put(ingested->glb, ingested->stats);
+  if (!stored) return stored.error();
+  return stored->metadata;
 }
 
 int ViewService::port() const { return impl_->port; }

@@ -8,6 +8,8 @@
 #include <memory>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "renderer/renderer.h"
 #include "scene/result.h"
 
@@ -36,6 +38,9 @@ class ViewService {
   std::string backend_reason() const;
   std::string device() const;
   size_t scene_count() const;
+  // Stores a GLB file as if it had been POSTed (same checks); a file whose bytes are already stored is not stored
+  // twice (the existing scene is returned), so importing at every start is harmless.
+  Result<nlohmann::json> import_glb_file(const std::string& path);
   // Serves until stop() is called (from another thread). Returns an error if the listener failed.
   Status run();
   void stop();

@@ -12,6 +12,8 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <regex>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -458,6 +460,32 @@ TEST_F(ServiceHttp, ConcurrentViewsAreSafeAndDeterministic) {
   EXPECT_EQ(ok, 24);
   EXPECT_EQ(same, 24);
   EXPECT_EQ(other, 0);
+}
+
+// --import stores a GLB at start, once: a second start with the same file finds it stored.
+TEST_F(ServiceHttp, ImportAtStartIsIdempotent) {
+  ASSERT_FALSE(frame_glb_.empty());
+  const std::string dir = rgbdcast::test::temp_dir("service-import");
+  {
+    std::ofstream(dir + "/frame0.glb", std::ios::binary) << frame_glb_;
+  }
+  std::string first_id;
+  for (int run = 0; run < 2; ++run) {
+    ServerProcess server;
+    std::string error;
+    ASSERT_TRUE(server.start(dir + "/store", {"--import", dir + "/frame0.glb"}, &error)) << error;
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(server.output(), m, std::regex("frame0\\.glb is scene ([0-9a-f]{32})")))
+        << server.output();
+    if (run == 0) first_id = m[1].str();
+    EXPECT_EQ(m[1].str(), first_id);
+    auto c = client(server.port());
+    auto list = c->Get("/v1/scenes");
+    ASSERT_TRUE(list);
+    EXPECT_EQ(json::parse(list->body)["scenes"].size(), 1u);
+    server.stop();
+  }
+  fs::remove_all(dir);
 }
 
 // With no room to wait (--render-queue 0) a view that finds the renderer busy is refused at once: 503, Retry-After.
