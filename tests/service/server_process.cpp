@@ -16,8 +16,6 @@
 
 namespace rgbdcast::test {
 
-std::string rgbdcast_binary() { return RGBDCAST_BINARY; }
-
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream ss;

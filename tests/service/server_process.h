@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "tests/common/run_command.h"  // rgbdcast_binary()
+
 namespace rgbdcast::test {
 
 class ServerProcess {
@@ -34,9 +36,6 @@ class ServerProcess {
   int port_ = 0;
   std::string output_;
 };
-
-// The rgbdcast binary under test.
-std::string rgbdcast_binary();
 
 // Frame 0 of TUM fr1/xyz as the multipart route takes it (colour PNG, 16-bit depth PNG, intrinsics JSON).
 struct FrameFiles {
