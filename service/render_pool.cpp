@@ -68,7 +68,8 @@ Result<RenderOutput> RenderPool::render(const std::string& scene_id, const ViewR
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return make_error(ErrorCode::kUnavailable, "server is stopping");
-    if (queue_.size() >= static_cast<size_t>(options_.queue_capacity)) {
+    // Admitted when a worker is idle or the queue has room: waiting + rendering < workers + capacity.
+    if (queue_.size() + busy_ >= workers_.size() + static_cast<size_t>(options_.queue_capacity)) {
       ++rejected_;
       return make_error(ErrorCode::kUnavailable, "render queue full (" + std::to_string(queue_.size()) +
                                                      " views waiting); retry later");
@@ -118,6 +119,7 @@ void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> st
       if (stopping_) break;
       job = std::move(queue_.front());
       queue_.pop_front();
+      ++busy_;
       forgotten.swap(w->forgotten);
     }
     for (const auto& id : forgotten) {
@@ -169,6 +171,10 @@ void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> st
       result = work();
     } catch (const std::exception& e) {
       result = make_error(ErrorCode::kInternal, std::string("render threw: ") + e.what());
+    }
+    {
+      std::lock_guard lock(mutex_);
+      --busy_;
     }
     job->promise.set_value(std::move(result));
   }

@@ -1,8 +1,8 @@
 #pragma once
 // A fixed set of renderers, each owned by one worker thread (a Renderer is used by one thread at a time, and an
 // OSMesa context belongs to the thread that made it), fed by one bounded queue. Contract:
-// - render() blocks until the view is rendered, or fails at once with kUnavailable "render queue full" when
-//   `queue_capacity` jobs are already waiting (the HTTP layer answers 503 with Retry-After): load sheds instead of
+// - render() blocks until the view is rendered, or fails at once with kUnavailable "render queue full" when every
+//   worker is busy and `queue_capacity` jobs are already waiting (the HTTP layer answers 503 with Retry-After): load sheds instead of
 //   piling up.
 // - Each worker keeps up to `resident_scenes` scenes uploaded (least recently used goes first); forget() drops a
 //   deleted scene from every worker before its next job.
@@ -80,6 +80,7 @@ class RenderPool {
   std::deque<std::unique_ptr<Job>> queue_;
   bool stopping_ = false;
   size_t rejected_ = 0;
+  size_t busy_ = 0;  // jobs being rendered
   std::vector<std::unique_ptr<Worker>> workers_;
 };
 

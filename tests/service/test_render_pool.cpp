@@ -150,6 +150,23 @@ TEST(ServiceRenderPool, FullQueueRefusesAtOnce) {
   EXPECT_LT(slowest_refusal_ms.load(), 100.0);  // refused at once, not after waiting for a render
 }
 
+// No waiting room at all: an idle worker still takes a view; a second one at the same time is refused.
+TEST(ServiceRenderPool, ZeroQueueStillUsesIdleWorkers) {
+  Counters c;
+  c.render_sleep_ms = 200;
+  auto pool = make_pool(&c, {1, 0, 2});
+  ASSERT_TRUE(pool);
+  ASSERT_TRUE(pool->render("a", capture()).ok());
+  Result<RenderOutput> second = make_error(ErrorCode::kInternal, "not run");
+  std::thread first([&] { EXPECT_TRUE(pool->render("a", capture()).ok()); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  second = pool->render("a", capture());
+  first.join();
+  ASSERT_FALSE(second.ok());
+  EXPECT_EQ(second.error().code, ErrorCode::kUnavailable);
+  EXPECT_TRUE(pool->render("a", capture()).ok());  // idle again
+}
+
 TEST(ServiceRenderPool, FactoryFailureIsAnError) {
   auto pool = RenderPool::start(
       {2, 4, 2}, []() -> Result<std::unique_ptr<Renderer>> { return make_error(ErrorCode::kUnavailable, "no GPU"); },
