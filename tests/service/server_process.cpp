@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -47,6 +48,11 @@ bool ServerProcess::start(const std::string& data_dir, const std::vector<std::st
   }
   std::vector<std::string> args = {rgbdcast_binary(), "serve", "--data-dir", data_dir, "--bind", "127.0.0.1",
                                    "--port", "0"};
+  // RGBDCAST_TEST_BACKEND=osmesa|vulkan runs the suite on one backend (default: the server's auto choice).
+  if (const char* backend = std::getenv("RGBDCAST_TEST_BACKEND"); backend && *backend) {
+    args.push_back("--backend");
+    args.push_back(backend);
+  }
   args.insert(args.end(), extra.begin(), extra.end());
   const pid_t pid = fork();
   if (pid < 0) {
