@@ -1,121 +1,111 @@
-// rgbdcast reduce: one RGB-D frame -> a small textured mesh in a GLB, with a per-stage report.
+// rgbdcast reduce: RGB-D frames -> a small textured mesh in a GLB, with a per-stage report. One frame, or with
+// --sequence the keyframes of a sequence placed in one world frame.
 #include <chrono>
-#include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
 #include "app/cli_error.h"
 #include "app/commands.h"
+#include "app/reduce_common.h"
+#include "app/reduce_sequence.h"
 #include "app/report.h"
-#include "gltf/gltf_io.h"
 #include "input/frame_source.h"
-#include "reduction/pipeline.h"
 
 namespace rgbdcast::app {
 
 namespace {
 
-struct ReduceArgs {
-  std::string input, depth, intrinsics, associations, out, report;
-  int frame = 0;
-  double depth_scale = 0;
-  ReductionParams params;
-};
-
 [[noreturn]] void fail(const Error& e) { app::fail("reduce", e); }
 
-nlohmann::json intrinsics_json(const Intrinsics& k) {
-  return {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"width", k.width}, {"height", k.height}};
+nlohmann::json export_json(const GlbStats& s) {
+  return {{"name", "export"},          {"bytes", s.total_bytes},       {"geometry_bytes", s.geometry_bytes},
+          {"texture_bytes", s.texture_bytes}, {"json_bytes", s.json_bytes}, {"ms", s.ms}};
 }
 
-void run_reduce(const ReduceArgs& a) {
+void run_single(const ReduceArgs& a, const FrameSource& source) {
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
   if (a.frame < 0) fail(make_error(ErrorCode::kInvalidArgument, "--frame must be 0 or more"));
+  auto frame = source.frame(static_cast<size_t>(a.frame));
+  if (!frame) fail(frame.error());
+  const double load_ms = std::chrono::duration<double, std::milli>(clock::now() - t0).count();
+
+  auto textured = reduce_and_texture(*frame, a, Eigen::Matrix4d::Identity());
+  if (!textured) fail(textured.error());
+  std::vector<StageReport> stages = textured->stages;
+
+  Scene scene;
+  scene.cameras.push_back(textured->camera);
+  scene.nodes.push_back(std::move(textured->node));
+  const Mesh& mesh = scene.nodes[0].mesh;
+  nlohmann::json extras = {{"rgbdcast",
+                            {{"source", frame->color_path},
+                             {"depth", frame->depth_path},
+                             {"frame", frame->index},
+                             {"timestamp", frame->timestamp},
+                             {"intrinsics", intrinsics_json(frame->intrinsics)},
+                             {"stages", stages_json(stages)}}}};
+  scene.extras_json = extras.dump();
+
+  GlbStats glb_stats;
+  auto glb = encode_glb(scene, a.glb, &glb_stats);
+  if (!glb) fail(glb.error());
+  stages.push_back({"export", "bytes", glb->size(), glb_stats.ms});
+  if (auto st = write_file_atomic(a.out, *glb); !st) fail(st.error());
+  const double total_ms = std::chrono::duration<double, std::milli>(clock::now() - t0).count();
+
+  std::cout << "rgbdcast reduce: " << frame->color_path << " (frame " << frame->index << ", "
+            << frame->intrinsics.width << "x" << frame->intrinsics.height << ")\n"
+            << stages_table(stages) << "points " << mesh.positions.size() << ", triangles " << mesh.triangle_count()
+            << ", atlas " << textured->atlas_stats.width << "x" << textured->atlas_stats.height << ", "
+            << glb->size() << " bytes (geometry " << glb_stats.geometry_bytes << ", texture "
+            << glb_stats.texture_bytes << ") -> " << a.out << " (load " << static_cast<int>(load_ms)
+            << " ms, total " << static_cast<int>(total_ms) << " ms)\n";
+  if (a.report.empty()) return;
+  nlohmann::json stage_list = stages_json(stages);
+  // The atlas and export stages carry their details.
+  for (auto& s : stage_list) {
+    if (s["name"] == "atlas") {
+      const AtlasResult& at = textured->atlas_stats;
+      s["mode"] = to_string(at.mode);
+      s["width"] = at.width;
+      s["height"] = at.height;
+      s["cells"] = at.cells;
+      s["triangles"] = at.triangles;
+      s["build_ms"] = at.ms;
+      s["encode_ms"] = at.encode_ms;
+    }
+    if (s["name"] == "export") s = export_json(glb_stats);
+  }
+  nlohmann::json r = {{"input", a.input},
+                      {"frame", frame->index},
+                      {"timestamp", frame->timestamp},
+                      {"intrinsics", intrinsics_json(frame->intrinsics)},
+                      {"params", params_json(a)},
+                      {"stages", stage_list},
+                      {"points", mesh.positions.size()},
+                      {"triangles", mesh.triangle_count()},
+                      {"bytes", glb->size()},
+                      {"load_ms", load_ms},
+                      {"total_ms", total_ms},
+                      {"out", a.out}};
+  if (auto st = write_text_file_atomic(a.report, r.dump(2) + "\n"); !st) fail(st.error());
+}
+
+void run_reduce(const ReduceArgs& a) {
   SourceOptions so;
   so.intrinsics = a.intrinsics;
   so.depth_path = a.depth;
   so.associations_path = a.associations;
   if (a.depth_scale != 0) so.depth_scale = a.depth_scale;
+  if (auto st = a.params.validate(); !st) fail(st.error());
+  if (auto m = parse_texture_mode(a.texture); !m) fail(m.error());
   auto source = open_frame_source(a.input, so);
   if (!source) fail(source.error());
-  auto frame = (*source)->frame(static_cast<size_t>(a.frame));
-  if (!frame) fail(frame.error());
-  const double load_ms = std::chrono::duration<double, std::milli>(clock::now() - t0).count();
-
-  auto reduced = reduce_frame(*frame, a.params);
-  if (!reduced) fail(reduced.error());
-
-  Scene scene;
-  CaptureCamera cam;
-  cam.intrinsics = frame->intrinsics;
-  cam.timestamp = frame->timestamp;
-  cam.source = frame->color_path;
-  cam.frame_index = frame->index;
-  scene.cameras.push_back(cam);
-  SceneNode node;
-  node.name = "frame_" + std::to_string(frame->index);
-  node.mesh = std::move(reduced->mesh);
-  scene.nodes.push_back(std::move(node));
-  std::vector<StageReport> stages = reduced->stages;
-
-  nlohmann::json extras = {{"rgbdcast", {{"source", frame->color_path},
-                                         {"depth", frame->depth_path},
-                                         {"frame", frame->index},
-                                         {"timestamp", frame->timestamp},
-                                         {"intrinsics", intrinsics_json(frame->intrinsics)},
-                                         {"stages", stages_json(stages)}}}};
-  scene.extras_json = extras.dump();
-
-  const auto te = clock::now();
-  auto glb = encode_glb(scene);
-  if (!glb) fail(glb.error());
-  stages.push_back({"export", "bytes", glb->size(), std::chrono::duration<double, std::milli>(clock::now() - te).count()});
-
-  // Write atomically: temp file then rename, so a failure leaves nothing behind.
-  const std::string tmp = a.out + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(glb->data()), static_cast<std::streamsize>(glb->size()));
-    if (!out) {
-      std::filesystem::remove(tmp);
-      fail(make_error(ErrorCode::kIo, "cannot write " + a.out));
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, a.out, ec);
-  if (ec) {
-    std::filesystem::remove(tmp);
-    fail(make_error(ErrorCode::kIo, "cannot write " + a.out + ": " + ec.message()));
-  }
-  const double total_ms = std::chrono::duration<double, std::milli>(clock::now() - t0).count();
-
-  const Mesh& mesh = scene.nodes[0].mesh;
-  std::cout << "rgbdcast reduce: " << frame->color_path << " (frame " << frame->index << ", "
-            << frame->intrinsics.width << "x" << frame->intrinsics.height << ")\n"
-            << stages_table(stages) << "points " << mesh.positions.size() << ", triangles " << mesh.triangle_count()
-            << ", " << glb->size() << " bytes -> " << a.out << " (load " << static_cast<int>(load_ms) << " ms, total "
-            << static_cast<int>(total_ms) << " ms)\n";
-  if (!a.report.empty()) {
-    nlohmann::json r = {{"input", a.input},
-                        {"frame", frame->index},
-                        {"timestamp", frame->timestamp},
-                        {"intrinsics", intrinsics_json(frame->intrinsics)},
-                        {"params",
-                         {{"outliers", a.params.outlier_method == OutlierMethod::kKdTree ? "kdtree" : "organized"},
-                          {"outlier_k", a.params.outlier_k},
-                          {"outlier_std_mul", a.params.outlier_std_mul},
-                          {"voxel_size_m", a.params.voxel_size_m},
-                          {"max_edge_m", a.params.max_edge_m},
-                          {"perimeter_factor", a.params.perimeter_factor}}},
-                        {"stages", stages_json(stages)},
-                        {"points", mesh.positions.size()},
-                        {"triangles", mesh.triangle_count()},
-                        {"bytes", glb->size()},
-                        {"load_ms", load_ms},
-                        {"total_ms", total_ms},
-                        {"out", a.out}};
-    if (auto st = write_text_file_atomic(a.report, r.dump(2) + "\n"); !st) fail(st.error());
+  if (a.sequence) {
+    if (auto st = run_sequence(a, **source); !st) fail(st.error());
+  } else {
+    run_single(a, **source);
   }
 }
 
@@ -123,7 +113,7 @@ void run_reduce(const ReduceArgs& a) {
 
 void register_reduce(CLI::App& app) {
   auto args = std::make_shared<ReduceArgs>();
-  CLI::App* cmd = app.add_subcommand("reduce", "Reduce an RGB-D frame to a small textured mesh (GLB)");
+  CLI::App* cmd = app.add_subcommand("reduce", "Reduce RGB-D frames to a small textured mesh (GLB)");
   cmd->add_option("--input", args->input,
                   "TUM folder, color/+depth/ folder, colour image (with --depth) or organized .pcd")->required();
   cmd->add_option("--frame", args->frame, "Frame index (N-th associated rgb/depth pair)");
@@ -147,6 +137,18 @@ void register_reduce(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--perimeter-factor", args->params.perimeter_factor, "Drop triangles with perimeter > factor*d")
       ->capture_default_str();
+  cmd->add_option("--texture", args->texture, "atlas (undistorted per-triangle cells) or frame (projective baseline)")
+      ->capture_default_str();
+  cmd->add_option("--cell-size", args->atlas.cell_size_px, "Atlas cell side in texels")->capture_default_str();
+  cmd->add_option("--jpeg-quality", args->atlas.jpeg_quality, "Texture JPEG quality 1..100")->capture_default_str();
+  cmd->add_flag("--sequence", args->sequence, "Reduce the keyframes of a sequence into one multi-view GLB");
+  cmd->add_option("--from", args->from, "Sequence: first frame index");
+  cmd->add_option("--to", args->to, "Sequence: last frame index (inclusive; default: the last)");
+  cmd->add_option("--features", args->features, "Sequence: sift|orb|akaze")->capture_default_str();
+  cmd->add_flag("--drop-covered,!--keep-covered", args->drop_covered,
+                "Sequence: drop triangles an earlier keyframe already covers (default on)");
+  cmd->add_flag("!--no-progress", args->progress, "Sequence: no progress bar");
+  cmd->add_option("--trajectory", args->trajectory, "Sequence: write the estimated poses (.log Redwood, else TUM)");
   cmd->add_option("--out", args->out, "Output GLB")->required();
   cmd->add_option("--report", args->report, "Write the JSON report here");
   cmd->callback([args] { run_reduce(*args); });

@@ -295,7 +295,8 @@ Result<std::unique_ptr<FrameSource>> open_numbered(const fs::path& dir, const So
     if (e.path().extension() == ".json" && (fname.find("camera") != std::string::npos || fname.find("intrinsic") != std::string::npos))
       guess = e.path().string();
   }
-  if (guess == "kinect" && lower(dir.string()).find("icl_nuim") != std::string::npos) {
+  // ICL-NUIM: its pose.txt beside color/ and depth/ (or its name) tells it apart from Redwood.
+  if (guess == "kinect" && (fs::exists(dir / "pose.txt") || lower(dir.string()).find("icl_nuim") != std::string::npos)) {
     guess = "icl";
     scale = 5000.0;
   }

@@ -2,6 +2,7 @@
 // The one rendering interface. Backends (renderer/vulkan/, renderer/osmesa/) implement it; create_renderer() is the
 // single place that chooses one. A Renderer is used by one thread at a time; scenes stay resident on the device
 // between renders (upload once, render many views).
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -48,9 +49,18 @@ class Renderer {
   // Copies a scene to the device. Fails on an empty scene (no triangles and no points). upload_ms is reported.
   virtual Result<ResidentSceneId> upload(const Scene& scene, double* upload_ms = nullptr) = 0;
   virtual void release(ResidentSceneId id) = 0;
-  // Renders a resident scene. Points mode draws each node's points, or the mesh vertices when a node has no points.
+  // Renders a resident scene. Mesh mode draws each node's triangles, and the points of nodes without triangles.
+  // Points mode draws each node's points, or the mesh vertices when a node has no points.
   // Fails on an unknown id, a camera with non-finite values or a size outside 1..kMaxImageSize.
   virtual Result<RenderResult> render(ResidentSceneId id, const ViewCamera& camera, const RenderOptions& options) = 0;
+  // Vulkan with validation on (RendererConfig::vulkan_validation): validation errors reported so far. 0 otherwise.
+  virtual int validation_errors() const { return 0; }
+};
+
+struct RendererConfig {
+  // Vulkan only: enable VK_LAYER_KHRONOS_validation and count its errors (tests). Creation fails when the layer is
+  // not installed.
+  bool vulkan_validation = false;
 };
 
 struct RendererSelection {
@@ -59,6 +69,8 @@ struct RendererSelection {
 };
 
 // auto: Vulkan when a device is found, else OSMesa. When nothing works, one error says what is missing.
-Result<RendererSelection> create_renderer(BackendChoice choice);
+Result<RendererSelection> create_renderer(BackendChoice choice, const RendererConfig& config = {});
+// "auto", "vulkan" or "osmesa" (for command lines); anything else is kInvalidArgument.
+Result<BackendChoice> parse_backend_choice(const std::string& name);
 
 }  // namespace rgbdcast

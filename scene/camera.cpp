@@ -40,7 +40,8 @@ Result<ViewCamera> ViewCamera::look_at(const Eigen::Vector3d& eye, const Eigen::
   if (up.norm() < 1e-9 || z.cross(up.normalized()).norm() < 1e-6)
     return make_error(ErrorCode::kInvalidArgument, "up vector is zero or parallel to the view direction");
   // Camera convention: y points down in the image, so the camera's y axis is the negated up direction.
-  const Eigen::Vector3d x = z.cross(-up.normalized()).normalized();
+  // x = y \times z with y = -up (right-handed x right, y down, z forward); z x (-up) would mirror both x and y.
+  const Eigen::Vector3d x = z.cross(up.normalized()).normalized();
   const Eigen::Vector3d y = z.cross(x);
   ViewCamera v;
   v.width = width;

@@ -1,0 +1,25 @@
+#pragma once
+// A test fixture per backend: Vulkan always runs with VK_LAYER_KHRONOS_validation, and every Vulkan test fails when
+// the layer reported an error (counted by the renderer's debug-utils messenger).
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+
+#include "renderer/renderer.h"
+
+namespace rgbdcast::test {
+
+// "vulkan" (with validation) or "osmesa". Null with the error in *error when the backend cannot be created.
+std::unique_ptr<Renderer> make_test_renderer(const std::string& backend, std::string* error);
+
+class BackendTest : public ::testing::TestWithParam<std::string> {
+ protected:
+  void SetUp() override;
+  void TearDown() override;
+  std::unique_ptr<Renderer> renderer_;
+};
+
+inline const auto kBackends = ::testing::Values(std::string("vulkan"), std::string("osmesa"));
+
+}  // namespace rgbdcast::test
