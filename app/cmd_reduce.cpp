@@ -141,6 +141,10 @@ void register_reduce(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--cell-size", args->atlas.cell_size_px, "Atlas cell side in texels")->capture_default_str();
   cmd->add_option("--jpeg-quality", args->atlas.jpeg_quality, "Texture JPEG quality 1..100")->capture_default_str();
+  cmd->add_flag("!--no-meshopt", args->glb.meshopt,
+                "Write plain (quantized) buffers instead of EXT_meshopt_compression, for viewers without a decoder");
+  cmd->add_option("--position-step", args->glb.position_quantum_m, "Position quantization step in metres")
+      ->capture_default_str();
   cmd->add_flag("--sequence", args->sequence, "Reduce the keyframes of a sequence into one multi-view GLB");
   cmd->add_option("--from", args->from, "Sequence: first frame index");
   cmd->add_option("--to", args->to, "Sequence: last frame index (inclusive; default: the last)");

@@ -57,7 +57,9 @@ nlohmann::json params_json(const ReduceArgs& a) {
           {"perimeter_factor", a.params.perimeter_factor},
           {"texture", a.texture},
           {"cell_size_px", a.atlas.cell_size_px},
-          {"jpeg_quality", a.atlas.jpeg_quality}};
+          {"jpeg_quality", a.atlas.jpeg_quality},
+          {"meshopt", a.glb.meshopt},
+          {"position_step_m", a.glb.position_quantum_m}};
 }
 
 Status write_file_atomic(const std::string& path, const std::vector<std::uint8_t>& bytes) {

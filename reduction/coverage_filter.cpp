@@ -1,5 +1,6 @@
 #include "reduction/coverage_filter.h"
 
+#include <Eigen/Geometry>
 #include <cmath>
 
 namespace rgbdcast {
