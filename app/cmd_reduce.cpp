@@ -149,6 +149,14 @@ void register_reduce(CLI::App& app) {
   cmd->add_option("--from", args->from, "Sequence: first frame index");
   cmd->add_option("--to", args->to, "Sequence: last frame index (inclusive; default: the last)");
   cmd->add_option("--features", args->features, "Sequence: sift|orb|akaze")->capture_default_str();
+  cmd->add_option("--keyframe-translation", args->keyframe_translation_m,
+                  "Sequence: new keyframe after this much motion (m)")->capture_default_str();
+  cmd->add_option("--keyframe-rotation", args->keyframe_rotation_deg, "Sequence: ... or this much rotation (deg)")
+      ->capture_default_str();
+  cmd->add_option("--keyframe-overlap", args->keyframe_overlap, "Sequence: ... or when overlap with the last keyframe "
+                  "drops below this fraction")->capture_default_str();
+  cmd->add_option("--keyframe-gap", args->keyframe_gap, "Sequence: ... or after this many frames (0 = never)")
+      ->capture_default_str();
   cmd->add_flag("--drop-covered,!--keep-covered", args->drop_covered,
                 "Sequence: drop triangles an earlier keyframe already covers (default on)");
   cmd->add_flag("!--no-progress", args->progress, "Sequence: no progress bar");

@@ -25,6 +25,8 @@ struct ReduceArgs {
   bool sequence = false;
   int from = 0, to = -1;
   std::string features = "sift";
+  double keyframe_translation_m = 0.15, keyframe_rotation_deg = 10.0, keyframe_overlap = 0.7;
+  int keyframe_gap = 0;
   bool drop_covered = true;
   bool progress = true;
   std::string trajectory;  // write the estimated trajectory here (.log: Redwood, else TUM)

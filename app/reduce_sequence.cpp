@@ -45,6 +45,11 @@ Status run_sequence(const ReduceArgs& a, const FrameSource& source) {
   auto features = parse_feature_type(a.features);
   if (!features) return features.error();
   params.odometry.features.type = *features;
+  params.keyframes.max_translation_m = a.keyframe_translation_m;
+  params.keyframes.max_rotation_deg = a.keyframe_rotation_deg;
+  params.keyframes.min_overlap = a.keyframe_overlap;
+  params.keyframes.max_frame_gap = a.keyframe_gap;
+  if (auto st = params.keyframes.validate(); !st) return st;
   if (a.from < 0) return make_error(ErrorCode::kInvalidArgument, "--from must be 0 or more");
   params.from = static_cast<size_t>(a.from);
   if (a.to >= 0) params.to = static_cast<size_t>(a.to);

@@ -24,7 +24,7 @@
 #include "reduction/pipeline.h"
 #include "tests/common/run_command.h"
 #include "tests/common/test_data.h"
-#include "tests/gltf/gltf_validator.h"
+#include "tests/common/gltf_validator.h"
 #include "tests/gltf/static_http_server.h"
 
 using namespace rgbdcast;

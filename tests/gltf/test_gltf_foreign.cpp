@@ -11,7 +11,7 @@
 #include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
 #include "tests/common/test_data.h"
-#include "tests/gltf/gltf_validator.h"
+#include "tests/common/gltf_validator.h"
 
 using namespace rgbdcast;
 using nlohmann::json;

@@ -9,7 +9,7 @@
 #include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
 #include "tests/common/test_data.h"
-#include "tests/gltf/gltf_validator.h"
+#include "tests/common/gltf_validator.h"
 #include "tests/gltf/sample_scenes.h"
 
 using namespace rgbdcast;

@@ -1,4 +1,4 @@
-#include "tests/gltf/gltf_validator.h"
+#include "tests/common/gltf_validator.h"
 
 #include <cstdio>
 #include <filesystem>
