@@ -8,6 +8,7 @@ void register_reduce(CLI::App& app);
 void register_render(CLI::App& app);
 void register_eval(CLI::App& app);
 void register_eval_trajectory(CLI::App& app);
+void register_serve(CLI::App& app);
 
 }  // namespace rgbdcast::app
 

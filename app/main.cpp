@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   rgbdcast::app::register_render(app);
   rgbdcast::app::register_eval(app);
   rgbdcast::app::register_eval_trajectory(app);
+  rgbdcast::app::register_serve(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,87 @@
+// rgbdcast serve: the HTTP view service (service/view_service.h). Loopback unless --bind says otherwise; SIGINT or
+// SIGTERM stop it cleanly (in-flight requests finish, the store needs no cleanup: every write is atomic).
+#include <pthread.h>
+#include <signal.h>
+
+#include <cstdio>
+#include <iostream>
+#include <thread>
+
+#include "app/cli_error.h"
+#include "app/commands.h"
+#include "service/view_service.h"
+
+namespace rgbdcast::app {
+
+void register_serve(CLI::App& app) {
+  auto* cmd = app.add_subcommand("serve", "Serve scenes over HTTP: upload GLBs or RGB-D frames, get operator views");
+  auto opts = std::make_shared<service::ServeOptions>();
+  auto max_body_mib = std::make_shared<double>(64.0);
+  auto backend = std::make_shared<std::string>("auto");
+  auto imports = std::make_shared<std::vector<std::string>>();
+  cmd->add_option("--data-dir", opts->data_dir, "Folder of the scene store (created when missing)")
+      ->capture_default_str();
+  cmd->add_option("--bind", opts->bind, "Address to listen on (0.0.0.0 for every interface)")->capture_default_str();
+  cmd->add_option("--port", opts->port, "TCP port; 0 picks a free one")->capture_default_str()->check(CLI::Range(0, 65535));
+  cmd->add_option("--threads", opts->threads, "HTTP worker threads")->capture_default_str()->check(CLI::Range(1, 1024));
+  cmd->add_option("--max-body-mib", *max_body_mib, "Largest request body in MiB (larger: 413)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.01, 4096.0));
+  cmd->add_option("--backend", *backend, "Renderer backend")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "vulkan", "osmesa"}));
+  cmd->add_option("--renderers", opts->renderers, "Renderer instances (views rendered at once)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
+  cmd->add_option("--render-queue", opts->render_queue, "Views waiting for a renderer before 503")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100000));
+
+  cmd->add_option("--import", *imports, "GLB files to store at start (skipped when already stored)")
+      ->check(CLI::ExistingFile);
+
+  cmd->callback([opts, max_body_mib, backend, imports] {
+    opts->max_body_bytes = static_cast<size_t>(*max_body_mib * 1024.0 * 1024.0);
+    opts->backend = *backend == "vulkan"   ? BackendChoice::kVulkan
+                    : *backend == "osmesa" ? BackendChoice::kOsmesa
+                                           : BackendChoice::kAuto;
+    // Signals go to one thread that stops the server; every other thread (created below) inherits the mask.
+    sigset_t signals;
+    sigemptyset(&signals);
+    sigaddset(&signals, SIGINT);
+    sigaddset(&signals, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+    auto created = service::ViewService::create(*opts);
+    if (!created) fail("serve", created.error());
+    auto& svc = *created;
+    const std::string host = opts->bind == "0.0.0.0" ? "127.0.0.1" : opts->bind;
+    std::printf("rgbdcast serve: renderer %s (%s; %s)\n", svc->backend().c_str(), svc->device().c_str(),
+                svc->backend_reason().c_str());
+    const std::string base = "http://" + host + ":" + std::to_string(svc->port());
+    for (const auto& path : *imports) {
+      auto imported = svc->import_glb_file(path);
+      if (!imported) fail("serve", imported.error());
+      const std::string id = (*imported)["id"];
+      std::printf("rgbdcast serve: %s is scene %s\n  view:  %s/v1/scenes/%s/view?pose=capture\n  model: %s/v1/scenes/%s/model.glb\n",
+                  path.c_str(), id.c_str(), base.c_str(), id.c_str(), base.c_str(), id.c_str());
+    }
+    std::printf("rgbdcast serve: %zu scenes in %s\n", svc->scene_count(), opts->data_dir.c_str());
+    std::printf("rgbdcast serve: listening on %s/ (operator page), API under /v1/scenes\n", base.c_str());
+    std::fflush(stdout);
+
+    std::thread waiter([&svc, signals] {
+      int sig = 0;
+      sigwait(&signals, &sig);
+      if (sig == SIGINT || sig == SIGTERM) svc->stop();
+    });
+    Status st = svc->run();
+    // Wake the waiter if the server stopped for another reason.
+    pthread_kill(waiter.native_handle(), SIGTERM);
+    waiter.join();
+    if (!st) fail("serve", st.error());
+    std::printf("rgbdcast serve: stopped\n");
+  });
+}
+
+}  // namespace rgbdcast::app

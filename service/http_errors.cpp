@@ -1,0 +1,48 @@
+#include "service/http_errors.h"
+
+#include <nlohmann/json.hpp>
+
+namespace rgbdcast::service {
+
+int http_status_for(ErrorCode code) {
+  switch (code) {
+    case ErrorCode::kNotFound: return 404;
+    case ErrorCode::kInvalidArgument: return 400;
+    case ErrorCode::kInvalidInput: return 422;
+    case ErrorCode::kEmpty: return 422;
+    case ErrorCode::kUnavailable: return 503;
+    case ErrorCode::kIo: return 500;
+    case ErrorCode::kInternal: return 500;
+  }
+  return 500;
+}
+
+const char* error_name_for(int status) {
+  switch (status) {
+    case 400: return "bad_request";
+    case 404: return "not_found";
+    case 405: return "method_not_allowed";
+    case 408: return "request_timeout";
+    case 411: return "length_required";
+    case 413: return "payload_too_large";
+    case 414: return "uri_too_long";
+    case 415: return "unsupported_media_type";
+    case 416: return "range_not_satisfiable";
+    case 422: return "unprocessable_entity";
+    case 500: return "internal_error";
+    case 503: return "unavailable";
+    default: return status >= 500 ? "server_error" : "client_error";
+  }
+}
+
+std::string error_body(int status, const std::string& detail) {
+  // Replacement on invalid UTF-8: a detail may quote what a client sent.
+  nlohmann::ordered_json body;  // "error" first, for people reading it
+  body["error"] = error_name_for(status);
+  body["detail"] = detail;
+  return body.dump(
+             -1, ' ', false, nlohmann::json::error_handler_t::replace) +
+         "\n";
+}
+
+}  // namespace rgbdcast::service

@@ -1,0 +1,17 @@
+#pragma once
+// One shape for every error the service answers: {"error": "<short code>", "detail": "<one line>"}, and one map from
+// the library's ErrorCode to an HTTP status.
+#include <string>
+
+#include "scene/result.h"
+
+namespace rgbdcast::service {
+
+// kNotFound 404, kInvalidArgument 400, kInvalidInput and kEmpty 422, kUnavailable 503, kIo and kInternal 500.
+int http_status_for(ErrorCode code);
+// A short machine-readable name for a status: 400 "bad_request", 404 "not_found", 413 "payload_too_large", ...
+const char* error_name_for(int status);
+// The JSON body (with a trailing newline).
+std::string error_body(int status, const std::string& detail);
+
+}  // namespace rgbdcast::service

@@ -1,0 +1,186 @@
+#include "service/render_pool.h"
+
+#include <chrono>
+#include <list>
+#include <utility>
+
+namespace rgbdcast::service {
+namespace {
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
+struct RenderPool::Worker {
+  struct Resident {
+    std::string scene_id;
+    ResidentSceneId device_id;
+    std::vector<CaptureCamera> cameras;
+  };
+  std::thread thread;
+  std::unique_ptr<Renderer> renderer;
+  std::list<Resident> resident;       // most recently used first
+  std::vector<std::string> forgotten;  // guarded by the pool's mutex
+};
+
+RenderPool::RenderPool(const RenderPoolOptions& options, SceneLoader loader)
+    : options_(options), loader_(std::move(loader)) {}
+
+Result<std::unique_ptr<RenderPool>> RenderPool::start(const RenderPoolOptions& options, RendererFactory factory,
+                                                      SceneLoader loader) {
+  if (options.workers < 1 || options.queue_capacity < 0 || options.resident_scenes < 1)
+    return make_error(ErrorCode::kInvalidArgument, "render pool needs at least one worker and one resident scene");
+  std::unique_ptr<RenderPool> pool(new RenderPool(options, std::move(loader)));
+  for (int i = 0; i < options.workers; ++i) {
+    auto worker = std::make_unique<Worker>();
+    std::promise<Status> started;
+    auto started_future = started.get_future();
+    Worker* w = worker.get();
+    worker->thread = std::thread(&RenderPool::run, pool.get(), w, factory, std::move(started));
+    pool->workers_.push_back(std::move(worker));
+    Status st = started_future.get();
+    if (!st) return st.error();  // the destructor joins the threads already started
+    if (i == 0) {
+      pool->backend_ = w->renderer->backend();
+      pool->device_ = w->renderer->device();
+    }
+  }
+  return pool;
+}
+
+RenderPool::~RenderPool() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  cv_.notify_all();
+  for (auto& w : workers_)
+    if (w->thread.joinable()) w->thread.join();
+  for (auto& job : queue_) job->promise.set_value(make_error(ErrorCode::kUnavailable, "server is stopping"));
+}
+
+Result<RenderOutput> RenderPool::render(const std::string& scene_id, const ViewRequest& request) {
+  auto job = std::make_unique<Job>();
+  job->scene_id = scene_id;
+  job->request = request;
+  job->queued_at = std::chrono::steady_clock::now();
+  auto future = job->promise.get_future();
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_) return make_error(ErrorCode::kUnavailable, "server is stopping");
+    // Admitted when a worker is idle or the queue has room: waiting + rendering < workers + capacity.
+    if (queue_.size() + busy_ >= workers_.size() + static_cast<size_t>(options_.queue_capacity)) {
+      ++rejected_;
+      return make_error(ErrorCode::kUnavailable, "render queue full (" + std::to_string(queue_.size()) +
+                                                     " views waiting); retry later");
+    }
+    queue_.push_back(std::move(job));
+  }
+  cv_.notify_one();
+  return future.get();
+}
+
+void RenderPool::forget(const std::string& scene_id) {
+  std::lock_guard lock(mutex_);
+  for (auto& w : workers_) w->forgotten.push_back(scene_id);
+}
+
+size_t RenderPool::queue_depth() const {
+  std::lock_guard lock(mutex_);
+  return queue_.size();
+}
+
+size_t RenderPool::rejected() const {
+  std::lock_guard lock(mutex_);
+  return rejected_;
+}
+
+void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> started) {
+  {
+    Result<std::unique_ptr<Renderer>> made = make_error(ErrorCode::kInternal, "renderer factory threw");
+    try {
+      made = factory();
+    } catch (const std::exception& e) {
+      made = make_error(ErrorCode::kInternal, std::string("renderer factory threw: ") + e.what());
+    }
+    if (!made) {
+      started.set_value(made.error());
+      return;
+    }
+    w->renderer = std::move(*made);
+    started.set_value(ok_status());
+  }
+  for (;;) {
+    std::unique_ptr<Job> job;
+    std::vector<std::string> forgotten;
+    {
+      std::unique_lock lock(mutex_);
+      cv_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+      if (stopping_) break;
+      job = std::move(queue_.front());
+      queue_.pop_front();
+      ++busy_;
+      forgotten.swap(w->forgotten);
+    }
+    for (const auto& id : forgotten) {
+      for (auto it = w->resident.begin(); it != w->resident.end();) {
+        if (it->scene_id == id) {
+          w->renderer->release(it->device_id);
+          it = w->resident.erase(it);
+        } else {
+          ++it;
+        }
+      }
+    }
+    RenderOutput out;
+    out.queue_ms = ms_since(job->queued_at);
+    out.backend = w->renderer->backend();
+    auto work = [&]() -> Result<RenderOutput> {
+      auto it = w->resident.begin();
+      while (it != w->resident.end() && it->scene_id != job->scene_id) ++it;
+      if (it == w->resident.end()) {
+        const auto t0 = std::chrono::steady_clock::now();
+        auto scene = loader_(job->scene_id);
+        if (!scene) return scene.error();
+        out.load_ms = ms_since(t0);
+        auto id = w->renderer->upload(**scene, &out.upload_ms);
+        if (!id) return id.error();
+        w->resident.push_front({job->scene_id, *id, (*scene)->cameras});
+        while (w->resident.size() > static_cast<size_t>(options_.resident_scenes)) {
+          w->renderer->release(w->resident.back().device_id);
+          w->resident.pop_back();
+        }
+      } else {
+        w->resident.splice(w->resident.begin(), w->resident, it);
+      }
+      const Worker::Resident& r = w->resident.front();
+      auto camera = make_view_camera(job->request, r.cameras);
+      if (!camera) return camera.error();
+      RenderOptions options;
+      options.mode = job->request.mode;
+      options.point_size_px = job->request.point_size_px;
+      auto rendered = w->renderer->render(r.device_id, *camera, options);
+      if (!rendered) return rendered.error();
+      out.color = std::move(rendered->color);
+      out.render_ms = rendered->timings.render_ms;
+      out.readback_ms = rendered->timings.readback_ms;
+      return std::move(out);
+    };
+    Result<RenderOutput> result = make_error(ErrorCode::kInternal, "render failed");
+    try {
+      result = work();
+    } catch (const std::exception& e) {
+      result = make_error(ErrorCode::kInternal, std::string("render threw: ") + e.what());
+    }
+    {
+      std::lock_guard lock(mutex_);
+      --busy_;
+    }
+    job->promise.set_value(std::move(result));
+  }
+  for (auto& r : w->resident) w->renderer->release(r.device_id);
+  w->resident.clear();
+  w->renderer.reset();
+}
+
+}  // namespace rgbdcast::service

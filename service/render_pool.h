@@ -1,0 +1,87 @@
+#pragma once
+// A fixed set of renderers, each owned by one worker thread (a Renderer is used by one thread at a time, and an
+// OSMesa context belongs to the thread that made it), fed by one bounded queue. Contract:
+// - render() blocks until the view is rendered, or fails at once with kUnavailable "render queue full" when every
+//   worker is busy and `queue_capacity` jobs are already waiting (the HTTP layer answers 503 with Retry-After): load sheds instead of
+//   piling up.
+// - Each worker keeps up to `resident_scenes` scenes uploaded (least recently used goes first); forget() drops a
+//   deleted scene from every worker before its next job.
+// - Scenes are loaded through the SceneLoader (decoded GLB) on a cache miss; a loader error is returned as is.
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <future>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "renderer/renderer.h"
+#include "scene/result.h"
+#include "scene/scene.h"
+#include "service/view_params.h"
+
+namespace rgbdcast::service {
+
+struct RenderPoolOptions {
+  int workers = 1;          // renderer instances (lavapipe and llvmpipe already use every core for one frame)
+  int queue_capacity = 32;  // jobs waiting beyond those being rendered
+  int resident_scenes = 8;  // per worker
+};
+
+struct RenderOutput {
+  Image color;               // RGBA8
+  double render_ms = 0.0;    // renderer: submission to idle
+  double readback_ms = 0.0;
+  double upload_ms = 0.0;    // > 0 only when this request uploaded the scene
+  double load_ms = 0.0;      // GLB decode on a cache miss
+  double queue_ms = 0.0;     // waiting for a worker
+  std::string backend;
+};
+
+using RendererFactory = std::function<Result<std::unique_ptr<Renderer>>()>;
+using SceneLoader = std::function<Result<std::shared_ptr<const Scene>>(const std::string& scene_id)>;
+
+class RenderPool {
+ public:
+  // Starts the workers; each creates its renderer in its own thread. Fails when the first renderer cannot be made.
+  static Result<std::unique_ptr<RenderPool>> start(const RenderPoolOptions& options, RendererFactory factory,
+                                                   SceneLoader loader);
+  ~RenderPool();
+  RenderPool(const RenderPool&) = delete;
+  RenderPool& operator=(const RenderPool&) = delete;
+
+  Result<RenderOutput> render(const std::string& scene_id, const ViewRequest& request);
+  void forget(const std::string& scene_id);
+
+  const std::string& backend() const { return backend_; }
+  const std::string& device() const { return device_; }
+  size_t queue_depth() const;
+  size_t rejected() const;
+
+ private:
+  struct Job {
+    std::string scene_id;
+    ViewRequest request;
+    std::chrono::steady_clock::time_point queued_at;
+    std::promise<Result<RenderOutput>> promise;
+  };
+  struct Worker;
+
+  explicit RenderPool(const RenderPoolOptions& options, SceneLoader loader);
+  void run(Worker* worker, RendererFactory factory, std::promise<Status> started);
+
+  RenderPoolOptions options_;
+  SceneLoader loader_;
+  std::string backend_, device_;
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<std::unique_ptr<Job>> queue_;
+  bool stopping_ = false;
+  size_t rejected_ = 0;
+  size_t busy_ = 0;  // jobs being rendered
+  std::vector<std::unique_ptr<Worker>> workers_;
+};
+
+}  // namespace rgbdcast::service

@@ -1,0 +1,38 @@
+#pragma once
+// What the service accepts as a scene, turned into the GLB it stores and the stats it reports.
+// - A GLB from a client (untrusted): decoded with decode_glb before anything is stored; a truncated or invalid file
+//   or a scene with nothing to draw is kInvalidInput/kEmpty (HTTP 422).
+// - A frame upload (colour PNG/JPEG, 16-bit depth PNG, intrinsics JSON): decoded, reduced (reduce_frame), textured
+//   (the atlas) and encoded (encode_glb) on the server.
+// Stats (JSON): points, vertices, triangles, nodes, bytes, capture_camera, stages (name, unit, count, ms).
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "scene/result.h"
+#include "scene/scene.h"
+
+namespace rgbdcast::service {
+
+struct IngestedScene {
+  std::vector<std::uint8_t> glb;
+  nlohmann::json stats;
+};
+
+Result<IngestedScene> ingest_glb(std::vector<std::uint8_t> glb);
+
+struct FrameUpload {
+  std::vector<unsigned char> color;  // PNG or JPEG bytes
+  std::vector<unsigned char> depth;  // 16-bit single-channel PNG bytes
+  std::string intrinsics_json;       // as load_intrinsics_json reads
+  std::string scratch_dir;           // a folder for a short-lived temporary file (the store's folder)
+};
+Result<IngestedScene> ingest_frame(const FrameUpload& upload);
+
+// Stats of a decoded scene, and the stages of its capture (from the GLB's extras) when present.
+nlohmann::json scene_stats(const Scene& scene, size_t glb_bytes);
+
+}  // namespace rgbdcast::service

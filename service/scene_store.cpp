@@ -1,0 +1,249 @@
+#include "service/scene_store.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+namespace fs = std::filesystem;
+
+namespace rgbdcast::service {
+namespace {
+
+constexpr size_t kIdLength = 32;
+constexpr const char* kTempPrefix = ".tmp-";
+
+std::string errno_text() { return std::strerror(errno); }
+
+Status fsync_dir(const std::string& dir) {
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return make_error(ErrorCode::kIo, "cannot open folder " + dir + ": " + errno_text());
+  const int rc = ::fsync(fd);
+  ::close(fd);
+  if (rc != 0) return make_error(ErrorCode::kIo, "cannot fsync folder " + dir + ": " + errno_text());
+  return ok_status();
+}
+
+std::string random_hex(size_t digits) {
+  static thread_local std::random_device rd;
+  static const char* kHex = "0123456789abcdef";
+  std::string s;
+  s.reserve(digits);
+  while (s.size() < digits) {
+    std::uint32_t r = rd();
+    for (int i = 0; i < 8 && s.size() < digits; ++i, r >>= 4) s.push_back(kHex[r & 0xf]);
+  }
+  return s;
+}
+
+Result<std::string> read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return make_error(ErrorCode::kIo, "cannot read " + path);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+}  // namespace
+
+bool is_valid_scene_id(std::string_view id) {
+  if (id.size() != kIdLength) return false;
+  return std::all_of(id.begin(), id.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
+}
+
+std::string new_scene_id() { return random_hex(kIdLength); }
+
+std::string etag_of(const std::uint8_t* data, size_t size) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (size_t i = 0; i < size; ++i) {
+    h ^= data[i];
+    h *= 1099511628211ull;
+  }
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "\"%016llx-%zu\"", static_cast<unsigned long long>(h), size);
+  return buf;
+}
+
+Status write_file_atomic(const std::string& dir, const std::string& name, const void* data, size_t size) {
+  const std::string tmp = dir + "/" + kTempPrefix + name + "-" + random_hex(8);
+  const std::string final_path = dir + "/" + name;
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) return make_error(ErrorCode::kIo, "cannot create " + tmp + ": " + errno_text());
+  const auto* p = static_cast<const char*>(data);
+  size_t left = size;
+  while (left > 0) {
+    const ssize_t n = ::write(fd, p, left);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const std::string why = errno_text();
+      ::close(fd);
+      ::unlink(tmp.c_str());
+      return make_error(ErrorCode::kIo, "cannot write " + tmp + ": " + why);
+    }
+    p += n;
+    left -= static_cast<size_t>(n);
+  }
+  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+    const std::string why = errno_text();
+    ::unlink(tmp.c_str());
+    return make_error(ErrorCode::kIo, "cannot flush " + tmp + ": " + why);
+  }
+  if (::rename(tmp.c_str(), final_path.c_str()) != 0) {
+    const std::string why = errno_text();
+    ::unlink(tmp.c_str());
+    return make_error(ErrorCode::kIo, "cannot rename " + tmp + " to " + final_path + ": " + why);
+  }
+  return fsync_dir(dir);
+}
+
+Result<std::unique_ptr<SceneStore>> SceneStore::open(const std::string& data_dir) {
+  if (data_dir.empty()) return make_error(ErrorCode::kInvalidArgument, "data dir is empty");
+  const std::string dir = (fs::path(data_dir) / "scenes").string();
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return make_error(ErrorCode::kIo, "cannot create " + dir + ": " + ec.message());
+  std::unique_ptr<SceneStore> store(new SceneStore(dir));
+
+  // First pass: temporary files of interrupted writes go; committed metadata is loaded.
+  std::vector<fs::path> glbs;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind(kTempPrefix, 0) == 0) {
+      fs::remove(entry.path(), ec);
+      store->cleaned_.push_back(name);
+      continue;
+    }
+    const std::string stem = entry.path().stem().string(), ext = entry.path().extension().string();
+    if (!is_valid_scene_id(stem)) continue;  // not ours: left alone
+    if (ext == ".glb") {
+      glbs.push_back(entry.path());
+    } else if (ext == ".json") {
+      auto text = read_text(entry.path().string());
+      if (!text) return text.error();
+      nlohmann::json meta = nlohmann::json::parse(*text, nullptr, /*allow_exceptions=*/false);
+      if (meta.is_discarded() || !meta.is_object())
+        return make_error(ErrorCode::kInvalidInput, "scene metadata is not a JSON object: " + entry.path().string());
+      StoredScene s;
+      s.id = stem;
+      s.bytes = meta.value("bytes", std::uint64_t{0});
+      s.etag = meta.value("etag", std::string());
+      s.created_unix_s = meta.value("created_unix_s", 0.0);
+      s.metadata = std::move(meta);
+      store->scenes_.emplace(stem, std::move(s));
+    }
+  }
+  if (ec) return make_error(ErrorCode::kIo, "cannot list " + dir + ": " + ec.message());
+  // Second pass: a GLB without metadata was never committed (or was being deleted); metadata without its GLB is
+  // not a scene either.
+  for (const auto& glb : glbs) {
+    if (!store->scenes_.count(glb.stem().string())) {
+      fs::remove(glb, ec);
+      store->cleaned_.push_back(glb.filename().string());
+    }
+  }
+  for (auto it = store->scenes_.begin(); it != store->scenes_.end();) {
+    if (!fs::exists(store->glb_path(it->first))) {
+      fs::remove(fs::path(dir) / (it->first + ".json"), ec);
+      store->cleaned_.push_back(it->first + ".json");
+      it = store->scenes_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  if (!store->cleaned_.empty()) {
+    auto st = fsync_dir(dir);
+    if (!st) return st.error();
+  }
+  return store;
+}
+
+Result<StoredScene> SceneStore::put(const std::vector<std::uint8_t>& glb, nlohmann::json metadata) {
+  if (!metadata.is_object()) metadata = nlohmann::json::object();
+  StoredScene s;
+  s.id = new_scene_id();
+  s.bytes = glb.size();
+  s.etag = etag_of(glb.data(), glb.size());
+  s.created_unix_s =
+      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  metadata["id"] = s.id;
+  metadata["bytes"] = s.bytes;
+  metadata["etag"] = s.etag;
+  metadata["created_unix_s"] = s.created_unix_s;
+  s.metadata = std::move(metadata);
+
+  auto st = write_file_atomic(dir_, s.id + ".glb", glb.data(), glb.size());
+  if (!st) return st.error();
+  const std::string text = s.metadata.dump(2);
+  st = write_file_atomic(dir_, s.id + ".json", text.data(), text.size());
+  if (!st) {
+    std::error_code ec;
+    fs::remove(glb_path(s.id), ec);
+    return st.error();
+  }
+  std::lock_guard lock(mutex_);
+  scenes_[s.id] = s;
+  return s;
+}
+
+std::optional<StoredScene> SceneStore::get(const std::string& id) const {
+  if (!is_valid_scene_id(id)) return std::nullopt;
+  std::lock_guard lock(mutex_);
+  auto it = scenes_.find(id);
+  if (it == scenes_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::vector<StoredScene> SceneStore::list() const {
+  std::vector<StoredScene> out;
+  {
+    std::lock_guard lock(mutex_);
+    for (const auto& [id, s] : scenes_) out.push_back(s);
+  }
+  std::stable_sort(out.begin(), out.end(), [](const StoredScene& a, const StoredScene& b) {
+    return a.created_unix_s < b.created_unix_s;
+  });
+  return out;
+}
+
+Status SceneStore::remove(const std::string& id) {
+  if (!is_valid_scene_id(id)) return make_error(ErrorCode::kNotFound, "no scene " + id);
+  {
+    std::lock_guard lock(mutex_);
+    if (!scenes_.erase(id)) return make_error(ErrorCode::kNotFound, "no scene " + id);
+  }
+  // Metadata first: once it is gone the scene is gone, whatever happens to the GLB.
+  std::error_code ec;
+  fs::remove(fs::path(dir_) / (id + ".json"), ec);
+  if (ec) return make_error(ErrorCode::kIo, "cannot delete metadata of " + id + ": " + ec.message());
+  fs::remove(glb_path(id), ec);
+  return fsync_dir(dir_);
+}
+
+Result<std::vector<std::uint8_t>> SceneStore::read_glb(const std::string& id) const {
+  if (!get(id)) return make_error(ErrorCode::kNotFound, "no scene " + id);
+  std::ifstream in(glb_path(id), std::ios::binary);
+  if (!in) return make_error(ErrorCode::kNotFound, "no scene " + id);
+  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
+  return bytes;
+}
+
+std::string SceneStore::glb_path(const std::string& id) const { return dir_ + "/" + id + ".glb"; }
+
+size_t SceneStore::count() const {
+  std::lock_guard lock(mutex_);
+  return scenes_.size();
+}
+
+std::uint64_t SceneStore::total_bytes() const {
+  std::lock_guard lock(mutex_);
+  std::uint64_t n = 0;
+  for (const auto& [id, s] : scenes_) n += s.bytes;
+  return n;
+}
+
+}  // namespace rgbdcast::service

@@ -1,0 +1,68 @@
+#pragma once
+// Scenes on disk: <data_dir>/scenes/<id>.glb and <id>.json (metadata). Contract:
+// - put() writes the GLB, then the metadata, each to a temporary name, fsync, rename, fsync of the folder; the
+//   metadata file is the commit marker, so a crash at any point leaves either a whole scene or none.
+// - open() lists the committed scenes again and deletes what an interrupted put() or remove() left (temporary files,
+//   a GLB without metadata).
+// - Ids are 32 lowercase hex digits from std::random_device; anything else is rejected before it reaches a path, so
+//   an id can never name a file outside the scenes folder.
+// Thread-safe: every method may be called from any thread.
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "scene/result.h"
+
+namespace rgbdcast::service {
+
+bool is_valid_scene_id(std::string_view id);
+std::string new_scene_id();
+
+struct StoredScene {
+  std::string id;
+  std::uint64_t bytes = 0;       // size of the GLB
+  std::string etag;              // quoted strong ETag of the GLB bytes
+  double created_unix_s = 0.0;
+  nlohmann::json metadata;       // what put() was given (stats), plus id, bytes, etag, created_unix_s
+};
+
+class SceneStore {
+ public:
+  // Creates <data_dir>/scenes when missing, cleans what a crash left, loads the metadata of every scene.
+  static Result<std::unique_ptr<SceneStore>> open(const std::string& data_dir);
+
+  // Stores a GLB (already validated by the caller) with its metadata object; returns the new scene.
+  Result<StoredScene> put(const std::vector<std::uint8_t>& glb, nlohmann::json metadata);
+  std::optional<StoredScene> get(const std::string& id) const;
+  std::vector<StoredScene> list() const;  // oldest first
+  Status remove(const std::string& id);   // kNotFound when unknown
+  Result<std::vector<std::uint8_t>> read_glb(const std::string& id) const;
+  std::string glb_path(const std::string& id) const;  // only for a valid id
+
+  size_t count() const;
+  std::uint64_t total_bytes() const;
+  // Files open() removed: temporary files and orphan GLBs (for the log and the tests).
+  const std::vector<std::string>& cleaned_on_open() const { return cleaned_; }
+
+ private:
+  explicit SceneStore(std::string scenes_dir) : dir_(std::move(scenes_dir)) {}
+  std::string dir_;
+  mutable std::mutex mutex_;
+  std::map<std::string, StoredScene> scenes_;
+  std::vector<std::string> cleaned_;
+};
+
+// Writes bytes to dir/name atomically: dir/.tmp-<name>-<random>, fsync, rename, fsync(dir).
+Status write_file_atomic(const std::string& dir, const std::string& name, const void* data, size_t size);
+
+// A strong ETag for bytes: "\"<16 hex digits of FNV-1a 64>-<size>\"".
+std::string etag_of(const std::uint8_t* data, size_t size);
+
+}  // namespace rgbdcast::service

@@ -1,0 +1,177 @@
+// The render pool with a stand-in renderer (the real backends are tested in tests/renderer): the bounded queue
+// refuses work at once when full, resident scenes are reused and forgotten, errors pass through.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+
+#include "service/render_pool.h"
+
+using namespace rgbdcast;
+using namespace rgbdcast::service;
+
+namespace {
+
+struct Counters {
+  std::atomic<int> uploads{0}, releases{0}, renders{0}, loads{0};
+  std::atomic<int> render_sleep_ms{0};
+};
+
+// Fills the image with a colour derived from the resident id; sleeps to simulate a slow GPU.
+class StandInRenderer : public Renderer {
+ public:
+  explicit StandInRenderer(Counters* c) : c_(c) {}
+  std::string backend() const override { return "standin"; }
+  std::string device() const override { return "test"; }
+  Result<ResidentSceneId> upload(const Scene& scene, double* upload_ms) override {
+    if (scene.nodes.empty()) return make_error(ErrorCode::kEmpty, "empty scene");
+    ++c_->uploads;
+    if (upload_ms) *upload_ms = 1.0;
+    return ++next_;
+  }
+  void release(ResidentSceneId) override { ++c_->releases; }
+  Result<RenderResult> render(ResidentSceneId id, const ViewCamera& cam, const RenderOptions&) override {
+    ++c_->renders;
+    std::this_thread::sleep_for(std::chrono::milliseconds(c_->render_sleep_ms.load()));
+    RenderResult r;
+    r.color = Image::make(cam.width, cam.height, 4);
+    for (size_t i = 0; i < r.color.data.size(); ++i) r.color.data[i] = static_cast<std::uint8_t>(id * 40);
+    r.timings.render_ms = 2.0;
+    return r;
+  }
+
+ private:
+  Counters* c_;
+  ResidentSceneId next_ = 0;
+};
+
+std::unique_ptr<RenderPool> make_pool(Counters* c, RenderPoolOptions o) {
+  auto pool = RenderPool::start(
+      o, [c]() -> Result<std::unique_ptr<Renderer>> { return std::unique_ptr<Renderer>(new StandInRenderer(c)); },
+      [c](const std::string& id) -> Result<std::shared_ptr<const Scene>> {
+        ++c->loads;
+        if (id == "missing") return make_error(ErrorCode::kNotFound, "no scene missing");
+        auto s = std::make_shared<Scene>();
+        if (id != "empty") s->nodes.resize(1);
+        return std::shared_ptr<const Scene>(s);
+      });
+  EXPECT_TRUE(pool.ok());
+  return pool.ok() ? std::move(*pool) : nullptr;
+}
+
+ViewRequest capture(int w = 64, int h = 48) {
+  ViewRequest r;
+  r.width = w;
+  r.height = h;
+  return r;
+}
+
+}  // namespace
+
+TEST(ServiceRenderPool, RendersAndKeepsScenesResident) {
+  Counters c;
+  auto pool = make_pool(&c, {1, 4, 2});
+  ASSERT_TRUE(pool);
+  EXPECT_EQ(pool->backend(), "standin");
+  for (int i = 0; i < 3; ++i) {
+    auto out = pool->render("a", capture());
+    ASSERT_TRUE(out.ok()) << out.error().message;
+    EXPECT_EQ(out->color.width, 64);
+    EXPECT_EQ(out->backend, "standin");
+    EXPECT_EQ(out->upload_ms > 0, i == 0);  // only the first view uploads
+  }
+  EXPECT_EQ(c.uploads, 1);
+  EXPECT_EQ(c.loads, 1);
+  // Two more scenes with room for two: "a" is the least recently used and goes.
+  ASSERT_TRUE(pool->render("b", capture()).ok());
+  ASSERT_TRUE(pool->render("c", capture()).ok());
+  EXPECT_EQ(c.releases, 1);
+  ASSERT_TRUE(pool->render("a", capture()).ok());
+  EXPECT_EQ(c.uploads, 4);
+  // A forgotten (deleted) scene is released before the next job and loaded again if asked.
+  pool->forget("a");
+  ASSERT_TRUE(pool->render("c", capture()).ok());
+  EXPECT_EQ(c.releases, 3);
+}
+
+TEST(ServiceRenderPool, ErrorsPassThrough) {
+  Counters c;
+  auto pool = make_pool(&c, {1, 4, 2});
+  ASSERT_TRUE(pool);
+  auto missing = pool->render("missing", capture());
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
+  auto empty = pool->render("empty", capture());
+  ASSERT_FALSE(empty.ok());
+  EXPECT_EQ(empty.error().code, ErrorCode::kEmpty);
+  ViewRequest bad = capture();
+  bad.capture_pose = false;
+  bad.eye = {0, 0, 0};
+  bad.target = {0, -1, 0};  // parallel to the default up
+  auto r = pool->render("a", bad);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code, ErrorCode::kInvalidArgument);
+}
+
+// One worker busy for 300 ms, a queue of 2: of 8 simultaneous requests, 1 renders at once, 2 wait, the other 5 are
+// refused immediately with kUnavailable.
+TEST(ServiceRenderPool, FullQueueRefusesAtOnce) {
+  Counters c;
+  c.render_sleep_ms = 300;
+  auto pool = make_pool(&c, {1, 2, 2});
+  ASSERT_TRUE(pool);
+  ASSERT_TRUE(pool->render("a", capture()).ok());  // warm: the scene is resident
+  std::atomic<int> ok{0}, refused{0};
+  std::atomic<double> slowest_refusal_ms{0};
+  std::vector<std::thread> clients;
+  for (int i = 0; i < 8; ++i) {
+    clients.emplace_back([&, i] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(i == 0 ? 0 : 50));  // the first one starts rendering
+      const auto t0 = std::chrono::steady_clock::now();
+      auto r = pool->render("a", capture());
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      if (r.ok()) {
+        ++ok;
+      } else {
+        EXPECT_EQ(r.error().code, ErrorCode::kUnavailable);
+        EXPECT_NE(r.error().message.find("queue full"), std::string::npos);
+        ++refused;
+        double prev = slowest_refusal_ms.load();
+        while (ms > prev && !slowest_refusal_ms.compare_exchange_weak(prev, ms)) {
+        }
+      }
+    });
+  }
+  for (auto& t : clients) t.join();
+  EXPECT_EQ(ok, 3);
+  EXPECT_EQ(refused, 5);
+  EXPECT_EQ(pool->rejected(), 5u);
+  EXPECT_LT(slowest_refusal_ms.load(), 100.0);  // refused at once, not after waiting for a render
+}
+
+// No waiting room at all: an idle worker still takes a view; a second one at the same time is refused.
+TEST(ServiceRenderPool, ZeroQueueStillUsesIdleWorkers) {
+  Counters c;
+  c.render_sleep_ms = 200;
+  auto pool = make_pool(&c, {1, 0, 2});
+  ASSERT_TRUE(pool);
+  ASSERT_TRUE(pool->render("a", capture()).ok());
+  Result<RenderOutput> second = make_error(ErrorCode::kInternal, "not run");
+  std::thread first([&] { EXPECT_TRUE(pool->render("a", capture()).ok()); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  second = pool->render("a", capture());
+  first.join();
+  ASSERT_FALSE(second.ok());
+  EXPECT_EQ(second.error().code, ErrorCode::kUnavailable);
+  EXPECT_TRUE(pool->render("a", capture()).ok());  // idle again
+}
+
+TEST(ServiceRenderPool, FactoryFailureIsAnError) {
+  auto pool = RenderPool::start(
+      {2, 4, 2}, []() -> Result<std::unique_ptr<Renderer>> { return make_error(ErrorCode::kUnavailable, "no GPU"); },
+      [](const std::string&) -> Result<std::shared_ptr<const Scene>> { return make_error(ErrorCode::kNotFound, "x"); });
+  ASSERT_FALSE(pool.ok());
+  EXPECT_EQ(pool.error().code, ErrorCode::kUnavailable);
+  EXPECT_EQ(pool.error().message, "no GPU");
+}

@@ -1,0 +1,114 @@
+// The scene store: atomic writes, listing after a restart, cleanup of what a crash leaves, ids that cannot name a
+// path outside the store.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "service/scene_store.h"
+#include "tests/common/test_data.h"
+
+namespace fs = std::filesystem;
+using namespace rgbdcast::service;
+
+namespace {
+std::vector<std::uint8_t> bytes_of(const std::string& s) { return {s.begin(), s.end()}; }
+size_t files_in(const std::string& dir) {
+  size_t n = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++n;
+  return n;
+}
+}  // namespace
+
+TEST(ServiceStore, IdsAreStrict) {
+  const std::string id = new_scene_id();
+  EXPECT_EQ(id.size(), 32u);
+  EXPECT_TRUE(is_valid_scene_id(id));
+  EXPECT_NE(id, new_scene_id());
+  for (const char* bad : {"", "..", "../../etc/passwd", "0123456789abcdef0123456789abcde",
+                          "0123456789abcdef0123456789abcdef0", "0123456789ABCDEF0123456789abcdef",
+                          "0123456789abcdef0123456789abcde/", "0123456789abcdef0123456789abc%2e"})
+    EXPECT_FALSE(is_valid_scene_id(bad)) << bad;
+}
+
+TEST(ServiceStore, PutGetListRemoveAndReopen) {
+  const std::string dir = rgbdcast::test::temp_dir("store");
+  std::string id_a, id_b;
+  {
+    auto store = SceneStore::open(dir);
+    ASSERT_TRUE(store.ok()) << store.error().message;
+    auto a = (*store)->put(bytes_of("glTF-A"), {{"triangles", 10}});
+    ASSERT_TRUE(a.ok()) << a.error().message;
+    auto b = (*store)->put(bytes_of("glTF-BB"), {{"triangles", 20}});
+    ASSERT_TRUE(b.ok());
+    id_a = a->id;
+    id_b = b->id;
+    EXPECT_EQ((*store)->count(), 2u);
+    EXPECT_EQ((*store)->total_bytes(), 13u);
+    EXPECT_EQ(a->metadata["triangles"], 10);
+    EXPECT_EQ(a->etag, etag_of(bytes_of("glTF-A").data(), 6));
+    EXPECT_NE(a->etag, b->etag);
+    auto glb = (*store)->read_glb(id_b);
+    ASSERT_TRUE(glb.ok());
+    EXPECT_EQ(*glb, bytes_of("glTF-BB"));
+    EXPECT_FALSE((*store)->get("../" + id_a).has_value());
+    EXPECT_EQ((*store)->remove(new_scene_id()).error().code, rgbdcast::ErrorCode::kNotFound);
+  }
+  {
+    auto store = SceneStore::open(dir);  // a restart
+    ASSERT_TRUE(store.ok());
+    auto list = (*store)->list();
+    ASSERT_EQ(list.size(), 2u);
+    EXPECT_EQ(list[0].id, id_a);  // oldest first
+    EXPECT_EQ(list[1].id, id_b);
+    EXPECT_EQ(list[1].metadata["triangles"], 20);
+    EXPECT_EQ(list[1].bytes, 7u);
+    EXPECT_TRUE((*store)->cleaned_on_open().empty());
+    ASSERT_TRUE((*store)->remove(id_a).ok());
+    EXPECT_FALSE((*store)->get(id_a).has_value());
+    EXPECT_EQ(files_in(dir + "/scenes"), 2u);  // b's GLB and metadata
+  }
+  auto store = SceneStore::open(dir);
+  ASSERT_TRUE(store.ok());
+  EXPECT_EQ((*store)->count(), 1u);
+  fs::remove_all(dir);
+}
+
+// What an interrupted put() can leave: a temporary file (killed while writing), a GLB without its metadata (killed
+// between the two renames). Neither is a scene; both are gone after the restart.
+TEST(ServiceStore, CrashLeftoversAreRemovedOnOpen) {
+  const std::string dir = rgbdcast::test::temp_dir("store-crash");
+  std::string kept;
+  {
+    auto store = SceneStore::open(dir);
+    ASSERT_TRUE(store.ok());
+    kept = (*store)->put(bytes_of("whole"), {})->id;
+  }
+  const std::string scenes = dir + "/scenes";
+  const std::string orphan = new_scene_id();
+  std::ofstream(scenes + "/.tmp-" + orphan + ".glb-1234abcd") << "half a gl";
+  std::ofstream(scenes + "/" + orphan + ".glb") << "a whole GLB without metadata";
+  std::ofstream(scenes + "/.tmp-" + orphan + ".json-99") << "{\"id\":";
+  std::ofstream(scenes + "/README.txt") << "not ours: left alone";
+  auto store = SceneStore::open(dir);
+  ASSERT_TRUE(store.ok()) << store.error().message;
+  EXPECT_EQ((*store)->count(), 1u);
+  EXPECT_TRUE((*store)->get(kept).has_value());
+  EXPECT_EQ((*store)->cleaned_on_open().size(), 3u);
+  EXPECT_FALSE(fs::exists(scenes + "/" + orphan + ".glb"));
+  EXPECT_TRUE(fs::exists(scenes + "/README.txt"));
+  EXPECT_EQ(files_in(scenes), 3u);  // kept .glb + .json, README
+  fs::remove_all(dir);
+}
+
+TEST(ServiceStore, AtomicWriteLeavesNoTemporaryFile) {
+  const std::string dir = rgbdcast::test::temp_dir("atomic");
+  const std::string text(1 << 20, 'x');
+  ASSERT_TRUE(write_file_atomic(dir, "big.bin", text.data(), text.size()).ok());
+  EXPECT_EQ(fs::file_size(dir + "/big.bin"), text.size());
+  EXPECT_EQ(files_in(dir), 1u);
+  auto st = write_file_atomic(dir + "/missing-folder", "x.bin", "x", 1);
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().code, rgbdcast::ErrorCode::kIo);
+  fs::remove_all(dir);
+}
