@@ -90,6 +90,8 @@ void run_eval(const EvalArgs& a) {
   nlohmann::json out = {{"psnr_db", fidelity->psnr_db},
                         {"ssim", fidelity->ssim},
                         {"coverage", fidelity->coverage},
+                        {"psnr_valid_db", fidelity->psnr_valid_db},
+                        {"ssim_valid", fidelity->ssim_valid},
                         {"valid_pixels", fidelity->valid_pixels},
                         {"covered_pixels", fidelity->covered_pixels},
                         {"mode", a.view.mode},
