@@ -9,6 +9,7 @@
 #include "app/reduce_common.h"
 #include "app/reduce_sequence.h"
 #include "app/report.h"
+#include "gltf/atomic_file.h"
 #include "input/frame_source.h"
 
 namespace rgbdcast::app {
@@ -51,7 +52,7 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
   auto glb = encode_glb(scene, a.glb, &glb_stats);
   if (!glb) fail(glb.error());
   stages.push_back({"export", "bytes", glb->size(), glb_stats.ms});
-  if (auto st = write_file_atomic(a.out, *glb); !st) fail(st.error());
+  if (auto st = glb::write_file_atomically(a.out, *glb); !st) fail(st.error());
   const double total_ms = std::chrono::duration<double, std::milli>(clock::now() - t0).count();
 
   std::cout << "rgbdcast reduce: " << frame->color_path << " (frame " << frame->index << ", "

@@ -1,10 +1,6 @@
 #include "app/reduce_common.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <chrono>
-#include <filesystem>
 
 #include "app/report.h"
 
@@ -60,27 +56,6 @@ nlohmann::json params_json(const ReduceArgs& a) {
           {"jpeg_quality", a.atlas.jpeg_quality},
           {"meshopt", a.glb.meshopt},
           {"position_step_m", a.glb.position_quantum_m}};
-}
-
-Status write_file_atomic(const std::string& path, const std::vector<std::uint8_t>& bytes) {
-  const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  if (fd < 0) return make_error(ErrorCode::kIo, "cannot write " + path);
-  size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n <= 0) break;
-    done += static_cast<size_t>(n);
-  }
-  const bool ok = done == bytes.size() && ::fsync(fd) == 0;
-  ::close(fd);
-  std::error_code ec;
-  if (ok) std::filesystem::rename(tmp, path, ec);
-  if (!ok || ec) {
-    std::filesystem::remove(tmp, ec);
-    return make_error(ErrorCode::kIo, "cannot write " + path);
-  }
-  return ok_status();
 }
 
 }  // namespace rgbdcast::app

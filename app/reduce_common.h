@@ -47,7 +47,5 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const ReduceArg
 
 nlohmann::json intrinsics_json(const Intrinsics& k);
 nlohmann::json params_json(const ReduceArgs& args);
-// Writes bytes atomically (temp file + fsync + rename): nothing half-written is ever left behind.
-Status write_file_atomic(const std::string& path, const std::vector<std::uint8_t>& bytes);
 
 }  // namespace rgbdcast::app

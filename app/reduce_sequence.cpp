@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "app/report.h"
+#include "gltf/atomic_file.h"
 #include "keyframes/sequence.h"
 #include "keyframes/sequence_report.h"
 
@@ -88,7 +89,7 @@ Status run_sequence(const ReduceArgs& a, const FrameSource& source) {
   GlbStats stats;
   auto glb = encode_glb(scene, a.glb, &stats);
   if (!glb) return glb.error();
-  if (auto st = write_file_atomic(a.out, *glb); !st) return st;
+  if (auto st = glb::write_file_atomically(a.out, *glb); !st) return st;
   if (!a.trajectory.empty()) {
     const Trajectory t = result->trajectory();
     const bool log = a.trajectory.size() > 4 && a.trajectory.substr(a.trajectory.size() - 4) == ".log";

@@ -1,9 +1,8 @@
 #include "app/report.h"
 
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
-#include <unistd.h>
+
+#include "gltf/atomic_file.h"
 
 namespace rgbdcast::app {
 
@@ -30,24 +29,7 @@ std::string stages_table(const std::vector<StageReport>& stages) {
 }
 
 Status write_text_file_atomic(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return make_error(ErrorCode::kIo, "cannot write " + path);
-    out << text;
-    out.flush();
-    if (!out) {
-      std::filesystem::remove(tmp);
-      return make_error(ErrorCode::kIo, "cannot write " + path);
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp);
-    return make_error(ErrorCode::kIo, "cannot write " + path + ": " + ec.message());
-  }
-  return ok_status();
+  return glb::write_file_atomically(path, std::vector<std::uint8_t>(text.begin(), text.end()));
 }
 
 }  // namespace rgbdcast::app

@@ -5,7 +5,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
-#include <unistd.h>
+
+#include "gltf/atomic_file.h"
 
 namespace rgbdcast::app {
 
@@ -88,21 +89,7 @@ Status write_image(const Image& image, const std::string& path) {
   } catch (const cv::Exception&) {
     return make_error(ErrorCode::kInvalidArgument, "unsupported image type for " + path + " (use .png or .jpg)");
   }
-  const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
-  FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (!f) return make_error(ErrorCode::kIo, "cannot write " + path);
-  const bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
-  if (std::fclose(f) != 0 || !ok) {
-    std::filesystem::remove(tmp);
-    return make_error(ErrorCode::kIo, "cannot write " + path);
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp);
-    return make_error(ErrorCode::kIo, "cannot write " + path + ": " + ec.message());
-  }
-  return ok_status();
+  return glb::write_file_atomically(path, std::vector<std::uint8_t>(bytes.begin(), bytes.end()));
 }
 
 }  // namespace rgbdcast::app
