@@ -1,0 +1,31 @@
+#include "bench/transmission/fidelity.h"
+
+namespace rgbdcast::bench {
+
+Result<ViewSetFidelity> measure_views(Renderer& renderer, ResidentSceneId id, const RenderOptions& options,
+                                      const std::vector<ReferenceView>& views) {
+  ViewSetFidelity out;
+  for (size_t i = 0; i < views.size(); ++i) {
+    auto rendered = renderer.render(id, views[i].camera, options);
+    if (!rendered) return rendered.error();
+    auto fidelity = compare_views(views[i].color_rgb, rendered->color, views[i].valid);
+    if (!fidelity) return make_error(fidelity.error().code, views[i].name + ": " + fidelity.error().message);
+    if (i == 0) {
+      out.capture = *fidelity;
+      continue;
+    }
+    out.novel.push_back(*fidelity);
+    out.novel_psnr_db += fidelity->psnr_db;
+    out.novel_ssim += fidelity->ssim;
+    out.novel_coverage += fidelity->coverage;
+  }
+  if (!out.novel.empty()) {
+    const double n = static_cast<double>(out.novel.size());
+    out.novel_psnr_db /= n;
+    out.novel_ssim /= n;
+    out.novel_coverage /= n;
+  }
+  return out;
+}
+
+}  // namespace rgbdcast::bench

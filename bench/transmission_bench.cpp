@@ -1,0 +1,283 @@
+// transmission_bench: for one RGB-D frame, what a robot could send and how well the receiver sees the scene.
+// Representations (bench/transmission/codecs.h): raw float cloud, JPEG + 16-bit PNG (as a cloud, and meshed on the
+// receiver), Draco point cloud (11 and 14 bit positions), rgbdcast GLB (atlas and frame texture). For each: bytes,
+// encode and decode ms (medians of --runs runs), and fidelity of the DECODED payload rendered at the capture pose
+// and at real novel poses (bench/transmission/datasets.h), compared with the real colour images (compare_views).
+// Clouds are drawn as splats of 1, 2 and 3 px; the summary shows the size with the best PSNR (chosen separately
+// for the capture pose and for the novel views); the detail table shows every size.
+// Usage: transmission_bench [--runs N] [--backend auto|vulkan|osmesa] [--data DIR] [--only icl|tum]
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "bench/transmission/codecs.h"
+#include "bench/transmission/datasets.h"
+#include "bench/transmission/fidelity.h"
+
+using namespace rgbdcast;
+using namespace rgbdcast::bench;
+
+namespace {
+
+struct Args {
+  int runs = 5;
+  BackendChoice backend = BackendChoice::kAuto;
+  std::string data_dir = RGBDCAST_DATA_DIR;
+  std::string only;
+};
+
+struct Candidate {
+  std::string name;
+  std::function<Result<Bytes>()> encode;
+  std::function<Result<Scene>(const Bytes&)> decode;
+};
+
+// One point size (or the mesh) and what it gave.
+struct Drawn {
+  RenderOptions options;
+  ViewSetFidelity fidelity;
+  std::string label() const {
+    return options.mode == RenderMode::kMesh ? "mesh" : "splat " + std::to_string(int(options.point_size_px)) + "px";
+  }
+};
+
+struct Measured {
+  std::string name;
+  size_t bytes = 0;
+  double encode_ms = 0, decode_ms = 0;
+  std::string contents;  // what the receiver got
+  std::vector<Drawn> drawn;
+};
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
+}
+
+template <typename F>
+double time_ms(F&& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  f();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+[[noreturn]] void die(const std::string& what, const Error& e) {
+  std::fprintf(stderr, "transmission_bench: %s: %s\n", what.c_str(), e.message.c_str());
+  std::exit(1);
+}
+
+std::string contents_of(const Scene& scene) {
+  size_t points = 0, triangles = 0;
+  for (const auto& n : scene.nodes) {
+    points += n.points.size();
+    triangles += n.mesh.triangle_count();
+  }
+  char buf[64];
+  if (triangles) std::snprintf(buf, sizeof buf, "%zu tris", triangles);
+  else std::snprintf(buf, sizeof buf, "%zu pts", points);
+  return buf;
+}
+
+std::vector<Candidate> candidates_for(const RgbdFrame& frame, std::vector<RgbdcastStageMs>* atlas_stages,
+                                      std::vector<RgbdcastStageMs>* frame_stages) {
+  const Intrinsics k = frame.intrinsics;
+  std::vector<Candidate> c;
+  c.push_back({"raw cloud (float xyz+rgb)", [&frame] { return Result<Bytes>(encode_raw_cloud(frame)); },
+               [k](const Bytes& b) { return decode_raw_cloud(b, k); }});
+  for (int q : {90, 75}) {
+    c.push_back({"jpeg" + std::to_string(q) + "+png16 -> cloud", [&frame, q] { return encode_jpeg_png(frame, q); },
+                 [k](const Bytes& b) { return decode_jpeg_png_cloud(b, k); }});
+    c.push_back({"jpeg" + std::to_string(q) + "+png16 -> grid mesh", [&frame, q] { return encode_jpeg_png(frame, q); },
+                 [k](const Bytes& b) { return decode_jpeg_png_grid_mesh(b, k); }});
+  }
+  for (int bits : {11, 14})
+    c.push_back({"draco cloud q" + std::to_string(bits), [&frame, bits] { return encode_draco(frame, bits); },
+                 [k](const Bytes& b) { return decode_draco(b, k); }});
+  c.push_back({"rgbdcast glb atlas", [&frame, atlas_stages] {
+                 RgbdcastStageMs st;
+                 auto r = encode_rgbdcast(frame, TextureMode::kAtlas, &st);
+                 atlas_stages->push_back(st);
+                 return r;
+               },
+               decode_rgbdcast});
+  c.push_back({"rgbdcast glb frame-tex", [&frame, frame_stages] {
+                 RgbdcastStageMs st;
+                 auto r = encode_rgbdcast(frame, TextureMode::kFrame, &st);
+                 frame_stages->push_back(st);
+                 return r;
+               },
+               decode_rgbdcast});
+  return c;
+}
+
+Measured measure(const Candidate& c, const std::vector<ReferenceView>& views, Renderer& renderer, int runs) {
+  Measured m;
+  m.name = c.name;
+  Bytes bytes;
+  std::vector<double> enc, dec;
+  for (int r = 0; r < runs; ++r) {
+    Result<Bytes> out = make_error(ErrorCode::kInternal, "not run");
+    enc.push_back(time_ms([&] { out = c.encode(); }));
+    if (!out) die(c.name + " encode", out.error());
+    bytes = std::move(*out);
+  }
+  Scene received;
+  for (int r = 0; r < runs; ++r) {
+    Result<Scene> out = make_error(ErrorCode::kInternal, "not run");
+    dec.push_back(time_ms([&] { out = c.decode(bytes); }));
+    if (!out) die(c.name + " decode", out.error());
+    received = std::move(*out);
+  }
+  m.bytes = bytes.size();
+  m.encode_ms = median(enc);
+  m.decode_ms = median(dec);
+  m.contents = contents_of(received);
+  auto id = renderer.upload(received);
+  if (!id) die(c.name + " upload", id.error());
+  std::vector<RenderOptions> draws;
+  if (received.triangle_count() > 0) {
+    draws.push_back(RenderOptions{});
+  } else {
+    for (float px : {1.0f, 2.0f, 3.0f}) {
+      RenderOptions o;
+      o.mode = RenderMode::kPoints;
+      o.point_size_px = px;
+      draws.push_back(o);
+    }
+  }
+  for (const RenderOptions& o : draws) {
+    auto f = measure_views(renderer, *id, o, views);
+    if (!f) die(c.name + " render", f.error());
+    m.drawn.push_back({o, *f});
+  }
+  renderer.release(*id);
+  return m;
+}
+
+const Drawn& best_capture(const Measured& m) {
+  return *std::max_element(m.drawn.begin(), m.drawn.end(), [](const Drawn& a, const Drawn& b) {
+    return a.fidelity.capture.psnr_db < b.fidelity.capture.psnr_db;
+  });
+}
+
+const Drawn& best_novel(const Measured& m) {
+  return *std::max_element(m.drawn.begin(), m.drawn.end(), [](const Drawn& a, const Drawn& b) {
+    return a.fidelity.novel_psnr_db < b.fidelity.novel_psnr_db;
+  });
+}
+
+void print_summary(const std::vector<Measured>& rows, size_t raw_bytes, const RgbdFrame& frame, bool has_novel) {
+  std::printf("\n| representation | bytes | raw/bytes | encode ms | decode ms | receiver gets | capture: draw | PSNR dB | "
+              "SSIM | coverage | novel: draw | mean PSNR dB | mean SSIM | mean coverage |\n");
+  std::printf("|---|--:|--:|--:|--:|--:|---|--:|--:|--:|---|--:|--:|--:|\n");
+  for (const Measured& m : rows) {
+    const Drawn& c = best_capture(m);
+    const Drawn& n = best_novel(m);
+    std::printf("| %s | %zu | %.1fx | %.1f | %.1f | %s | %s | %.2f | %.3f | %.3f |", m.name.c_str(), m.bytes,
+                double(raw_bytes) / m.bytes, m.encode_ms, m.decode_ms, m.contents.c_str(), c.label().c_str(),
+                c.fidelity.capture.psnr_db, c.fidelity.capture.ssim, c.fidelity.capture.coverage);
+    if (has_novel)
+      std::printf(" %s | %.2f | %.3f | %.3f |\n", n.label().c_str(), n.fidelity.novel_psnr_db, n.fidelity.novel_ssim,
+                  n.fidelity.novel_coverage);
+    else
+      std::printf(" - | - | - | - |\n");
+  }
+  const size_t organized = static_cast<size_t>(frame.intrinsics.width) * frame.intrinsics.height * 15;
+  std::printf("| raw organized cloud (%dx%d x 15 B, NaN where no depth) | %zu | %.1fx | - | - | as raw cloud | | | | | | | | |\n",
+              frame.intrinsics.width, frame.intrinsics.height, organized, double(raw_bytes) / organized);
+}
+
+void print_detail(const std::vector<Measured>& rows, const std::vector<ReferenceView>& views) {
+  std::printf("\nEvery draw (PSNR dB / coverage per view):\n| representation | draw | capture |");
+  for (size_t i = 1; i < views.size(); ++i) std::printf(" %s |", views[i].name.c_str());
+  std::printf(" novel mean |\n|---|---|--:|");
+  for (size_t i = 1; i < views.size(); ++i) std::printf("--:|");
+  std::printf("--:|\n");
+  for (const Measured& m : rows)
+    for (const Drawn& d : m.drawn) {
+      const auto& f = d.fidelity;
+      std::printf("| %s | %s | %.2f / %.3f |", m.name.c_str(), d.label().c_str(), f.capture.psnr_db, f.capture.coverage);
+      for (const ViewFidelity& v : f.novel) std::printf(" %.2f / %.3f |", v.psnr_db, v.coverage);
+      std::printf(" %.2f / %.3f |\n", f.novel_psnr_db, f.novel_coverage);
+    }
+}
+
+void print_stages(const char* name, const std::vector<RgbdcastStageMs>& stages) {
+  std::vector<double> r, t, g;
+  for (const auto& s : stages) {
+    r.push_back(s.reduce_ms);
+    t.push_back(s.texture_ms);
+    g.push_back(s.glb_ms);
+  }
+  std::printf("%s encode, medians: reduce_frame %.1f ms, build_atlas %.1f ms, encode_glb %.1f ms\n", name, median(r),
+              median(t), median(g));
+}
+
+void run_case(const TestCase& tc, Renderer& renderer, int runs) {
+  std::printf("\n## %s\nfolder %s, sent frame 0 (%s), %dx%d, fx %.1f fy %.1f cx %.1f cy %.1f; %zu novel view(s)\n",
+              tc.name.c_str(), tc.folder.c_str(), tc.sent.color_path.c_str(), tc.sent.intrinsics.width,
+              tc.sent.intrinsics.height, tc.sent.intrinsics.fx, tc.sent.intrinsics.fy, tc.sent.intrinsics.cx,
+              tc.sent.intrinsics.cy, tc.views.size() - 1);
+  for (const std::string& n : tc.notes) std::printf("  %s\n", n.c_str());
+  std::fflush(stdout);
+  std::vector<RgbdcastStageMs> atlas_stages, frame_stages;
+  std::vector<Measured> rows;
+  for (const Candidate& c : candidates_for(tc.sent, &atlas_stages, &frame_stages)) {
+    rows.push_back(measure(c, tc.views, renderer, runs));
+    std::fprintf(stderr, "  measured %s\n", c.name.c_str());
+  }
+  const size_t raw_bytes = rows.front().bytes;
+  print_summary(rows, raw_bytes, tc.sent, tc.views.size() > 1);
+  print_detail(rows, tc.views);
+  std::printf("\n");
+  print_stages("rgbdcast glb atlas", atlas_stages);
+  print_stages("rgbdcast glb frame-tex", frame_stages);
+  std::fflush(stdout);
+}
+
+Args parse_args(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string s = argv[i];
+    const bool has_value = i + 1 < argc;
+    if (s == "--runs" && has_value) a.runs = std::max(1, std::atoi(argv[++i]));
+    else if (s == "--data" && has_value) a.data_dir = argv[++i];
+    else if (s == "--only" && has_value) a.only = argv[++i];
+    else if (s == "--backend" && has_value) {
+      auto b = parse_backend_choice(argv[++i]);
+      if (!b) die("--backend", b.error());
+      a.backend = *b;
+    } else {
+      std::fprintf(stderr, "usage: transmission_bench [--runs N] [--backend auto|vulkan|osmesa] [--data DIR] [--only icl|tum]\n");
+      std::exit(2);
+    }
+  }
+  return a;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Args args = parse_args(argc, argv);
+  auto selection = create_renderer(args.backend);
+  if (!selection) die("renderer", selection.error());
+  Renderer& renderer = *selection->renderer;
+  std::printf("# transmission_bench: renderer %s (%s), %d runs per timing (median)\n", renderer.backend().c_str(),
+              renderer.device().c_str(), args.runs);
+  std::printf("bytes: the whole payload; raw/bytes: raw valid cloud bytes / payload bytes; PSNR and SSIM over pixels "
+              "that are covered and had valid depth in that view's real frame; novel = mean over the novel views\n");
+  if (args.only.empty() || args.only == "icl") {
+    auto icl = load_icl_case(args.data_dir);
+    if (!icl) die("ICL case", icl.error());
+    run_case(*icl, renderer, args.runs);
+  }
+  if (args.only.empty() || args.only == "tum") {
+    auto tum = load_tum_case(args.data_dir);
+    if (!tum) die("TUM case", tum.error());
+    run_case(*tum, renderer, args.runs);
+  }
+  return 0;
+}
