@@ -3,12 +3,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <draco/compression/decode.h>
-#include <draco/compression/encode.h>
-#include <draco/point_cloud/point_cloud_builder.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "bench/transmission/draco_codec.h"
 #include "gltf/gltf_io.h"
 #include "reduction/pipeline.h"
 
@@ -178,37 +176,30 @@ Result<Scene> decode_jpeg_png_grid_mesh(const Bytes& bytes, const Intrinsics& k,
 
 Result<Bytes> encode_draco(const RgbdFrame& frame, int position_bits) {
   const PointCloud cloud = full_cloud(frame);
-  draco::PointCloudBuilder builder;
-  builder.Start(static_cast<draco::PointIndex::ValueType>(cloud.size()));
-  const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
-  const int col = builder.AddAttribute(draco::GeometryAttribute::COLOR, 3, draco::DT_UINT8);
-  builder.SetAttributeValuesForAllPoints(pos, cloud.positions.data(), sizeof(Eigen::Vector3f));
-  builder.SetAttributeValuesForAllPoints(col, cloud.colors.data(), sizeof(Rgb8));
-  std::unique_ptr<draco::PointCloud> pc = builder.Finalize(false);
-  draco::Encoder encoder;  // default speed (5/5): the k-d tree point cloud coder
-  encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, position_bits);
-  draco::EncoderBuffer buffer;
-  const draco::Status st = encoder.EncodePointCloudToBuffer(*pc, &buffer);
-  if (!st.ok()) return make_error(ErrorCode::kInternal, std::string("draco: ") + st.error_msg());
-  return Bytes(buffer.data(), buffer.data() + buffer.size());
+  std::vector<float> positions(3 * cloud.size());
+  std::vector<std::uint8_t> colors(3 * cloud.size());
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    std::memcpy(positions.data() + 3 * i, cloud.positions[i].data(), 12);
+    std::memcpy(colors.data() + 3 * i, cloud.colors[i].data(), 3);
+  }
+  std::string error;
+  Bytes out = draco_encode_points(positions, colors, position_bits, &error);
+  if (out.empty()) return make_error(ErrorCode::kInternal, error);
+  return out;
 }
 
 Result<Scene> decode_draco(const Bytes& bytes, const Intrinsics& k) {
-  draco::DecoderBuffer buffer;
-  buffer.Init(reinterpret_cast<const char*>(bytes.data()), bytes.size());
-  draco::Decoder decoder;
-  auto decoded = decoder.DecodePointCloudFromBuffer(&buffer);
-  if (!decoded.ok()) return make_error(ErrorCode::kInvalidInput, std::string("draco: ") + decoded.status().error_msg());
-  const std::unique_ptr<draco::PointCloud> pc = std::move(decoded).value();
-  const draco::PointAttribute* pos = pc->GetNamedAttribute(draco::GeometryAttribute::POSITION);
-  const draco::PointAttribute* col = pc->GetNamedAttribute(draco::GeometryAttribute::COLOR);
-  if (!pos || !col) return make_error(ErrorCode::kInvalidInput, "draco: no position or colour");
+  std::vector<float> positions;
+  std::vector<std::uint8_t> colors;
+  std::string error;
+  if (!draco_decode_points(bytes.data(), bytes.size(), &positions, &colors, &error))
+    return make_error(ErrorCode::kInvalidInput, error);
   PointCloud cloud;
-  cloud.positions.resize(pc->num_points());
-  cloud.colors.resize(pc->num_points());
-  for (draco::PointIndex i(0); i < pc->num_points(); ++i) {
-    pos->ConvertValue<float>(pos->mapped_index(i), 3, cloud.positions[i.value()].data());
-    col->ConvertValue<std::uint8_t>(col->mapped_index(i), 3, cloud.colors[i.value()].data());
+  cloud.positions.resize(positions.size() / 3);
+  cloud.colors.resize(positions.size() / 3);
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    std::memcpy(cloud.positions[i].data(), positions.data() + 3 * i, 12);
+    std::memcpy(cloud.colors[i].data(), colors.data() + 3 * i, 3);
   }
   return points_scene(std::move(cloud), k);
 }
