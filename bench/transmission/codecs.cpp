@@ -204,9 +204,10 @@ Result<Scene> decode_draco(const Bytes& bytes, const Intrinsics& k) {
   return points_scene(std::move(cloud), k);
 }
 
-Result<Bytes> encode_rgbdcast(const RgbdFrame& frame, TextureMode mode, RgbdcastStageMs* stage_ms) {
+Result<Bytes> encode_rgbdcast(const RgbdFrame& frame, TextureMode mode, RgbdcastStageMs* stage_ms,
+                              const ReductionParams& params) {
   auto t0 = std::chrono::steady_clock::now();
-  auto reduced = reduce_frame(frame, ReductionParams{});
+  auto reduced = reduce_frame(frame, params);
   if (!reduced) return reduced.error();
   const double reduce_ms = ms_since(t0);
   t0 = std::chrono::steady_clock::now();

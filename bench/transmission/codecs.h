@@ -14,6 +14,7 @@
 
 #include "atlas/atlas.h"
 #include "input/frame.h"
+#include "reduction/pipeline.h"
 #include "scene/result.h"
 #include "scene/scene.h"
 
@@ -40,7 +41,9 @@ Result<Scene> decode_draco(const Bytes& bytes, const Intrinsics& k);
 struct RgbdcastStageMs {
   double reduce_ms = 0, texture_ms = 0, glb_ms = 0;
 };
-Result<Bytes> encode_rgbdcast(const RgbdFrame& frame, TextureMode mode, RgbdcastStageMs* stage_ms = nullptr);
+// params: default ReductionParams unless given (the bench adds the organized outlier filter as an extra row).
+Result<Bytes> encode_rgbdcast(const RgbdFrame& frame, TextureMode mode, RgbdcastStageMs* stage_ms = nullptr,
+                              const ReductionParams& params = {});
 Result<Scene> decode_rgbdcast(const Bytes& bytes);
 
 }  // namespace rgbdcast::bench
