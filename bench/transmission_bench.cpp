@@ -39,6 +39,7 @@ struct Candidate {
 struct Drawn {
   RenderOptions options;
   ViewSetFidelity fidelity;
+  std::vector<Image> renders;  // one per view
   std::string label() const {
     return options.mode == RenderMode::kMesh ? "mesh" : "splat " + std::to_string(int(options.point_size_px)) + "px";
   }
@@ -50,6 +51,8 @@ struct Measured {
   double encode_ms = 0, decode_ms = 0;
   std::string contents;  // what the receiver got
   std::vector<Drawn> drawn;
+  // Over the pixels that every row's summary draw covers (and that had depth): capture, then the novel mean.
+  double common_capture_psnr_db = 0, common_capture_ssim = 0, common_novel_psnr_db = 0, common_novel_ssim = 0;
 };
 
 double median(std::vector<double> v) {
@@ -159,9 +162,10 @@ Measured measure(const Candidate& c, const std::vector<ReferenceView>& views, Re
     }
   }
   for (const RenderOptions& o : draws) {
-    auto f = measure_views(renderer, *id, o, views);
+    std::vector<Image> renders;
+    auto f = measure_views(renderer, *id, o, views, &renders);
     if (!f) die(c.name + " render", f.error());
-    m.drawn.push_back({o, *f});
+    m.drawn.push_back({o, *f, std::move(renders)});
   }
   renderer.release(*id);
   return m;
@@ -179,24 +183,51 @@ const Drawn& best_novel(const Measured& m) {
   });
 }
 
+// PSNR/SSIM of every row over the pixels all rows cover (each row drawn as in the summary: its best-PSNR draw for
+// the capture pose, and for the novel views), so that a representation that covers less is not judged on easier
+// pixels only.
+void measure_common_pixels(std::vector<Measured>& rows, const std::vector<ReferenceView>& views) {
+  for (size_t i = 0; i < views.size(); ++i) {
+    std::vector<const Image*> renders;
+    for (const Measured& m : rows) renders.push_back(&(i == 0 ? best_capture(m) : best_novel(m)).renders[i]);
+    const cv::Mat mask = common_pixels(views[i], renders);
+    for (size_t r = 0; r < rows.size(); ++r) {
+      auto f = compare_views(views[i].color_rgb, *renders[r], mask);
+      if (!f) die("common pixels, " + views[i].name, f.error());
+      if (i == 0) {
+        rows[r].common_capture_psnr_db = f->psnr_db;
+        rows[r].common_capture_ssim = f->ssim;
+      } else {
+        rows[r].common_novel_psnr_db += f->psnr_db / double(views.size() - 1);
+        rows[r].common_novel_ssim += f->ssim / double(views.size() - 1);
+      }
+    }
+    if (!rows.empty())
+      std::printf("common pixels, %s: %d of %d valid\n", views[i].name.c_str(), cv::countNonZero(mask),
+                  cv::countNonZero(views[i].valid));
+  }
+}
+
 void print_summary(const std::vector<Measured>& rows, size_t raw_bytes, const RgbdFrame& frame, bool has_novel) {
   std::printf("\n| representation | bytes | raw/bytes | encode ms | decode ms | receiver gets | capture: draw | PSNR dB | "
-              "SSIM | coverage | novel: draw | mean PSNR dB | mean SSIM | mean coverage |\n");
-  std::printf("|---|--:|--:|--:|--:|--:|---|--:|--:|--:|---|--:|--:|--:|\n");
+              "SSIM | coverage | common PSNR / SSIM | novel: draw | mean PSNR dB | mean SSIM | mean coverage | "
+              "common PSNR / SSIM |\n");
+  std::printf("|---|--:|--:|--:|--:|--:|---|--:|--:|--:|--:|---|--:|--:|--:|--:|\n");
   for (const Measured& m : rows) {
     const Drawn& c = best_capture(m);
     const Drawn& n = best_novel(m);
-    std::printf("| %s | %zu | %.1fx | %.1f | %.1f | %s | %s | %.2f | %.3f | %.3f |", m.name.c_str(), m.bytes,
-                double(raw_bytes) / m.bytes, m.encode_ms, m.decode_ms, m.contents.c_str(), c.label().c_str(),
-                c.fidelity.capture.psnr_db, c.fidelity.capture.ssim, c.fidelity.capture.coverage);
+    std::printf("| %s | %zu | %.1fx | %.1f | %.1f | %s | %s | %.2f | %.3f | %.3f | %.2f / %.3f |", m.name.c_str(),
+                m.bytes, double(raw_bytes) / m.bytes, m.encode_ms, m.decode_ms, m.contents.c_str(), c.label().c_str(),
+                c.fidelity.capture.psnr_db, c.fidelity.capture.ssim, c.fidelity.capture.coverage,
+                m.common_capture_psnr_db, m.common_capture_ssim);
     if (has_novel)
-      std::printf(" %s | %.2f | %.3f | %.3f |\n", n.label().c_str(), n.fidelity.novel_psnr_db, n.fidelity.novel_ssim,
-                  n.fidelity.novel_coverage);
+      std::printf(" %s | %.2f | %.3f | %.3f | %.2f / %.3f |\n", n.label().c_str(), n.fidelity.novel_psnr_db,
+                  n.fidelity.novel_ssim, n.fidelity.novel_coverage, m.common_novel_psnr_db, m.common_novel_ssim);
     else
-      std::printf(" - | - | - | - |\n");
+      std::printf(" - | - | - | - | - |\n");
   }
   const size_t organized = static_cast<size_t>(frame.intrinsics.width) * frame.intrinsics.height * 15;
-  std::printf("| raw organized cloud (%dx%d x 15 B, NaN where no depth) | %zu | %.1fx | - | - | as raw cloud | | | | | | | | |\n",
+  std::printf("| raw organized cloud (%dx%d x 15 B, NaN where no depth) | %zu | %.1fx | - | - | as raw cloud | | | | | | | | | | |\n",
               frame.intrinsics.width, frame.intrinsics.height, organized, double(raw_bytes) / organized);
 }
 
@@ -266,6 +297,8 @@ void run_case(const TestCase& tc, Renderer& renderer, int runs) {
     std::fprintf(stderr, "  measured %s\n", c.name.c_str());
   }
   const size_t raw_bytes = rows.front().bytes;
+  std::printf("\n");
+  measure_common_pixels(rows, tc.views);
   print_summary(rows, raw_bytes, tc.sent, tc.views.size() > 1);
   print_detail(rows, tc.views);
   std::printf("\n");

@@ -27,8 +27,12 @@ struct ViewSetFidelity {
   double novel_psnr_db = 0, novel_ssim = 0, novel_coverage = 0;  // means over novel views (0 when none)
 };
 
-// Renders `id` at every view (views[0] is the capture pose) and compares.
+// Renders `id` at every view (views[0] is the capture pose) and compares. The renders are kept in `renders` (one per
+// view) when it is given, for comparisons over pixels every representation covers (common_pixels).
 Result<ViewSetFidelity> measure_views(Renderer& renderer, ResidentSceneId id, const RenderOptions& options,
-                                      const std::vector<ReferenceView>& views);
+                                      const std::vector<ReferenceView>& views, std::vector<Image>* renders = nullptr);
+
+// The pixels of a view that had valid depth and that every one of `renders` covers.
+cv::Mat common_pixels(const ReferenceView& view, const std::vector<const Image*>& renders);
 
 }  // namespace rgbdcast::bench
