@@ -9,6 +9,7 @@
 #include "evaluation/image_metrics.h"
 #include "gltf/gltf_io.h"
 #include "input/frame_source.h"
+#include "keyframes/trajectory_io.h"
 #include "reduction/pipeline.h"
 
 namespace rgbdcast::app {
@@ -16,8 +17,9 @@ namespace rgbdcast::app {
 namespace {
 
 struct EvalArgs {
-  std::string input, depth, intrinsics, scene, save_render;
+  std::string input, depth, intrinsics, scene, save_render, groundtruth;
   int frame = 0;
+  int scene_frame = -1;  // novel views: the frame the scene was reduced from
   bool full_cloud = false;
   ViewArgs view;
 };
@@ -55,6 +57,23 @@ void run_eval(const EvalArgs& a) {
   const Intrinsics& k = frame->intrinsics;
   CaptureCamera at = scene.cameras.front();
   at.intrinsics = k;  // the frame's own camera, at the scene's capture pose
+  if (!a.groundtruth.empty()) {
+    // Novel view: the scene's world is the camera frame of frame scene_frame; look from where frame N really was.
+    if (a.scene_frame < 0) fail(make_error(ErrorCode::kInvalidArgument, "--groundtruth needs --scene-frame"));
+    auto gt = read_trajectory(a.groundtruth);
+    if (!gt) fail(gt.error());
+    auto scene_source = (*source)->frame(static_cast<size_t>(a.scene_frame));
+    if (!scene_source) fail(scene_source.error());
+    auto find = [&](const RgbdFrame& f) -> const StampedPose* {
+      if (const StampedPose* p = pose_with_index(*gt, f.index)) return p;
+      return nearest_pose(*gt, f.timestamp, 0.02);
+    };
+    const StampedPose* from = find(*scene_source);
+    const StampedPose* to = find(*frame);
+    if (!from || !to) fail(make_error(ErrorCode::kNotFound, "no ground-truth pose for frame " +
+                                                            std::to_string(from ? frame->index : scene_source->index)));
+    at.camera_to_world = from->camera_to_world.inverse() * to->camera_to_world;
+  }
   const ViewCamera camera = ViewCamera::from_capture(at);
 
   auto selection = make_renderer(a.view);
@@ -71,12 +90,16 @@ void run_eval(const EvalArgs& a) {
   nlohmann::json out = {{"psnr_db", fidelity->psnr_db},
                         {"ssim", fidelity->ssim},
                         {"coverage", fidelity->coverage},
+                        {"psnr_valid_db", fidelity->psnr_valid_db},
+                        {"ssim_valid", fidelity->ssim_valid},
                         {"valid_pixels", fidelity->valid_pixels},
                         {"covered_pixels", fidelity->covered_pixels},
                         {"mode", a.view.mode},
                         {"source", a.full_cloud ? std::string("full_cloud") : a.scene},
                         {"backend", selection->renderer->backend()},
-                        {"render_ms", rendered->timings.render_ms}};
+                        {"render_ms", rendered->timings.render_ms},
+                        {"frame", frame->index},
+                        {"scene_frame", a.groundtruth.empty() ? frame->index : a.scene_frame}};
   std::cout << out.dump(2) << "\n";
 }
 
@@ -91,6 +114,9 @@ void register_eval(CLI::App& app) {
   cmd->add_option("--intrinsics", args->intrinsics, "fr1|fr2|fr3|kinect|icl or a JSON file");
   cmd->add_option("--scene", args->scene, "GLB scene reduced from that frame");
   cmd->add_flag("--full-cloud", args->full_cloud, "Evaluate the frame's full cloud as splats instead of a scene");
+  cmd->add_option("--groundtruth", args->groundtruth,
+                  "Novel view: render at --frame's true pose from this trajectory (TUM, .log, pose.txt)");
+  cmd->add_option("--scene-frame", args->scene_frame, "Novel view: the frame the scene was reduced from");
   add_backend_options(cmd, &args->view);
   cmd->add_option("--save-render", args->save_render, "Also write the rendered view here");
   cmd->callback([args] { run_eval(*args); });

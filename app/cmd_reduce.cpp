@@ -57,7 +57,8 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
   std::cout << "rgbdcast reduce: " << frame->color_path << " (frame " << frame->index << ", "
             << frame->intrinsics.width << "x" << frame->intrinsics.height << ")\n"
             << stages_table(stages) << "points " << mesh.positions.size() << ", triangles " << mesh.triangle_count()
-            << ", atlas " << textured->atlas_stats.width << "x" << textured->atlas_stats.height << ", "
+            << ", texture " << to_string(textured->atlas_stats.mode) << " " << textured->atlas_stats.width << "x"
+            << textured->atlas_stats.height << ", "
             << glb->size() << " bytes (geometry " << glb_stats.geometry_bytes << ", texture "
             << glb_stats.texture_bytes << ") -> " << a.out << " (load " << static_cast<int>(load_ms)
             << " ms, total " << static_cast<int>(total_ms) << " ms)\n";
@@ -137,7 +138,7 @@ void register_reduce(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--perimeter-factor", args->params.perimeter_factor, "Drop triangles with perimeter > factor*d")
       ->capture_default_str();
-  cmd->add_option("--texture", args->texture, "atlas (undistorted per-triangle cells) or frame (projective baseline)")
+  cmd->add_option("--texture", args->texture, "atlas (undistorted per-triangle cells), frame (projective baseline) or auto (atlas when triangles are large)")
       ->capture_default_str();
   cmd->add_option("--cell-size", args->atlas.cell_size_px, "Atlas cell side in texels")->capture_default_str();
   cmd->add_option("--jpeg-quality", args->atlas.jpeg_quality, "Texture JPEG quality 1..100")->capture_default_str();

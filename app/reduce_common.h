@@ -19,7 +19,7 @@ struct ReduceArgs {
   double depth_scale = 0;
   ReductionParams params;
   AtlasOptions atlas;
-  std::string texture = "atlas";
+  std::string texture = "auto";
   GlbWriteOptions glb;
   // sequence mode
   bool sequence = false;

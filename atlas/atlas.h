@@ -19,9 +19,12 @@
 
 namespace rgbdcast {
 
-enum class TextureMode { kAtlas, kFrame };
+// kAuto picks per frame: the atlas when the mesh's median triangle covers more source pixels than a cell gives it
+// (undistortion then matters), else the frame texture (tiny triangles: projective texturing is exact to a pixel and
+// the frame costs far fewer bytes; see BENCHMARKS.md). AtlasResult::mode says which was used.
+enum class TextureMode { kAtlas, kFrame, kAuto };
 const char* to_string(TextureMode mode);
-// "atlas" or "frame"; anything else is kInvalidArgument.
+// "atlas", "frame" or "auto"; anything else is kInvalidArgument.
 Result<TextureMode> parse_texture_mode(const std::string& name);
 
 struct AtlasOptions {

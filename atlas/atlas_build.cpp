@@ -12,12 +12,20 @@
 
 namespace rgbdcast {
 
-const char* to_string(TextureMode mode) { return mode == TextureMode::kAtlas ? "atlas" : "frame"; }
+const char* to_string(TextureMode mode) {
+  switch (mode) {
+    case TextureMode::kAtlas: return "atlas";
+    case TextureMode::kFrame: return "frame";
+    case TextureMode::kAuto: return "auto";
+  }
+  return "?";
+}
 
 Result<TextureMode> parse_texture_mode(const std::string& name) {
   if (name == "atlas") return TextureMode::kAtlas;
   if (name == "frame") return TextureMode::kFrame;
-  return make_error(ErrorCode::kInvalidArgument, "texture mode must be 'atlas' or 'frame', got '" + name + "'");
+  if (name == "auto") return TextureMode::kAuto;
+  return make_error(ErrorCode::kInvalidArgument, "texture mode must be 'atlas', 'frame' or 'auto', got '" + name + "'");
 }
 
 namespace {
@@ -65,6 +73,17 @@ Result<AtlasResult> build_atlas(const Mesh& mesh, const cv::Mat& color_rgb, cons
   if (auto st = atlas_detail::check_inputs(mesh, color_rgb, pinhole); !st) return st.error();
   if (options.jpeg_quality < 1 || options.jpeg_quality > 100)
     return make_error(ErrorCode::kInvalidArgument, "atlas: JPEG quality must be 1..100");
+  if (options.mode == TextureMode::kAuto) {
+    CellLayout layout;
+    if (!make_cell_layout(mesh.triangle_count(), options.cell_size_px, options.gutter_px, options.two_per_cell,
+                          options.max_atlas_side_px, &layout))
+      return make_error(ErrorCode::kInvalidArgument, "atlas: cell size leaves no room for a triangle");
+    const double own_texels = 0.5 * layout.leg_px() * layout.leg_px();
+    AtlasOptions chosen = options;
+    chosen.mode = atlas_detail::median_projected_area_px(mesh, pinhole.K()) > own_texels ? TextureMode::kAtlas
+                                                                                          : TextureMode::kFrame;
+    return build_atlas(mesh, color_rgb, pinhole, chosen);
+  }
   if (options.mode == TextureMode::kFrame)
     return atlas_detail::build_frame_texture(mesh, color_rgb, pinhole, options);
 

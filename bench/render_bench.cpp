@@ -265,6 +265,7 @@ int main(int argc, char** argv) {
                          : Row{};
     const std::string dev = r.device().substr(0, 34);
     auto print = [&](const char* what, const Row& row) {
+      if (row.primitives == 0) return;  // not part of this scene (e.g. --glb has no full cloud)
       std::printf("%-8s %-34s %-10s %10zu %10.1f %12.2f %10.2f %12.2f\n", r.backend().c_str(), dev.c_str(), what,
                   row.primitives, row.upload_ms, row.render_ms, row.best_render_ms, row.readback_ms);
     };
@@ -274,6 +275,7 @@ int main(int argc, char** argv) {
     print(label, down);
     std::snprintf(label, sizeof(label), "full@%gpx", full_point_size);
     print(label, full);
+    if (full.primitives == 0) continue;
     std::printf("%-8s ratio full-splats / mesh render: %.2fx   (render+readback: %.2fx)\n", r.backend().c_str(),
                 full.render_ms / mesh.render_ms,
                 (full.render_ms + full.readback_ms) / (mesh.render_ms + mesh.readback_ms));

@@ -44,27 +44,43 @@ Result<ViewFidelity> compare_views(const cv::Mat& reference_rgb, const Image& re
     return make_error(ErrorCode::kInvalidArgument, "compare_views: reference must be RGB8 and the mask 8-bit");
   if (rendered.width != reference_rgb.cols || rendered.height != reference_rgb.rows || valid.size() != reference_rgb.size())
     return make_error(ErrorCode::kInvalidArgument, "compare_views: the render, the reference and the mask differ in size");
-  const cv::Mat render_rgb = image_to_rgb_mat(rendered);
-  cv::Mat covered = coverage_mask(rendered) & (valid > 0);
+  cv::Mat render_rgb = image_to_rgb_mat(rendered);
+  const cv::Mat drawn = coverage_mask(rendered);
+  render_rgb.setTo(cv::Scalar::all(0), ~drawn);  // holes are background (black), whatever their colour channels hold
+  cv::Mat covered = drawn & (valid > 0);
   ViewFidelity f;
   f.valid_pixels = static_cast<size_t>(cv::countNonZero(valid));
   f.covered_pixels = static_cast<size_t>(cv::countNonZero(covered));
   if (f.valid_pixels == 0) return make_error(ErrorCode::kEmpty, "compare_views: no valid pixels to compare");
   f.coverage = double(f.covered_pixels) / double(f.valid_pixels);
-  if (f.covered_pixels == 0) return f;
-
   cv::Mat diff;
   cv::absdiff(reference_rgb, render_rgb, diff);
   diff.convertTo(diff, CV_64FC3);
   diff = diff.mul(diff);
-  const cv::Scalar sum = cv::sum(diff.setTo(cv::Scalar::all(0), ~covered));
-  const double mse = (sum[0] + sum[1] + sum[2]) / (3.0 * f.covered_pixels);
-  f.psnr_db = mse > 0 ? 10.0 * std::log10(255.0 * 255.0 / mse) : 99.0;
-
-  cv::Mat ga, gb;
+  auto psnr = [](const cv::Scalar& sum, size_t n) {
+    const double mse = (sum[0] + sum[1] + sum[2]) / (3.0 * n);
+    return mse > 0 ? 10.0 * std::log10(255.0 * 255.0 / mse) : 99.0;
+  };
+  const cv::Mat valid_mask = valid > 0;
+  f.psnr_valid_db = psnr(cv::sum(diff.clone().setTo(cv::Scalar::all(0), ~valid_mask)), f.valid_pixels);
+  // Pixels without depth are not judged: show the reference there so they do not leak into the windows.
+  cv::Mat seen = reference_rgb.clone();
+  render_rgb.copyTo(seen, valid_mask);
+  cv::Mat ga, gr;
   cv::cvtColor(reference_rgb, ga, cv::COLOR_RGB2GRAY);
-  cv::cvtColor(render_rgb, gb, cv::COLOR_RGB2GRAY);
+  cv::cvtColor(seen, gr, cv::COLOR_RGB2GRAY);
   ga.convertTo(ga, CV_64F);
+  gr.convertTo(gr, CV_64F);
+  f.ssim_valid = cv::mean(ssim_map(ga, gr), valid_mask)[0];
+  if (f.covered_pixels == 0) return f;
+  f.psnr_db = psnr(cv::sum(diff.setTo(cv::Scalar::all(0), ~covered)), f.covered_pixels);
+
+  // SSIM windows are 11x11: outside the covered pixels the render is background, which would leak into the windows
+  // of covered pixels near every hole. Composite the render over the reference so only covered pixels can differ.
+  cv::Mat composite = reference_rgb.clone();
+  render_rgb.copyTo(composite, covered);
+  cv::Mat gb;
+  cv::cvtColor(composite, gb, cv::COLOR_RGB2GRAY);
   gb.convertTo(gb, CV_64F);
   f.ssim = cv::mean(ssim_map(ga, gb), covered)[0];
   return f;

@@ -57,7 +57,9 @@ Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   if (!reduced) return reduced.error();
   for (const auto& s : reduced->stages) stages.push_back(s);
 
-  auto atlas = build_atlas(reduced->mesh, frame->color_rgb, frame->intrinsics.pinhole());
+  AtlasOptions texture;
+  texture.mode = TextureMode::kAuto;  // as `rgbdcast reduce`: the atlas only where triangles are large enough to need it
+  auto atlas = build_atlas(reduced->mesh, frame->color_rgb, frame->intrinsics.pinhole(), texture);
   if (!atlas) return atlas.error();
   stages.push_back({"atlas", "texels", atlas->texels, atlas->ms + atlas->encode_ms});
 

@@ -94,3 +94,34 @@ TEST(SequenceCli, MissingGroundTruthIsAClearError) {
 
 }  // namespace
 }  // namespace rgbdcast
+
+namespace rgbdcast {
+namespace {
+
+// Novel views: the mesh reduced from frame 0, seen from where frames 1..4 really were, against their real images.
+TEST(NovelViewCli, FrameZeroMeshPredictsTheLaterFrames) {
+  REQUIRE_DATA("augmented_icl_livingroom");
+  const std::string dir = test::temp_dir("novel");
+  const std::string input = test::data_path("augmented_icl_livingroom");
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --input " + input + " --frame 0 --out " + dir + "/f0.glb");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  double at_capture = 0;
+  for (int k = 0; k <= 4; k += 2) {
+    auto e = test::run_command(test::rgbdcast_binary() + " eval --input " + input + " --frame " + std::to_string(k) +
+                               " --scene " + dir + "/f0.glb --groundtruth " + input + "/trajectory.log --scene-frame 0");
+    ASSERT_EQ(e.exit_code, 0) << e.err;
+    const nlohmann::json j = nlohmann::json::parse(e.out);
+    const double psnr = j.at("psnr_db"), coverage = j.at("coverage");
+    if (k == 0) at_capture = psnr;
+    EXPECT_GT(coverage, 0.6) << "frame " << k;
+    EXPECT_GT(psnr, 22.0) << "frame " << k;
+    // A wrong pose (e.g. inverted or mirrored) would drop PSNR by far more than this.
+    EXPECT_GT(psnr, at_capture - 6.0) << "frame " << k;
+  }
+  auto bad = test::run_command(test::rgbdcast_binary() + " eval --input " + input + " --frame 1 --scene " + dir +
+                               "/f0.glb --groundtruth " + input + "/trajectory.log");
+  EXPECT_EQ(bad.exit_code, 2) << "--groundtruth without --scene-frame";
+}
+
+}  // namespace
+}  // namespace rgbdcast

@@ -205,3 +205,34 @@ TEST(Atlas, OutputMeshHasOwnVerticesPerTriangleAndUvsInsideTheAtlas) {
   EXPECT_EQ(fr->mesh.positions.size(), 25u);  // shared vertices kept
   EXPECT_EQ(fr->width, 640);
 }
+
+// auto: a mesh of large triangles (each covers thousands of pixels) gets the undistorted atlas; a fine mesh whose
+// triangles cover a few pixels, as the 1 cm reduction makes, gets the frame texture.
+TEST(Atlas, AutoPicksTheAtlasForLargeTrianglesAndTheFrameForTinyOnes) {
+  cv::Mat rgb(480, 640, CV_8UC3, cv::Scalar(90, 120, 150));
+  Intrinsics k;
+  auto grid_mesh = [](int n, double half_width_m) {
+    Mesh m;
+    for (int y = 0; y <= n; ++y)
+      for (int x = 0; x <= n; ++x)
+        m.positions.emplace_back(float(-half_width_m + 2 * half_width_m * x / n),
+                                 float(-half_width_m + 2 * half_width_m * y / n), 2.0f);
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        const std::uint32_t a = y * (n + 1) + x, b = a + 1, c = a + n + 1, d = c + 1;
+        m.indices.insert(m.indices.end(), {a, c, b, b, c, d});
+      }
+    m.colors.assign(m.positions.size(), Rgb8{1, 2, 3});
+    return m;
+  };
+  AtlasOptions o;
+  o.mode = TextureMode::kAuto;
+  auto coarse = build_atlas(grid_mesh(4, 0.8), rgb, k, o);  // 32 triangles over ~400x400 px: ~2,500 px each
+  ASSERT_TRUE(coarse) << coarse.error().message;
+  EXPECT_EQ(coarse->mode, TextureMode::kAtlas);
+  auto fine = build_atlas(grid_mesh(200, 0.8), rgb, k, o);  // 80,000 triangles: ~2 px each
+  ASSERT_TRUE(fine) << fine.error().message;
+  EXPECT_EQ(fine->mode, TextureMode::kFrame);
+  EXPECT_STREQ(to_string(TextureMode::kAuto), "auto");
+  EXPECT_TRUE(parse_texture_mode("auto"));
+}

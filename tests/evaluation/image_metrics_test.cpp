@@ -84,3 +84,25 @@ TEST(ImageMetrics, RejectsMismatchedSizes) {
 
 }  // namespace
 }  // namespace rgbdcast
+
+namespace rgbdcast {
+namespace {
+
+TEST(ImageMetrics, HolesDoNotLowerSsimOfExactPixels) {
+  // A render that is exact where it covers, with holes: SSIM over the covered pixels is 1.
+  cv::Mat ref = textured(96, 96);
+  cv::Mat covered(96, 96, CV_8U, cv::Scalar(255));
+  for (int y = 0; y < 96; y += 7)
+    for (int x = 0; x < 96; x += 5) covered.at<std::uint8_t>(y, x) = 0;
+  cv::Mat all(96, 96, CV_8U, cv::Scalar(255));
+  auto f = compare_views(ref, to_rgba(ref, covered), all);
+  ASSERT_TRUE(f);
+  EXPECT_NEAR(f->ssim, 1.0, 1e-9);
+  EXPECT_LT(f->coverage, 1.0);
+  // What the operator sees has the holes: lower on every valid-pixel measure.
+  EXPECT_LT(f->ssim_valid, 0.99);
+  EXPECT_LT(f->psnr_valid_db, 40.0);
+}
+
+}  // namespace
+}  // namespace rgbdcast
