@@ -20,12 +20,16 @@ Result<ViewSetFidelity> measure_views(Renderer& renderer, ResidentSceneId id, co
     out.novel_psnr_db += fidelity->psnr_db;
     out.novel_ssim += fidelity->ssim;
     out.novel_coverage += fidelity->coverage;
+    out.novel_psnr_valid_db += fidelity->psnr_valid_db;
+    out.novel_ssim_valid += fidelity->ssim_valid;
   }
   if (!out.novel.empty()) {
     const double n = static_cast<double>(out.novel.size());
     out.novel_psnr_db /= n;
     out.novel_ssim /= n;
     out.novel_coverage /= n;
+    out.novel_psnr_valid_db /= n;
+    out.novel_ssim_valid /= n;
   }
   return out;
 }

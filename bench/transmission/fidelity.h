@@ -25,6 +25,7 @@ struct ViewSetFidelity {
   ViewFidelity capture;               // views[0]
   std::vector<ViewFidelity> novel;    // views[1..]
   double novel_psnr_db = 0, novel_ssim = 0, novel_coverage = 0;  // means over novel views (0 when none)
+  double novel_psnr_valid_db = 0, novel_ssim_valid = 0;            // the same over every valid pixel, holes black
 };
 
 // Renders `id` at every view (views[0] is the capture pose) and compares. The renders are kept in `renders` (one per
