@@ -139,6 +139,8 @@ void register_reduce(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--perimeter-factor", args->params.perimeter_factor, "Drop triangles with perimeter > factor*d")
       ->capture_default_str();
+  cmd->add_option("--simplify", args->params.simplify_error_m,
+                  "Collapse edges while the surface moves less than this many metres (0 = off)")->capture_default_str();
   cmd->add_option("--texture", args->texture, "atlas (undistorted per-triangle cells), frame (projective baseline) or auto (atlas when triangles are large)")
       ->capture_default_str();
   cmd->add_option("--cell-size", args->atlas.cell_size_px, "Atlas cell side in texels")->capture_default_str();

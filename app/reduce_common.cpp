@@ -51,6 +51,7 @@ nlohmann::json params_json(const ReduceArgs& a) {
           {"voxel_size_m", a.params.voxel_size_m},
           {"max_edge_m", a.params.max_edge_m},
           {"perimeter_factor", a.params.perimeter_factor},
+          {"simplify_error_m", a.params.simplify_error_m},
           {"texture", a.texture},
           {"cell_size_px", a.atlas.cell_size_px},
           {"jpeg_quality", a.atlas.jpeg_quality},

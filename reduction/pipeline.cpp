@@ -22,6 +22,8 @@ Status ReductionParams::validate() const {
     return make_error(ErrorCode::kInvalidArgument, "max neighbours must be 3..1000");
   if (normal_k < 3 || normal_k > 1000) return make_error(ErrorCode::kInvalidArgument, "normal K must be 3..1000");
   if (!positive(perimeter_factor)) return make_error(ErrorCode::kInvalidArgument, "perimeter factor must be > 0");
+  if (!(std::isfinite(simplify_error_m) && simplify_error_m >= 0 && simplify_error_m <= 1))
+    return make_error(ErrorCode::kInvalidArgument, "simplify error must be between 0 and 1 m");
   return ok_status();
 }
 
@@ -105,6 +107,10 @@ Result<ReducedFrame> reduce_frame(const RgbdFrame& frame, const ReductionParams&
   out.cloud = to_point_cloud(*voxels);
   timer.done("perimeter", "triangles", triangles.size() / 3);
   if (triangles.empty()) return make_error(ErrorCode::kEmpty, "the reduction left no triangles");
+  if (params.simplify_error_m > 0) {
+    simplify_mesh(out.mesh, params.simplify_error_m);
+    timer.done("simplify", "triangles", out.mesh.triangle_count());
+  }
   return out;
 }
 

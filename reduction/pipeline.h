@@ -26,13 +26,14 @@ struct ReductionParams {
   int max_neighbours = 100;        // greedy triangulation: nearest neighbours searched
   int normal_k = 20;               // neighbours for normal estimation
   double perimeter_factor = 3.0;   // drop triangles with perimeter > factor * d (paper: 3)
+  double simplify_error_m = 0.0;   // beyond the paper: collapse edges while the surface moves less than this (0 = off)
 
   // Returns an error naming the first parameter out of range.
   Status validate() const;
 };
 
 struct StageReport {
-  std::string name;   // valid, outliers, voxel, triangulate, perimeter, then later stages
+  std::string name;   // valid, outliers, voxel, triangulate, perimeter, simplify (when on), then later stages
   std::string unit;   // "points" or "triangles" (or what the stage counts: "texels", "bytes")
   size_t count = 0;
   double ms = 0.0;

@@ -35,4 +35,7 @@ std::vector<std::uint32_t> greedy_triangulate(const Cloud::ConstPtr& cloud, cons
 std::vector<std::uint32_t> filter_by_perimeter(const Cloud& cloud, const std::vector<std::uint32_t>& triangles,
                                                double max_perimeter_m);
 
+// simplify: error-bounded edge collapses (meshoptimizer) with the borders locked; 0 leaves the mesh as it is.
+void simplify_mesh(Mesh& mesh, double max_error_m);
+
 }  // namespace rgbdcast
