@@ -148,14 +148,8 @@ Result<AtlasResult> build_atlas(const Mesh& mesh, const cv::Mat& color_rgb, cons
   r.triangles = tris.size();
   r.median_source_px = atlas_detail::median_projected_area_px(mesh, K);
   r.texels_per_triangle = 0.5 * layout.leg_px() * layout.leg_px();
-  const auto t1 = std::chrono::steady_clock::now();
-  auto jpeg = encode_jpeg(out.texture, options.jpeg_quality);
-  if (!jpeg) return jpeg.error();
-  out.texture_encoded = std::move(jpeg.value());
-  out.texture_mime = "image/jpeg";
-  const auto t2 = std::chrono::steady_clock::now();
-  r.ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
-  r.encode_ms = std::chrono::duration<double, std::milli>(t2 - t1).count();
+  r.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (auto st = attach_jpeg(out, options.jpeg_quality, &r.encode_ms); !st) return st.error();
   return r;
 }
 

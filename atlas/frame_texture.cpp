@@ -112,14 +112,8 @@ Result<AtlasResult> build_frame_texture(const Mesh& mesh, const cv::Mat& color_r
   r.triangles = out.triangle_count();
   r.median_source_px = median_projected_area_px(mesh, pinhole.K());
   r.texels_per_triangle = r.median_source_px;
-  const auto t1 = std::chrono::steady_clock::now();
-  auto jpeg = encode_jpeg(out.texture, options.jpeg_quality);
-  if (!jpeg) return jpeg.error();
-  out.texture_encoded = std::move(jpeg.value());
-  out.texture_mime = "image/jpeg";
-  const auto t2 = std::chrono::steady_clock::now();
-  r.ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
-  r.encode_ms = std::chrono::duration<double, std::milli>(t2 - t1).count();
+  r.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (auto st = attach_jpeg(out, options.jpeg_quality, &r.encode_ms); !st) return st.error();
   return r;
 }
 

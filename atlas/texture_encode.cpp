@@ -1,5 +1,7 @@
 #include "atlas/texture_encode.h"
 
+#include <chrono>
+
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -24,6 +26,16 @@ Image image_from_rgb_mat(const cv::Mat& rgb) {
   for (int y = 0; y < rgb.rows; ++y)
     std::memcpy(im.pixel(0, y), rgb.ptr<std::uint8_t>(y), static_cast<size_t>(rgb.cols) * 3);
   return im;
+}
+
+Status attach_jpeg(Mesh& mesh, int quality, double* encode_ms) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto jpeg = encode_jpeg(mesh.texture, quality);
+  if (!jpeg) return jpeg.error();
+  mesh.texture_encoded = std::move(jpeg.value());
+  mesh.texture_mime = "image/jpeg";
+  *encode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return ok_status();
 }
 
 }  // namespace rgbdcast

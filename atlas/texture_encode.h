@@ -5,12 +5,15 @@
 #include <vector>
 
 #include "scene/image.h"
+#include "scene/mesh.h"
 #include "scene/result.h"
 
 namespace rgbdcast {
 
 // JPEG bytes of an RGB8 image; quality 1..100.
 Result<std::vector<std::uint8_t>> encode_jpeg(const Image& rgb, int quality);
+// Encodes mesh.texture as JPEG into mesh.texture_encoded / texture_mime; the time it took goes to *encode_ms.
+Status attach_jpeg(Mesh& mesh, int quality, double* encode_ms);
 // Copies a CV_8UC3 RGB Mat into an Image.
 Image image_from_rgb_mat(const cv::Mat& rgb);
 
