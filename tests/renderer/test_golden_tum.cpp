@@ -1,0 +1,85 @@
+// Golden images of a real scene: TUM fr1/xyz frame 0 reduced with the paper's parameters and textured with the
+// undistorted atlas, rendered by both backends in both modes from the capture camera and from a look-at camera.
+// The reduction is deterministic, so these change only when the reduction, the atlas or a renderer does: review the
+// actual image, then promote it (scripts/promote_goldens.sh).
+#include "atlas/atlas.h"
+#include "input/frame_source.h"
+#include "reduction/pipeline.h"
+#include "tests/common/test_data.h"
+#include "tests/renderer/image_compare.h"
+#include "tests/renderer/renderer_fixture.h"
+
+namespace rgbdcast::test {
+namespace {
+
+// Reduced once for all backends and views.
+const Scene* tum_scene(std::string* error) {
+  static Scene scene;
+  static std::string failure;
+  static bool done = false;
+  if (!done) {
+    done = true;
+    SourceOptions o;
+    o.intrinsics = "fr1";
+    auto src = open_frame_source(data_path("tum/rgbd_dataset_freiburg1_xyz"), o);
+    auto frame = src ? (*src)->frame(0) : Result<RgbdFrame>(src.error());
+    auto reduced = frame ? reduce_frame(*frame, ReductionParams{}) : Result<ReducedFrame>(frame.error());
+    AtlasOptions atlas;
+    atlas.mode = TextureMode::kAtlas;
+    auto textured = reduced ? build_atlas(reduced->mesh, frame->color_rgb, frame->intrinsics, atlas)
+                            : Result<AtlasResult>(reduced.error());
+    if (!textured) {
+      failure = textured.error().message;
+    } else {
+      SceneNode node;
+      node.mesh = std::move(textured->mesh);
+      scene.nodes.push_back(std::move(node));
+      CaptureCamera cam;
+      cam.intrinsics = frame->intrinsics;
+      scene.cameras.push_back(cam);
+    }
+  }
+  *error = failure;
+  return failure.empty() ? &scene : nullptr;
+}
+
+class TumGolden : public BackendTest {
+ protected:
+  void check(RenderMode mode, bool capture) {
+    REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+    std::string error;
+    const Scene* scene = tum_scene(&error);
+    ASSERT_NE(scene, nullptr) << error;
+    auto id = renderer_->upload(*scene);
+    ASSERT_TRUE(id) << id.error().message;
+    ViewCamera cam = ViewCamera::from_capture(scene->cameras[0], 320, 240);
+    if (!capture) {
+      auto look = ViewCamera::look_at({-0.4, -0.35, 0.1}, {0.0, 0.1, 1.4}, {0, -1, 0}, 60.0, 320, 240);
+      ASSERT_TRUE(look);
+      cam = *look;
+    }
+    RenderOptions opt;
+    opt.mode = mode;
+    opt.point_size_px = 2.0f;
+    opt.background = {16, 16, 24};
+    auto r = renderer_->render(id.value(), cam, opt);
+    ASSERT_TRUE(r) << r.error().message;
+    long drawn = 0;
+    for (int y = 0; y < r->color.height; ++y)
+      for (int x = 0; x < r->color.width; ++x) drawn += r->color.pixel(x, y)[3] == 255;
+    EXPECT_GT(static_cast<double>(drawn) / (r->color.width * r->color.height), 0.25) << "a near-blank image";
+    const std::string name = "tum_" + GetParam() + "_" + to_string(mode) + (capture ? "_capture" : "_lookat");
+    const std::string failure = check_golden(name, r->color);
+    EXPECT_TRUE(failure.empty()) << failure;
+  }
+};
+
+TEST_P(TumGolden, MeshCaptureCamera) { check(RenderMode::kMesh, true); }
+TEST_P(TumGolden, MeshLookAtCamera) { check(RenderMode::kMesh, false); }
+TEST_P(TumGolden, PointsCaptureCamera) { check(RenderMode::kPoints, true); }
+TEST_P(TumGolden, PointsLookAtCamera) { check(RenderMode::kPoints, false); }
+
+INSTANTIATE_TEST_SUITE_P(Backends, TumGolden, kBackends);
+
+}  // namespace
+}  // namespace rgbdcast::test
