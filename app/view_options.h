@@ -23,7 +23,7 @@ void add_camera_options(CLI::App* cmd, ViewArgs* args);
 Result<RenderOptions> render_options(const ViewArgs& args);
 // The camera the options describe, for a scene (its first capture camera for --pose capture).
 Result<ViewCamera> view_camera(const ViewArgs& args, const Scene& scene);
-// Creates the renderer and says which backend, which device and why on stderr-free stdout line.
+// Creates the renderer the --backend option names; the selection carries the reason for the choice.
 Result<RendererSelection> make_renderer(const ViewArgs& args);
 // Writes an RGBA image as PNG (or JPEG by extension) atomically.
 Status write_image(const Image& image, const std::string& path);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -73,6 +74,35 @@ static Result<std::vector<unsigned char>> read_file(const std::string& path) {
   return bytes;
 }
 
+namespace {
+
+struct UndistortMaps {
+  cv::Mat x, y;
+};
+
+// The remap tables of a camera. Every frame of a sequence (and every upload from one robot) has the same camera,
+// so the last camera's tables are kept instead of being rebuilt per frame.
+UndistortMaps undistort_maps(const Intrinsics& k) {
+  static std::mutex mutex;
+  static Intrinsics cached_k;
+  static UndistortMaps cached;
+  std::lock_guard<std::mutex> lock(mutex);
+  const bool same = !cached.x.empty() && cached_k.fx == k.fx && cached_k.fy == k.fy && cached_k.cx == k.cx &&
+                    cached_k.cy == k.cy && cached_k.width == k.width && cached_k.height == k.height &&
+                    cached_k.distortion == k.distortion;
+  if (!same) {
+    cv::Mat K = (cv::Mat_<double>(3, 3) << k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
+    cv::Mat D(1, 5, CV_64F);
+    for (int i = 0; i < 5; ++i) D.at<double>(i) = k.distortion[i];
+    cached = UndistortMaps{};
+    cv::initUndistortRectifyMap(K, D, cv::Mat(), K, cv::Size(k.width, k.height), CV_32FC1, cached.x, cached.y);
+    cached_k = k;
+  }
+  return cached;  // cv::Mat copies share the (never modified) tables
+}
+
+}  // namespace
+
 Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw, const Intrinsics& intrinsics) {
   if (color_rgb.size() != depth_raw.size())
     return make_error(ErrorCode::kInvalidInput, "colour (" + std::to_string(color_rgb.cols) + "x" +
@@ -92,11 +122,8 @@ Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw,
   if (intrinsics.has_distortion()) {
     // Both images are resampled onto the ideal pinhole camera with the same K: colour bilinear, depth nearest
     // (interpolating depth across an edge would invent points between foreground and background).
-    cv::Mat K = (cv::Mat_<double>(3, 3) << intrinsics.fx, 0, intrinsics.cx, 0, intrinsics.fy, intrinsics.cy, 0, 0, 1);
-    cv::Mat D(1, 5, CV_64F);
-    for (int i = 0; i < 5; ++i) D.at<double>(i) = intrinsics.distortion[i];
-    cv::Mat map1, map2;
-    cv::initUndistortRectifyMap(K, D, cv::Mat(), K, color_rgb.size(), CV_32FC1, map1, map2);
+    const UndistortMaps maps = undistort_maps(intrinsics);
+    const cv::Mat &map1 = maps.x, &map2 = maps.y;
     cv::remap(color_rgb, f.color_rgb, map1, map2, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
     cv::remap(depth_m, f.depth_m, map1, map2, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
   } else {

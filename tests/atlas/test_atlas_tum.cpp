@@ -55,7 +55,7 @@ Fixture* fixture() {
     fx->dir = test::temp_dir("atlas-tum");
     // GLBs and screenshots are removed at exit unless RGBDCAST_KEEP_TEST_OUTPUT is set (then the paths are printed).
     std::atexit([] {
-      if (!std::getenv("RGBDCAST_KEEP_TEST_OUTPUT")) fs::remove_all(fixture()->dir);
+      if (!std::getenv("RGBDCAST_KEEP_TEST_OUTPUT")) test::remove_tree_quietly(fixture()->dir);
     });
     return fx;
   }();
@@ -199,7 +199,7 @@ static void render_in_chromium(const Mesh& mesh, const RgbdFrame& frame, bool me
   kill(pid, SIGTERM);
   int status = 0;
   waitpid(pid, &status, 0);
-  fs::remove_all(profile);
+  test::remove_tree_quietly(profile);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   ASSERT_TRUE(posted.has_value()) << "the page did not report within 90 s; see " << log;
   ASSERT_EQ(posted->first, "/result") << posted->second;

@@ -1,7 +1,9 @@
 #include "tests/common/test_data.h"
 
 #include <filesystem>
+#include <chrono>
 #include <random>
+#include <thread>
 
 namespace fs = std::filesystem;
 
@@ -20,6 +22,15 @@ bool have_data(const std::string& relative, std::string* message) {
   if (fs::exists(p)) return true;
   *message = "test data missing: " + p + " (the real captures live in ../shared/data beside the repository)";
   return false;
+}
+
+void remove_tree_quietly(const std::string& path) {
+  for (int attempt = 0; attempt < 20; ++attempt) {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+    if (!ec) return;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
 }
 
 std::string temp_dir(const std::string& tag) {

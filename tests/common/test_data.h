@@ -14,6 +14,9 @@ bool have_data(const std::string& relative, std::string* message);
 // A fresh empty temporary directory for one test.
 std::string temp_dir(const std::string& tag);
 std::string source_path(const std::string& relative);
+// Removes a test's folder, best effort: a browser's helper processes may still be writing into it for a moment after
+// the browser was ended, so failures are retried briefly and then ignored (it is only temporary output).
+void remove_tree_quietly(const std::string& path);
 std::string binary_path(const std::string& relative);
 
 }  // namespace rgbdcast::test

@@ -1,5 +1,7 @@
 #include "tests/renderer/renderer_fixture.h"
 
+#include "tests/renderer/image_compare.h"
+
 namespace rgbdcast::test {
 
 std::unique_ptr<Renderer> make_test_renderer(const std::string& backend, std::string* error) {
@@ -25,6 +27,23 @@ void BackendTest::TearDown() {
     EXPECT_EQ(renderer_->validation_errors(), 0) << "Vulkan validation errors (printed above)";
   }
   renderer_.reset();
+}
+
+void expect_matches_golden(Renderer& renderer, ResidentSceneId id, const ViewCamera& camera, RenderMode mode,
+                           float point_size_px, double min_drawn, const std::string& name) {
+  RenderOptions opt;
+  opt.mode = mode;
+  opt.point_size_px = point_size_px;
+  opt.background = {16, 16, 24};
+  auto r = renderer.render(id, camera, opt);
+  ASSERT_TRUE(r) << r.error().message;
+  long drawn = 0;
+  for (int y = 0; y < r->color.height; ++y)
+    for (int x = 0; x < r->color.width; ++x) drawn += r->color.pixel(x, y)[3] == 255;
+  const double fraction = static_cast<double>(drawn) / (r->color.width * r->color.height);
+  EXPECT_GT(fraction, min_drawn) << name << ": drawn fraction " << fraction;
+  const std::string failure = check_golden(name, r->color);
+  EXPECT_TRUE(failure.empty()) << failure;
 }
 
 }  // namespace rgbdcast::test

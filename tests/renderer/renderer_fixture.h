@@ -20,6 +20,11 @@ class BackendTest : public ::testing::TestWithParam<std::string> {
   std::unique_ptr<Renderer> renderer_;
 };
 
+// Renders a resident scene with the golden settings (background 16,16,24), expects at least min_drawn of the pixels
+// drawn (so a blank image can never become a golden) and compares with the golden `name`.
+void expect_matches_golden(Renderer& renderer, ResidentSceneId id, const ViewCamera& camera, RenderMode mode,
+                           float point_size_px, double min_drawn, const std::string& name);
+
 inline const auto kBackends = ::testing::Values(std::string("vulkan"), std::string("osmesa"));
 
 }  // namespace rgbdcast::test

@@ -12,21 +12,8 @@ class Golden : public BackendTest {
   void check(RenderMode mode, const ViewCamera& cam, const std::string& camera_name) {
     auto id = renderer_->upload(synthetic_scene());
     ASSERT_TRUE(id) << id.error().message;
-    RenderOptions opt;
-    opt.mode = mode;
-    opt.point_size_px = 3.0f;
-    opt.background = {16, 16, 24};
-    auto r = renderer_->render(id.value(), cam, opt);
-    ASSERT_TRUE(r) << r.error().message;
-    // Something of every node is on screen: a sanity floor on coverage so a blank golden can never pass.
-    long drawn = 0;
-    for (int y = 0; y < r->color.height; ++y)
-      for (int x = 0; x < r->color.width; ++x) drawn += r->color.pixel(x, y)[3] == 255;
-    const double coverage = static_cast<double>(drawn) / (r->color.width * r->color.height);
-    EXPECT_GT(coverage, mode == RenderMode::kMesh ? 0.10 : 0.03) << "drawn fraction " << coverage;
-    const std::string name = GetParam() + "_" + to_string(mode) + "_" + camera_name;
-    const std::string failure = check_golden(name, r->color);
-    EXPECT_TRUE(failure.empty()) << failure;
+    expect_matches_golden(*renderer_, id.value(), cam, mode, 3.0f, mode == RenderMode::kMesh ? 0.10 : 0.03,
+                          GetParam() + "_" + to_string(mode) + "_" + camera_name);
   }
 };
 

@@ -58,19 +58,8 @@ class TumGolden : public BackendTest {
       ASSERT_TRUE(look);
       cam = *look;
     }
-    RenderOptions opt;
-    opt.mode = mode;
-    opt.point_size_px = 2.0f;
-    opt.background = {16, 16, 24};
-    auto r = renderer_->render(id.value(), cam, opt);
-    ASSERT_TRUE(r) << r.error().message;
-    long drawn = 0;
-    for (int y = 0; y < r->color.height; ++y)
-      for (int x = 0; x < r->color.width; ++x) drawn += r->color.pixel(x, y)[3] == 255;
-    EXPECT_GT(static_cast<double>(drawn) / (r->color.width * r->color.height), 0.25) << "a near-blank image";
-    const std::string name = "tum_" + GetParam() + "_" + to_string(mode) + (capture ? "_capture" : "_lookat");
-    const std::string failure = check_golden(name, r->color);
-    EXPECT_TRUE(failure.empty()) << failure;
+    expect_matches_golden(*renderer_, id.value(), cam, mode, 2.0f, 0.25,
+                          "tum_" + GetParam() + "_" + to_string(mode) + (capture ? "_capture" : "_lookat"));
   }
 };
 

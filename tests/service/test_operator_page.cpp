@@ -113,5 +113,5 @@ TEST(ServicePage, HeadlessChromiumOrbitsAndShowsARenderedView) {
   EXPECT_GT(fraction, 0.2);
   EXPECT_GT(sd[0] + sd[1] + sd[2], 30.0);
   server.stop();
-  if (!HasFailure()) fs::remove_all(dir);
+  if (!HasFailure()) rgbdcast::test::remove_tree_quietly(dir);
 }
