@@ -31,22 +31,24 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
   if (!frame) fail(frame.error());
   const double load_ms = std::chrono::duration<double, std::milli>(clock::now() - t0).count();
 
-  auto textured = reduce_and_texture(*frame, a, Eigen::Matrix4d::Identity());
+  auto options = frame_options(a);
+  if (!options) fail(options.error());
+  auto textured = reduce_and_texture(*frame, *options);
   if (!textured) fail(textured.error());
   std::vector<StageReport> stages = textured->stages;
-
-  Scene scene;
-  scene.cameras.push_back(textured->camera);
-  scene.nodes.push_back(std::move(textured->node));
-  const Mesh& mesh = scene.nodes[0].mesh;
+  const AtlasResult atlas_stats = textured->atlas_stats;
+  const nlohmann::json choices = nlohmann::json::parse(choices_json(*textured));
+  const BudgetChoice budget = textured->budget;
   nlohmann::json extras = {{"rgbdcast",
                             {{"source", frame->color_path},
                              {"depth", frame->depth_path},
                              {"frame", frame->index},
                              {"timestamp", frame->timestamp},
                              {"intrinsics", intrinsics_json(frame->intrinsics)},
+                             {"reduction", choices},
                              {"stages", stages_json(stages)}}}};
-  scene.extras_json = extras.dump();
+  Scene scene = frame_scene(std::move(*textured), extras.dump());
+  const Mesh& mesh = scene.nodes[0].mesh;
 
   GlbStats glb_stats;
   auto glb = encode_glb(scene, a.glb, &glb_stats);
@@ -58,17 +60,21 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
   std::cout << "rgbdcast reduce: " << frame->color_path << " (frame " << frame->index << ", "
             << frame->intrinsics.width << "x" << frame->intrinsics.height << ")\n"
             << stages_table(stages) << "points " << mesh.positions.size() << ", triangles " << mesh.triangle_count()
-            << ", texture " << to_string(textured->atlas_stats.mode) << " " << textured->atlas_stats.width << "x"
-            << textured->atlas_stats.height << ", "
+            << ", texture " << to_string(atlas_stats.mode) << " " << mesh.texture.width << "x"
+            << mesh.texture.height << ", "
             << glb->size() << " bytes (geometry " << glb_stats.geometry_bytes << ", texture "
             << glb_stats.texture_bytes << ") -> " << a.out << " (load " << static_cast<int>(load_ms)
             << " ms, total " << static_cast<int>(total_ms) << " ms)\n";
+  if (budget.budget_bytes > 0)
+    std::cout << "budget " << budget.budget_bytes / 1000 << " kB (" << budget.rule << "): tolerance "
+              << budget.tolerance_factor << " sigma, JPEG q" << budget.jpeg_quality << " at scale "
+              << budget.texture_scale << "\n";
   if (a.report.empty()) return;
   nlohmann::json stage_list = stages_json(stages);
   // The atlas and export stages carry their details.
   for (auto& s : stage_list) {
     if (s["name"] == "atlas") {
-      const AtlasResult& at = textured->atlas_stats;
+      const AtlasResult& at = atlas_stats;
       s["mode"] = to_string(at.mode);
       s["width"] = at.width;
       s["height"] = at.height;
@@ -84,6 +90,7 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
                       {"timestamp", frame->timestamp},
                       {"intrinsics", intrinsics_json(frame->intrinsics)},
                       {"params", params_json(a)},
+                      {"reduction", choices},
                       {"stages", stage_list},
                       {"points", mesh.positions.size()},
                       {"triangles", mesh.triangle_count()},
@@ -100,8 +107,7 @@ void run_reduce(const ReduceArgs& a) {
   so.depth_path = a.depth;
   so.associations_path = a.associations;
   if (a.depth_scale != 0) so.depth_scale = a.depth_scale;
-  if (auto st = a.params.validate(); !st) fail(st.error());
-  if (auto m = parse_texture_mode(a.texture); !m) fail(m.error());
+  if (auto o = frame_options(a); !o) fail(o.error());
   auto source = open_frame_source(a.input, so);
   if (!source) fail(source.error());
   if (a.sequence) {
@@ -123,6 +129,27 @@ void register_reduce(CLI::App& app) {
   cmd->add_option("--intrinsics", args->intrinsics, "fr1|fr2|fr3|kinect|icl or a JSON file (default: guessed)");
   cmd->add_option("--depth-scale", args->depth_scale, "Raw depth units per metre (TUM 5000, mm sensors 1000)");
   cmd->add_option("--associations", args->associations, "TUM associations file (t_rgb rgb t_depth depth)");
+  cmd->add_option("--preset", args->preset,
+                  "paper (the paper's pipeline exactly) or realtime (the depth image meshed adaptively, in milliseconds, "
+                  "under a byte budget)")->capture_default_str();
+  cmd->add_option("--budget-kb", args->budget_kb,
+                  "Realtime: land the GLB within +-10 % of this many kB, or under when the scene needs less "
+                  "(default 40; 0 = no budget)");
+  cmd->add_option("--tolerance", args->params.depth_mesh.tolerance_factor,
+                  "Realtime: split a triangle while its RMS distance from its pixels exceeds this many sigma of the "
+                  "sensor's depth noise (a budget raises it as needed)")->capture_default_str();
+  cmd->add_option("--depth-noise", args->params.depth_mesh.noise_m_per_m2,
+                  "Realtime: sensor depth noise sigma = NOISE * z^2 metres (Kinect-class 1.425e-3)")->capture_default_str();
+  cmd->add_option("--jump", args->params.depth_mesh.jump_relative,
+                  "Realtime: relative depth jump between neighbouring pixels that is a discontinuity")
+      ->capture_default_str();
+  cmd->add_option("--speckle-px", args->params.filter.min_region_px,
+                  "Realtime: drop continuous depth regions smaller than this many pixels")->capture_default_str();
+  cmd->add_option("--tile", args->params.depth_mesh.tile_px, "Realtime: largest triangle legs in pixels (power of two)")
+      ->capture_default_str();
+  cmd->add_option("--texture-deviation", args->params.depth_mesh.texture_deviation_px,
+                  "Realtime: split triangles until affine texturing is within this many pixels of the projective "
+                  "mapping (0 = off)")->capture_default_str();
   cmd->add_option("--outliers", args->params.outlier_method,
                   "Outlier neighbour search: kdtree (PCL, the paper's) or organized (image window, faster)")
       ->transform(CLI::CheckedTransformer(std::map<std::string, OutlierMethod>{

@@ -1,43 +1,22 @@
 #include "app/reduce_common.h"
 
-#include <chrono>
-
-#include "app/report.h"
 
 namespace rgbdcast::app {
 
-Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const ReduceArgs& args,
-                                         const Eigen::Matrix4d& camera_to_world,
-                                         const std::vector<CoverageView>& earlier) {
-  auto reduced = reduce_frame(frame, args.params);
-  if (!reduced) return reduced.error();
-  TexturedFrame out;
-  out.stages = reduced->stages;
-  if (!earlier.empty()) {
-    const auto t0 = std::chrono::steady_clock::now();
-    drop_covered_triangles(reduced->mesh, camera_to_world, earlier);
-    out.stages.push_back({"covered", "triangles", reduced->mesh.triangle_count(),
-                          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count()});
-    if (reduced->mesh.indices.empty()) return make_error(ErrorCode::kEmpty, "every triangle is covered by earlier keyframes");
-  }
-  AtlasOptions atlas = args.atlas;
-  auto mode = parse_texture_mode(args.texture);
+Result<FrameReductionOptions> frame_options(const ReduceArgs& a) {
+  FrameReductionOptions o;
+  auto preset = parse_preset(a.preset);
+  if (!preset) return preset.error();
+  o.params = a.params;
+  o.params.preset = *preset;
+  auto mode = parse_texture_mode(a.texture);
   if (!mode) return mode.error();
-  atlas.mode = *mode;
-  auto textured = build_atlas(reduced->mesh, frame.color_rgb, frame.intrinsics, atlas);
-  if (!textured) return textured.error();
-  out.stages.push_back({"atlas", "texels", textured->texels, textured->ms + textured->encode_ms});
-  out.node.name = "keyframe_" + std::to_string(frame.index);
-  out.node.mesh = std::move(textured->mesh);
-  out.node.to_world = camera_to_world;
-  out.atlas_stats = std::move(*textured);
-  out.atlas_stats.mesh = Mesh{};
-  out.camera.intrinsics = frame.intrinsics;
-  out.camera.camera_to_world = camera_to_world;
-  out.camera.timestamp = frame.timestamp;
-  out.camera.source = frame.color_path;
-  out.camera.frame_index = frame.index;
-  return out;
+  o.texture = *mode;
+  o.atlas = a.atlas;
+  o.glb = a.glb;
+  o.budget_kb = a.budget_kb >= 0 ? a.budget_kb : (*preset == Preset::kRealtime ? kDefaultBudgetKb : 0.0);
+  if (auto st = o.validate(); !st) return st.error();
+  return o;
 }
 
 nlohmann::json intrinsics_json(const Intrinsics& k) {
@@ -45,7 +24,14 @@ nlohmann::json intrinsics_json(const Intrinsics& k) {
 }
 
 nlohmann::json params_json(const ReduceArgs& a) {
-  return {{"outliers", a.params.outlier_method == OutlierMethod::kKdTree ? "kdtree" : "organized"},
+  nlohmann::json j = {{"preset", a.preset},
+                      {"budget_kb", a.budget_kb},
+                      {"tolerance_factor", a.params.depth_mesh.tolerance_factor},
+                      {"depth_noise", a.params.depth_mesh.noise_m_per_m2},
+                      {"jump_relative", a.params.depth_mesh.jump_relative},
+                      {"tile_px", a.params.depth_mesh.tile_px},
+                      {"speckle_px", a.params.filter.min_region_px},
+                      {"outliers", a.params.outlier_method == OutlierMethod::kKdTree ? "kdtree" : "organized"},
           {"outlier_k", a.params.outlier_k},
           {"outlier_std_mul", a.params.outlier_std_mul},
           {"voxel_size_m", a.params.voxel_size_m},
@@ -57,6 +43,7 @@ nlohmann::json params_json(const ReduceArgs& a) {
           {"jpeg_quality", a.atlas.jpeg_quality},
           {"meshopt", a.glb.meshopt},
           {"position_step_m", a.glb.position_quantum_m}};
+  return j;
 }
 
 }  // namespace rgbdcast::app

@@ -1,5 +1,6 @@
 #pragma once
-// What reduce (single frame and sequence) shares: its arguments and turning a frame into a textured scene node.
+// What reduce (single frame and sequence) shares: its arguments, and the options they give the one frame -> scene
+// function (pipeline/frame_scene.h).
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -7,9 +8,8 @@
 #include "atlas/atlas.h"
 #include "gltf/gltf_io.h"
 #include "input/frame.h"
-#include "reduction/coverage_filter.h"
+#include "pipeline/frame_scene.h"
 #include "reduction/pipeline.h"
-#include "scene/scene.h"
 
 namespace rgbdcast::app {
 
@@ -17,6 +17,8 @@ struct ReduceArgs {
   std::string input, depth, intrinsics, associations, out, report;
   int frame = 0;
   double depth_scale = 0;
+  std::string preset = "paper";
+  double budget_kb = -1;  // < 0: the preset's default (realtime: 40 kB; paper: none)
   ReductionParams params;
   AtlasOptions atlas;
   std::string texture = "auto";
@@ -32,18 +34,11 @@ struct ReduceArgs {
   std::string trajectory;  // write the estimated trajectory here (.log: Redwood, else TUM)
 };
 
-struct TexturedFrame {
-  SceneNode node;
-  CaptureCamera camera;
-  std::vector<StageReport> stages;  // reduction stages + atlas
-  AtlasResult atlas_stats;          // without the mesh (moved into node)
-};
+// The realtime preset's default byte budget (kB).
+constexpr double kDefaultBudgetKb = 40;
 
-// Reduces and textures one frame; the node and camera are placed at camera_to_world. With `earlier` views, the
-// triangles they already cover are dropped before texturing (stage "covered").
-Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const ReduceArgs& args,
-                                         const Eigen::Matrix4d& camera_to_world,
-                                         const std::vector<CoverageView>& earlier = {});
+// The frame -> scene options the arguments ask for (preset, texture mode, budget); errors name the bad option.
+Result<FrameReductionOptions> frame_options(const ReduceArgs& args);
 
 nlohmann::json intrinsics_json(const Intrinsics& k);
 nlohmann::json params_json(const ReduceArgs& args);

@@ -61,13 +61,17 @@ Status run_sequence(const ReduceArgs& a, const FrameSource& source) {
   size_t bytes_so_far = 0, keyframe_count = 0;
   Progress progress(a.progress);
 
+  auto options = frame_options(a);
+  if (!options) return options.error();
   auto on_keyframe = [&](const RgbdFrame& frame, const FrameRecord& record) -> Status {
-    auto textured = reduce_and_texture(frame, a, record.pose, a.drop_covered ? earlier : std::vector<CoverageView>{});
+    auto textured =
+        reduce_and_texture(frame, *options, record.pose, a.drop_covered ? earlier : std::vector<CoverageView>{});
     if (!textured) return textured.error();
     bytes_so_far += textured->node.mesh.texture_encoded.size() + textured->node.mesh.positions.size() * 10;
     keyframes.push_back({{"index", record.index},
                          {"triangles", textured->node.mesh.triangle_count()},
                          {"texels", textured->atlas_stats.texels},
+                         {"reduction", nlohmann::json::parse(choices_json(*textured))},
                          {"stages", stages_json(textured->stages)}});
     scene.cameras.push_back(textured->camera);
     scene.nodes.push_back(std::move(textured->node));

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_stats.h"
 #include "bench/transmission/codecs.h"
 #include "bench/transmission/datasets.h"
 #include "bench/transmission/fidelity.h"
@@ -56,17 +57,6 @@ struct Measured {
   double common_capture_psnr_db = 0, common_capture_ssim = 0, common_novel_psnr_db = 0, common_novel_ssim = 0;
 };
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v[v.size() / 2];
-}
-
-template <typename F>
-double time_ms(F&& f) {
-  const auto t0 = std::chrono::steady_clock::now();
-  f();
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 [[noreturn]] void die(const std::string& what, const Error& e) {
   std::fprintf(stderr, "transmission_bench: %s: %s\n", what.c_str(), e.message.c_str());

@@ -2,14 +2,39 @@
 
 #include <pcl/console/print.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 
 #include "reduction/stages.h"
 
 namespace rgbdcast {
 
+const char* to_string(Preset preset) { return preset == Preset::kPaper ? "paper" : "realtime"; }
+
+Result<Preset> parse_preset(const std::string& name) {
+  if (name == "paper") return Preset::kPaper;
+  if (name == "realtime") return Preset::kRealtime;
+  return make_error(ErrorCode::kInvalidArgument, "preset must be 'paper' or 'realtime', got '" + name + "'");
+}
+
+ReductionParams reduction_preset(Preset preset) {
+  ReductionParams p;
+  p.preset = preset;
+  return p;
+}
+
 Status ReductionParams::validate() const {
+  if (preset == Preset::kRealtime) {
+    if (auto st = depth_mesh.validate(); !st) return st;
+    if (!(std::isfinite(filter.jump_relative) && filter.jump_relative > 0 && filter.jump_relative < 10))
+      return make_error(ErrorCode::kInvalidArgument, "depth jump must be between 0 and 10 (relative)");
+    if (filter.min_region_px < 0 || filter.min_region_px > 1000000)
+      return make_error(ErrorCode::kInvalidArgument, "speckle size must be 0..1000000 pixels");
+    if (filter.min_support < 0 || filter.min_support > 8)
+      return make_error(ErrorCode::kInvalidArgument, "flying-pixel support must be 0..8 neighbours");
+  }
   auto positive = [](double v) { return std::isfinite(v) && v > 0; };
   if (outlier_k < 1 || outlier_k > 1000) return make_error(ErrorCode::kInvalidArgument, "outlier K must be 1..1000");
   if (!positive(outlier_std_mul)) return make_error(ErrorCode::kInvalidArgument, "outlier std-dev multiplier must be > 0");
@@ -73,13 +98,92 @@ Mesh to_mesh(const Cloud& cloud, const std::vector<std::uint32_t>& triangles) {
 
 }  // namespace
 
+Status check_depth_plausible(const RgbdFrame& frame) {
+  std::vector<float> z;
+  z.reserve(frame.depth_m.total() / 16 + 1);
+  for (int y = 0; y < frame.depth_m.rows; y += 4) {
+    const float* row = frame.depth_m.ptr<float>(y);
+    for (int x = 0; x < frame.depth_m.cols; x += 4)
+      if (row[x] > 0 && std::isfinite(row[x])) z.push_back(row[x]);
+  }
+  if (z.empty()) return ok_status();  // "no valid depth" is reported by the stages
+  std::nth_element(z.begin(), z.begin() + z.size() / 2, z.end());
+  const double median = z[z.size() / 2];
+  if (median < 0.2 || median > 20) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "implausible depth: the median valid depth is %.3g m (an RGB-D sensor sees 0.2-20 m); is "
+                  "--depth-scale right (%g raw units per metre)?",
+                  median, frame.intrinsics.depth_scale);
+    return make_error(ErrorCode::kInvalidInput, buf);
+  }
+  return ok_status();
+}
+
+namespace {
+
+Status check_frame(const RgbdFrame& frame) {
+  if (frame.depth_m.empty() || frame.color_rgb.empty() || frame.depth_m.size() != frame.color_rgb.size())
+    return make_error(ErrorCode::kInvalidInput, "frame has no images or colour and depth differ in size");
+  return check_depth_plausible(frame);
+}
+
+}  // namespace
+
+Result<RealtimeReduction> prepare_realtime(const RgbdFrame& frame, const ReductionParams& params) {
+  if (auto st = params.validate(); !st) return st.error();
+  if (auto st = check_frame(frame); !st) return st.error();
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<StageReport> stages;
+  StageTimer timer(&stages);
+  // An organized cloud (PCD) carries its own depth image in depth_m (z of each point).
+  DepthFilterParams fp = params.filter;
+  auto filtered = filter_depth(frame.depth_m, fp);
+  if (!filtered) return filtered.error();
+  // valid and filter share one pass; the split of the time is not worth a second one.
+  stages.push_back({"valid", "points", filtered->valid, 0.0});
+  timer.done("filter", "points", filtered->kept);
+  if (filtered->valid == 0) return make_error(ErrorCode::kEmpty, "no valid depth in the frame");
+  if (filtered->kept == 0) return make_error(ErrorCode::kEmpty, "the depth filter left no pixels");
+  auto hierarchy = DepthMeshHierarchy::build(filtered->depth_m, frame.intrinsics.pinhole(),
+                                             params.depth_mesh);
+  if (!hierarchy) return hierarchy.error();
+  timer.done("hierarchy", "points", filtered->kept);
+  RealtimeReduction r{std::move(*hierarchy), std::move(stages), 0.0};
+  r.prepare_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+Result<ReducedFrame> extract_realtime(const RealtimeReduction& prepared, const RgbdFrame& frame,
+                                      double tolerance_factor) {
+  ReducedFrame out;
+  out.stages = prepared.stages;
+  StageTimer timer(&out.stages);
+  std::vector<Eigen::Vector2i> pixels;
+  out.mesh = prepared.hierarchy.extract(tolerance_factor, &pixels);
+  out.mesh.colors.resize(pixels.size());
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    const cv::Vec3b c = frame.color_rgb.at<cv::Vec3b>(pixels[i].y(), pixels[i].x());
+    out.mesh.colors[i] = {c[0], c[1], c[2]};
+  }
+  out.cloud.positions = out.mesh.positions;
+  out.cloud.colors = out.mesh.colors;
+  timer.done("triangulate", "triangles", out.mesh.triangle_count());
+  if (out.mesh.indices.empty()) return make_error(ErrorCode::kEmpty, "the reduction left no triangles");
+  return out;
+}
+
 Result<ReducedFrame> reduce_frame(const RgbdFrame& frame, const ReductionParams& params) {
   if (auto st = params.validate(); !st) return st.error();
+  if (params.preset == Preset::kRealtime) {
+    auto prepared = prepare_realtime(frame, params);
+    if (!prepared) return prepared.error();
+    return extract_realtime(*prepared, frame, params.depth_mesh.tolerance_factor);
+  }
   // PCL prints its own diagnostics (e.g. greedy triangulation's "not enough neighbours"); rgbdcast reports
   // through Result and the stage report instead.
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-  if (frame.depth_m.empty() || frame.color_rgb.empty() || frame.depth_m.size() != frame.color_rgb.size())
-    return make_error(ErrorCode::kInvalidInput, "frame has no images or colour and depth differ in size");
+  if (auto st = check_frame(frame); !st) return st.error();
   ReducedFrame out;
   StageTimer timer(&out.stages);
 

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "input/frame.h"
+#include "reduction/depth_mesh.h"
 #include "scene/mesh.h"
 #include "scene/result.h"
 
@@ -16,7 +17,22 @@ enum class OutlierMethod {
   kOrganized,  // the same statistic with neighbours from the depth image's pixel window (much faster)
 };
 
+// Presets are data: a preset is a ReductionParams value (reduction_preset()), and every field stays an option.
+//  - kPaper: the paper's pipeline exactly (valid -> outliers -> voxel -> triangulate -> perimeter).
+//  - kRealtime: beyond the paper, on the organized depth image: valid -> filter (flying pixels, speckles) ->
+//    triangulate (adaptive RTIN of the depth image, crack-free, tolerance tied to the sensor's noise; see
+//    depth_mesh.h). No voxel grid: the adaptive mesh is the downsampling; `points` is its vertex count.
+enum class Preset { kPaper, kRealtime };
+const char* to_string(Preset preset);
+// "paper" or "realtime"; anything else is kInvalidArgument.
+Result<Preset> parse_preset(const std::string& name);
+
 struct ReductionParams {
+  Preset preset = Preset::kPaper;
+  // realtime preset
+  DepthFilterParams filter;
+  DepthMeshParams depth_mesh;
+  // paper preset
   OutlierMethod outlier_method = OutlierMethod::kKdTree;
   int outlier_k = 50;              // neighbours for the mean distance (paper: K = 50)
   double outlier_std_mul = 1.0;    // standard-deviation multiplier (paper: T = 1.0)
@@ -45,7 +61,26 @@ struct ReducedFrame {
   std::vector<StageReport> stages;
 };
 
+// The preset's defaults (kPaper: the paper's values; kRealtime: the realtime preset's).
+ReductionParams reduction_preset(Preset preset);
+
 Result<ReducedFrame> reduce_frame(const RgbdFrame& frame, const ReductionParams& params);
+
+// The realtime preset in two steps, for callers that pick the tolerance per frame (a byte budget): prepare() runs
+// valid + filter and builds the mesh hierarchy (the costly part, once); extract() gives the mesh at a tolerance
+// factor, vertex-coloured from the frame, with the stages so far plus "triangulate".
+struct RealtimeReduction {
+  DepthMeshHierarchy hierarchy;
+  std::vector<StageReport> stages;  // valid, filter
+  double prepare_ms = 0.0;
+};
+Result<RealtimeReduction> prepare_realtime(const RgbdFrame& frame, const ReductionParams& params);
+Result<ReducedFrame> extract_realtime(const RealtimeReduction& prepared, const RgbdFrame& frame,
+                                      double tolerance_factor);
+
+// Depth sanity: an error naming --depth-scale when the frame's valid depths are implausible for an RGB-D sensor
+// (median outside 0.2-20 m), instead of a mesh of garbage.
+Status check_depth_plausible(const RgbdFrame& frame);
 
 // The full cloud of a frame (every valid pixel), for the paper's full-cloud comparison.
 PointCloud full_cloud(const RgbdFrame& frame);

@@ -1,13 +1,12 @@
 // The server-side reduction of an uploaded RGB-D frame (the multipart route of POST /v1/scenes): decode and validate
-// the images, read the intrinsics, reduce (reduction/pipeline.h), texture (atlas/atlas.h), encode the GLB. The
+// the images, read the intrinsics, reduce and texture (pipeline/frame_scene.h, as `rgbdcast reduce`), encode the GLB. The
 // result is what `rgbdcast reduce` writes for the same frame, and is then checked like any uploaded GLB.
 #include <filesystem>
 
-#include "atlas/atlas.h"
 #include "gltf/gltf_io.h"
 #include "input/frame_source.h"
 #include "input/intrinsics_io.h"
-#include "reduction/pipeline.h"
+#include "pipeline/frame_scene.h"
 #include "service/scene_ingest.h"
 #include "service/scene_store.h"
 
@@ -53,36 +52,29 @@ Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   if (!frame) return make_error(ErrorCode::kInvalidInput, frame.error().message);
   stages.push_back({"decode", "pixels", static_cast<size_t>(frame->color_rgb.total()), ms_since(t)});
 
-  auto reduced = reduce_frame(*frame, ReductionParams{});
-  if (!reduced) return reduced.error();
-  for (const auto& s : reduced->stages) stages.push_back(s);
-
-  AtlasOptions texture;
-  texture.mode = TextureMode::kAuto;  // as `rgbdcast reduce`: the atlas only where triangles are large enough to need it
-  auto atlas = build_atlas(reduced->mesh, frame->color_rgb, frame->intrinsics.pinhole(), texture);
-  if (!atlas) return atlas.error();
-  stages.push_back({"atlas", "texels", atlas->texels, atlas->ms + atlas->encode_ms});
-
-  Scene scene;
-  CaptureCamera cam;
-  cam.intrinsics = frame->intrinsics.pinhole();
-  cam.source = "upload";
-  cam.frame_index = 0;
-  scene.cameras.push_back(cam);
-  SceneNode node;
-  node.name = "frame_0";
-  node.mesh = std::move(atlas->mesh);
-  scene.nodes.push_back(std::move(node));
+  // The same frame -> scene function and options as `rgbdcast reduce` with its defaults.
+  FrameReductionOptions options;
+  options.params = reduction_preset(upload.preset);
+  options.budget_kb = upload.preset == Preset::kRealtime ? upload.budget_kb : 0.0;
+  auto textured = reduce_and_texture(*frame, options);
+  if (!textured) return textured.error();
+  for (const auto& s : textured->stages) stages.push_back(s);
+  textured->camera.source = "upload";
+  textured->camera.frame_index = 0;
+  textured->node.name = "frame_0";
+  const Intrinsics k = textured->camera.intrinsics;
+  const nlohmann::json choices = nlohmann::json::parse(choices_json(*textured));
   nlohmann::json stage_list = nlohmann::json::array();
   for (const auto& s : stages) stage_list.push_back(stage_json(s));
-  const Intrinsics& k = cam.intrinsics;
-  scene.extras_json = nlohmann::json{{"rgbdcast",
-                                      {{"source", "upload"},
-                                       {"intrinsics",
-                                        {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy},
-                                         {"width", k.width}, {"height", k.height}}},
-                                       {"stages", stage_list}}}}
-                          .dump();
+  Scene scene = frame_scene(std::move(*textured),
+                            nlohmann::json{{"rgbdcast",
+                                            {{"source", "upload"},
+                                             {"intrinsics",
+                                              {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy},
+                                               {"width", k.width}, {"height", k.height}}},
+                                             {"reduction", choices},
+                                             {"stages", stage_list}}}}
+                                .dump());
   t = Clock::now();
   auto glb = encode_glb(scene);
   if (!glb) return glb.error();

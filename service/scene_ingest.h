@@ -12,6 +12,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "reduction/pipeline.h"
+
 #include "scene/result.h"
 #include "scene/scene.h"
 
@@ -29,6 +31,8 @@ struct FrameUpload {
   std::vector<unsigned char> depth;  // 16-bit single-channel PNG bytes
   std::string intrinsics_json;       // as load_intrinsics_json reads
   std::string scratch_dir;           // a folder for a short-lived temporary file (the store's folder)
+  Preset preset = Preset::kPaper;    // the reduction's preset (its defaults)
+  double budget_kb = 40;             // realtime preset: the GLB's byte budget (0 = none)
 };
 Result<IngestedScene> ingest_frame(const FrameUpload& upload);
 

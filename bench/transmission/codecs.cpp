@@ -8,6 +8,7 @@
 
 #include "bench/transmission/draco_codec.h"
 #include "gltf/gltf_io.h"
+#include "pipeline/frame_scene.h"
 #include "reduction/pipeline.h"
 
 namespace rgbdcast::bench {
@@ -58,6 +59,10 @@ Result<DecodedImages> decode_images(const Bytes& bytes, const Intrinsics& k) {
   DecodedImages out;
   cv::Mat bgr = cv::imdecode(jpeg, cv::IMREAD_COLOR);
   out.depth_raw = cv::imdecode(png, cv::IMREAD_UNCHANGED);
+  // Lossy depth (encode_jpeg_png's depth_step > 1): back to full size, nearest neighbour (depth must not blend).
+  if (!bgr.empty() && out.depth_raw.type() == CV_16UC1 && out.depth_raw.size() != bgr.size() &&
+      out.depth_raw.cols > 0 && bgr.cols % out.depth_raw.cols == 0)
+    cv::resize(out.depth_raw, out.depth_raw, bgr.size(), 0, 0, cv::INTER_NEAREST);
   if (bgr.empty() || out.depth_raw.type() != CV_16UC1 || bgr.size() != out.depth_raw.size() ||
       bgr.cols != k.width || bgr.rows != k.height)
     return make_error(ErrorCode::kInvalidInput, "jpeg+png payload: images do not decode to the camera's size");
@@ -104,11 +109,14 @@ Result<Scene> decode_raw_cloud(const Bytes& bytes, const Intrinsics& k) {
   return points_scene(std::move(cloud), k);
 }
 
-Result<Bytes> encode_jpeg_png(const RgbdFrame& frame, int jpeg_quality) {
+Result<Bytes> encode_jpeg_png(const RgbdFrame& frame, int jpeg_quality, int depth_step) {
   cv::Mat bgr, depth_raw;
   cv::cvtColor(frame.color_rgb, bgr, cv::COLOR_RGB2BGR);
   // Back to the sensor's units (what a driver publishes); the frame's metres came from exactly these integers.
   frame.depth_m.convertTo(depth_raw, CV_16U, frame.intrinsics.depth_scale);
+  if (depth_step > 1)
+    cv::resize(depth_raw, depth_raw, cv::Size(depth_raw.cols / depth_step, depth_raw.rows / depth_step), 0, 0,
+               cv::INTER_NEAREST);
   std::vector<std::uint8_t> jpeg, png;
   if (!cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality}) ||
       !cv::imencode(".png", depth_raw, png))
@@ -205,26 +213,17 @@ Result<Scene> decode_draco(const Bytes& bytes, const Intrinsics& k) {
 }
 
 Result<Bytes> encode_rgbdcast(const RgbdFrame& frame, TextureMode mode, RgbdcastStageMs* stage_ms,
-                              const ReductionParams& params) {
-  auto t0 = std::chrono::steady_clock::now();
-  auto reduced = reduce_frame(frame, params);
-  if (!reduced) return reduced.error();
-  const double reduce_ms = ms_since(t0);
-  t0 = std::chrono::steady_clock::now();
-  AtlasOptions options;
-  options.mode = mode;
-  auto textured = build_atlas(reduced->mesh, frame.color_rgb, frame.intrinsics, options);
+                              const ReductionParams& params, double budget_kb) {
+  FrameReductionOptions options;
+  options.params = params;
+  options.texture = mode;
+  options.budget_kb = budget_kb;
+  auto textured = reduce_and_texture(frame, options);
   if (!textured) return textured.error();
-  const double texture_ms = ms_since(t0);
-  t0 = std::chrono::steady_clock::now();
-  Scene scene = scene_at_capture(frame.intrinsics);
-  scene.cameras[0].timestamp = frame.timestamp;
-  scene.cameras[0].frame_index = frame.index;
-  SceneNode node;
-  node.name = "keyframe_" + std::to_string(frame.index);
-  node.mesh = std::move(textured->mesh);
-  scene.nodes.push_back(std::move(node));
-  auto glb = encode_glb(scene, GlbWriteOptions{});
+  double reduce_ms = 0, texture_ms = 0;
+  for (const auto& s : textured->stages) (s.name == "atlas" || s.name == "budget" ? texture_ms : reduce_ms) += s.ms;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto glb = encode_glb(frame_scene(std::move(*textured), ""), GlbWriteOptions{});
   if (!glb) return glb.error();
   if (stage_ms) *stage_ms = {reduce_ms, texture_ms, ms_since(t0)};
   return std::move(*glb);

@@ -7,8 +7,8 @@
 //    receiver back-projects every pixel with depth into a cloud, or (grid mesh) joins neighbouring pixels into
 //    triangles where the depth is continuous.
 //  - Draco point cloud: valid points, float positions quantized to N bits, colour as uint8, default speed.
-//  - rgbdcast GLB: reduce_frame (default ReductionParams) -> build_atlas (atlas or frame texture) -> encode_glb
-//    (default GlbWriteOptions); decode_glb on the receiving side.
+//  - rgbdcast GLB: reduce_and_texture (pipeline/frame_scene.h) -> encode_glb (default GlbWriteOptions);
+//    decode_glb on the receiving side.
 #include <cstdint>
 #include <vector>
 
@@ -26,8 +26,9 @@ using Bytes = std::vector<std::uint8_t>;
 Bytes encode_raw_cloud(const RgbdFrame& frame);
 Result<Scene> decode_raw_cloud(const Bytes& bytes, const Intrinsics& k);
 
-// JPEG colour (quality 1..100) + 16-bit PNG depth.
-Result<Bytes> encode_jpeg_png(const RgbdFrame& frame, int jpeg_quality);
+// JPEG colour (quality 1..100) + 16-bit PNG depth; depth_step > 1 sends every depth_step-th depth pixel in each
+// direction (lossy depth at half or quarter resolution), which the decoders bring back by nearest neighbour.
+Result<Bytes> encode_jpeg_png(const RgbdFrame& frame, int jpeg_quality, int depth_step = 1);
 Result<Scene> decode_jpeg_png_cloud(const Bytes& bytes, const Intrinsics& k);
 // The same bytes meshed on the receiver: a triangle between neighbouring pixels when all three have depth and
 // the largest depth is within max_jump of the smallest (relative, e.g. 0.05 = 5 %).
@@ -42,8 +43,9 @@ struct RgbdcastStageMs {
   double reduce_ms = 0, texture_ms = 0, glb_ms = 0;
 };
 // params: default ReductionParams unless given (the bench adds the organized outlier filter as an extra row).
+// Through pipeline/frame_scene.h, as `rgbdcast reduce`; budget_kb needs the realtime preset (0 = none).
 Result<Bytes> encode_rgbdcast(const RgbdFrame& frame, TextureMode mode, RgbdcastStageMs* stage_ms = nullptr,
-                              const ReductionParams& params = {});
+                              const ReductionParams& params = {}, double budget_kb = 0);
 Result<Scene> decode_rgbdcast(const Bytes& bytes);
 
 }  // namespace rgbdcast::bench

@@ -112,4 +112,32 @@ Result<TestCase> load_tum_case(const std::string& data_dir) {
   return tc;
 }
 
+Result<TestCase> load_tum_groundtruth_case(const std::string& data_dir, const std::vector<int>& novel) {
+  TestCase tc;
+  tc.name = "TUM RGB-D fr1/xyz frames 200-319 (real Kinect, ground truth)";
+  tc.folder = data_dir + "/tum/rgbd_dataset_freiburg1_xyz_200_319";
+  SourceOptions o;
+  o.intrinsics = "fr1";
+  auto source = open_frame_source(tc.folder, o);
+  if (!source) return source.error();
+  auto trajectory = read_tum_trajectory(tc.folder + "/groundtruth.txt");
+  if (!trajectory) return trajectory.error();
+  auto sent = (*source)->frame(0);
+  if (!sent) return sent.error();
+  const StampedPose* p0 = nearest_pose(*trajectory, sent->timestamp, 0.02);
+  if (!p0) return make_error(ErrorCode::kNotFound, "no ground truth within 0.02 s of frame 0");
+  tc.sent = std::move(*sent);
+  tc.views.push_back(view_of(tc.sent, Eigen::Matrix4d::Identity(), "capture"));
+  for (int k : novel) {
+    auto f = (*source)->frame(static_cast<size_t>(k));
+    if (!f) return f.error();
+    const StampedPose* pk = nearest_pose(*trajectory, f->timestamp, 0.02);
+    if (!pk) return make_error(ErrorCode::kNotFound, "no ground truth within 0.02 s of frame " + std::to_string(k));
+    const Eigen::Matrix4d rel = p0->camera_to_world.inverse() * pk->camera_to_world;
+    tc.views.push_back(view_of(*f, rel, "frame " + std::to_string(k)));
+    tc.notes.push_back("frame " + std::to_string(k) + ": ground-truth pose, " + motion_text(rel) + " from frame 0");
+  }
+  return tc;
+}
+
 }  // namespace rgbdcast::bench

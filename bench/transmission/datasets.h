@@ -23,5 +23,8 @@ struct TestCase {
 
 Result<TestCase> load_icl_case(const std::string& data_dir);
 Result<TestCase> load_tum_case(const std::string& data_dir);
+// TUM fr1/xyz frames 200-319 (tum/rgbd_dataset_freiburg1_xyz_200_319): its frame 0 sent, novel views at the
+// ground-truth poses (groundtruth.txt, nearest within 0.02 s) of the frames listed.
+Result<TestCase> load_tum_groundtruth_case(const std::string& data_dir, const std::vector<int>& novel);
 
 }  // namespace rgbdcast::bench

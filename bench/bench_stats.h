@@ -1,0 +1,25 @@
+#pragma once
+// What every benchmark program here needs: medians and quantiles of repeated measurements, and a wall-clock timer.
+#include <algorithm>
+#include <chrono>
+#include <vector>
+
+namespace rgbdcast::bench {
+
+// The q-quantile (0..1) of v, by the nearest rank; 0 for an empty v. median(v) is quantile(v, 0.5).
+inline double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(q * v.size()))];
+}
+inline double median(std::vector<double> v) { return quantile(std::move(v), 0.5); }
+
+// Milliseconds that f() took (steady clock).
+template <typename F>
+double time_ms(F&& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  f();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace rgbdcast::bench

@@ -1,0 +1,313 @@
+// realtime_bench: the realtime preset beside the paper preset and beside what a robotics engineer sends today
+// (JPEG + 16-bit PNG depth), in one run, on the shared real captures.
+//  A. Speed and size: per frame, the wall time from the decoded images in memory (undistortion included) to the GLB
+//     bytes, through the one frame -> scene function (pipeline/frame_scene.h) and encode_glb; medians over frames
+//     and runs. The paper preset is timed on the first --paper-frames frames of each set in the same run. Fidelity
+//     of the DECODED GLB at the capture pose: coverage of the valid pixels, PSNR over the pixels drawn, PSNR over all
+//     valid pixels with holes black (evaluation/image_metrics.h).
+//  B. Rate-distortion at budgets of 10-160 kB, capture pose and novel views at ground-truth poses (augmented ICL
+//     frames 1-4 from frame 0; TUM fr1/xyz 200-319 frames 5, 10, 15, 20 from frame 0), against JPEG-q + PNG16
+//     (full, half and quarter resolution depth, meshed on the receiver), Draco colour clouds (2 px splats) and the
+//     paper preset.
+// Usage: realtime_bench [--runs N] [--frames N] [--paper-frames N] [--backend auto|vulkan|osmesa] [--data DIR]
+//                       [--only speed|rd]
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "bench/bench_stats.h"
+#include "bench/transmission/codecs.h"
+#include "bench/transmission/datasets.h"
+#include "bench/transmission/fidelity.h"
+#include "gltf/gltf_io.h"
+#include "input/frame_source.h"
+#include "pipeline/frame_scene.h"
+
+using namespace rgbdcast;
+using namespace rgbdcast::bench;
+
+namespace {
+
+struct Args {
+  int runs = 3, frames = 30, paper_frames = 2;
+  BackendChoice backend = BackendChoice::kAuto;
+  std::string data_dir = RGBDCAST_DATA_DIR;
+  std::string only;
+};
+
+double min_of(const std::vector<double>& v) { return v.empty() ? 0 : *std::min_element(v.begin(), v.end()); }
+double max_of(const std::vector<double>& v) { return v.empty() ? 0 : *std::max_element(v.begin(), v.end()); }
+
+[[noreturn]] void die(const std::string& what, const Error& e) {
+  std::fprintf(stderr, "realtime_bench: %s: %s\n", what.c_str(), e.message.c_str());
+  std::exit(1);
+}
+
+FrameReductionOptions realtime_options(double budget_kb) {
+  FrameReductionOptions o;
+  o.params = reduction_preset(Preset::kRealtime);
+  o.budget_kb = budget_kb;
+  return o;
+}
+FrameReductionOptions paper_options() {
+  FrameReductionOptions o;
+  o.params = reduction_preset(Preset::kPaper);
+  return o;
+}
+
+// frame -> GLB bytes, as `rgbdcast reduce` does it.
+Result<Bytes> encode(const RgbdFrame& frame, const FrameReductionOptions& o) {
+  auto textured = reduce_and_texture(frame, o);
+  if (!textured) return textured.error();
+  return encode_glb(frame_scene(std::move(*textured), ""), o.glb);
+}
+
+// One frame as it comes off the sensor: decoded images in memory, not yet undistorted.
+struct RawFrame {
+  cv::Mat color_rgb, depth_raw;
+  Intrinsics intrinsics;
+  RgbdFrame ready;  // the source's own frame (PCD sources: timed from here, they need no undistortion)
+  bool from_images = false;
+};
+
+Result<RgbdFrame> prepare(const RawFrame& raw) {
+  if (!raw.from_images) return raw.ready;
+  return make_frame(raw.color_rgb, raw.depth_raw, raw.intrinsics);
+}
+
+struct Dataset {
+  std::string name, folder, intrinsics;
+  int max_frames;
+};
+
+Result<std::vector<RawFrame>> load_raw(const std::string& folder, const std::string& intrinsics, int max_frames) {
+  SourceOptions o;
+  o.intrinsics = intrinsics;
+  auto source = open_frame_source(folder, o);
+  if (!source) return source.error();
+  std::vector<RawFrame> out;
+  for (size_t i = 0; i < (*source)->size() && static_cast<int>(i) < max_frames; ++i) {
+    RawFrame r;
+    auto f = (*source)->frame(i);
+    if (!f) return f.error();
+    r.ready = std::move(*f);
+    r.intrinsics = (*source)->intrinsics();
+    if ((*source)->kind() != "pcd") {
+      const FrameEntry& e = (*source)->entries()[i];
+      cv::Mat bgr = cv::imread(e.color_path, cv::IMREAD_COLOR);
+      r.depth_raw = cv::imread(e.depth_path, cv::IMREAD_UNCHANGED);
+      if (!bgr.empty() && r.depth_raw.type() == CV_16UC1) {
+        cv::cvtColor(bgr, r.color_rgb, cv::COLOR_BGR2RGB);
+        r.from_images = true;
+      }
+    }
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+struct Fidelity {
+  double coverage = 0, psnr = 0, psnr_valid = 0;
+};
+
+Result<Fidelity> capture_fidelity(Renderer& renderer, const Scene& scene, const RgbdFrame& frame,
+                                  const RenderOptions& options = {}) {
+  auto id = renderer.upload(scene);
+  if (!id) return id.error();
+  CaptureCamera cam;
+  cam.intrinsics = frame.intrinsics.pinhole();
+  auto r = renderer.render(*id, ViewCamera::from_capture(cam), options);
+  renderer.release(*id);
+  if (!r) return r.error();
+  auto f = compare_views(frame.color_rgb, r->color, frame.depth_m > 0);
+  if (!f) return f.error();
+  return Fidelity{f->coverage, f->psnr_db, f->psnr_valid_db};
+}
+
+void speed_section(const Args& args, Renderer& renderer) {
+  const std::vector<Dataset> sets = {
+      {"TUM fr1/xyz 200-319", "/tum/rgbd_dataset_freiburg1_xyz_200_319", "fr1", args.frames},
+      {"TUM fr1/xyz 0-2", "/tum/rgbd_dataset_freiburg1_xyz", "fr1", 3},
+      {"TUM fr3 office", "/tum/rgbd_dataset_freiburg3_long_office_household", "fr3", 2},
+      {"TUM fr2 desk pair", "/tum/freiburg2_desk_pair", "fr2", 2},
+      {"augmented ICL", "/augmented_icl_livingroom", "", 5},
+      {"ICL-NUIM", "/icl_nuim_livingroom", "", 5},
+      {"PCL Kinect PCD", "/pcl_kinect_organized/pcd", "kinect", 3},
+  };
+  std::printf("\n## A. Speed, size and capture-pose fidelity (realtime preset at its default 40 kB budget)\n");
+  std::printf("wall ms from decoded images (undistortion included) to GLB bytes; realtime: median (p90) over frames x "
+              "%d runs; paper: median over its first %d frames, 1 run each\n\n",
+              args.runs, args.paper_frames);
+  std::printf("| set | frames | realtime ms | paper ms | paper/realtime | realtime kB (max) | paper kB | JPEG90+PNG16 kB | "
+              "triangles (max) | coverage min / median | PSNR drawn dB | PSNR all valid dB | grid mesh coverage / "
+              "all-valid dB | paper coverage / all-valid dB |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const Dataset& d : sets) {
+    auto raw = load_raw(args.data_dir + d.folder, d.intrinsics, d.max_frames);
+    if (!raw) {
+      std::printf("| %s | skipped: %s |\n", d.name.c_str(), raw.error().message.c_str());
+      continue;
+    }
+    std::vector<double> rt_ms, paper_ms, rt_kb, paper_kb, jp_kb, tris, cov, psnr, psnr_valid, grid_cov, grid_pv,
+        paper_cov, paper_pv;
+    for (size_t i = 0; i < raw->size(); ++i) {
+      Bytes glb;
+      for (int run = 0; run < args.runs; ++run) {
+        Result<Bytes> out = make_error(ErrorCode::kInternal, "not run");
+        rt_ms.push_back(time_ms([&] {
+          auto frame = prepare((*raw)[i]);
+          out = frame ? encode(*frame, realtime_options(40)) : Result<Bytes>(frame.error());
+        }));
+        if (!out) die(d.name + " frame " + std::to_string(i), out.error());
+        glb = std::move(*out);
+      }
+      auto frame = prepare((*raw)[i]);
+      if (!frame) die(d.name, frame.error());
+      rt_kb.push_back(glb.size() / 1000.0);
+      auto scene = decode_glb(glb.data(), glb.size());
+      if (!scene) die("decode", scene.error());
+      tris.push_back(static_cast<double>(scene->triangle_count()));
+      auto f = capture_fidelity(renderer, *scene, *frame);
+      if (!f) die("render", f.error());
+      cov.push_back(f->coverage);
+      psnr.push_back(f->psnr);
+      psnr_valid.push_back(f->psnr_valid);
+      auto jp = encode_jpeg_png(*frame, 90);
+      if (!jp) die("jpeg+png", jp.error());
+      jp_kb.push_back(jp->size() / 1000.0);
+      auto grid = decode_jpeg_png_grid_mesh(*jp, frame->intrinsics.pinhole());
+      if (!grid) die("grid mesh", grid.error());
+      auto gf = capture_fidelity(renderer, *grid, *frame);
+      if (!gf) die("render grid", gf.error());
+      grid_cov.push_back(gf->coverage);
+      grid_pv.push_back(gf->psnr_valid);
+      if (static_cast<int>(i) < args.paper_frames) {
+        Result<Bytes> out = make_error(ErrorCode::kInternal, "not run");
+        paper_ms.push_back(time_ms([&] {
+          auto pf = prepare((*raw)[i]);
+          out = pf ? encode(*pf, paper_options()) : Result<Bytes>(pf.error());
+        }));
+        if (!out) die(d.name + " paper", out.error());
+        paper_kb.push_back(out->size() / 1000.0);
+        auto ps = decode_glb(out->data(), out->size());
+        if (!ps) die("decode paper", ps.error());
+        auto pf = capture_fidelity(renderer, *ps, *frame);
+        if (!pf) die("render paper", pf.error());
+        paper_cov.push_back(pf->coverage);
+        paper_pv.push_back(pf->psnr_valid);
+      }
+    }
+    std::printf("| %s | %zu | %.1f (%.1f) | %.0f | %.0fx | %.1f (%.1f) | %.1f | %.1f | %.0f (%.0f) | %.4f / %.4f | %.2f | "
+                "%.2f | %.4f / %.2f | %.4f / %.2f |\n",
+                d.name.c_str(), raw->size(), median(rt_ms), quantile(rt_ms, 0.9), median(paper_ms),
+                median(paper_ms) / std::max(1e-9, median(rt_ms)), median(rt_kb), max_of(rt_kb), median(paper_kb),
+                median(jp_kb), median(tris), max_of(tris), min_of(cov), median(cov), median(psnr), median(psnr_valid),
+                median(grid_cov), median(grid_pv), median(paper_cov), median(paper_pv));
+    std::fflush(stdout);
+  }
+}
+
+struct Row {
+  std::string name;
+  size_t bytes = 0;
+  ViewSetFidelity f;
+};
+
+void rd_case(const TestCase& tc, Renderer& renderer) {
+  std::printf("\n### %s: %zu novel views\n", tc.name.c_str(), tc.views.size() - 1);
+  for (const auto& n : tc.notes) std::printf("- %s\n", n.c_str());
+  std::printf("\n| what | bytes | capture coverage | capture PSNR drawn | capture PSNR all valid | novel coverage | "
+              "novel PSNR drawn | novel PSNR all valid |\n|---|---|---|---|---|---|---|---|\n");
+  auto row = [&](const std::string& name, const Result<Bytes>& bytes,
+                 const std::function<Result<Scene>(const Bytes&)>& decode, const RenderOptions& ro) {
+    if (!bytes) {
+      std::printf("| %s | failed: %s |\n", name.c_str(), bytes.error().message.c_str());
+      return;
+    }
+    auto scene = decode(*bytes);
+    if (!scene) die(name + " decode", scene.error());
+    auto id = renderer.upload(*scene);
+    if (!id) die(name + " upload", id.error());
+    auto f = measure_views(renderer, *id, ro, tc.views);
+    renderer.release(*id);
+    if (!f) die(name + " views", f.error());
+    std::printf("| %s | %zu | %.4f | %.2f | %.2f | %.4f | %.2f | %.2f |\n", name.c_str(), bytes->size(),
+                f->capture.coverage, f->capture.psnr_db, f->capture.psnr_valid_db, f->novel_coverage, f->novel_psnr_db,
+                f->novel_psnr_valid_db);
+    std::fflush(stdout);
+  };
+  const Intrinsics k = tc.sent.intrinsics.pinhole();
+  auto glb_decode = [](const Bytes& b) { return decode_glb(b.data(), b.size()); };
+  const RenderOptions mesh;
+  RenderOptions splat2;
+  splat2.mode = RenderMode::kPoints;
+  splat2.point_size_px = 2;
+  for (double kb : {10.0, 20.0, 40.0, 80.0, 160.0})
+    row("rgbdcast realtime, budget " + std::to_string(int(kb)) + " kB", encode(tc.sent, realtime_options(kb)),
+        glb_decode, mesh);
+  row("rgbdcast realtime, no budget (tolerance 2 sigma, q85)", encode(tc.sent, realtime_options(0)), glb_decode, mesh);
+  row("rgbdcast paper preset", encode(tc.sent, paper_options()), glb_decode, mesh);
+  for (int step : {1, 2, 4})
+    for (int q : {10, 30, 50, 70, 90}) {
+      const std::string depth = step == 1 ? "PNG16" : "PNG16 at 1/" + std::to_string(step);
+      row("JPEG q" + std::to_string(q) + " + " + depth + " (grid mesh)", encode_jpeg_png(tc.sent, q, step),
+          [&](const Bytes& b) { return decode_jpeg_png_grid_mesh(b, k); }, mesh);
+    }
+  for (int qp : {8, 11, 14})
+    row("Draco colour cloud qp" + std::to_string(qp) + " (2 px splats)", encode_draco(tc.sent, qp),
+        [&](const Bytes& b) { return decode_draco(b, k); }, splat2);
+  row("full cloud, raw floats (2 px splats)", Result<Bytes>(encode_raw_cloud(tc.sent)),
+      [&](const Bytes& b) { return decode_raw_cloud(b, k); }, splat2);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args args;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "realtime_bench: %s needs a value\n", a.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--runs") args.runs = std::max(1, std::atoi(next().c_str()));
+    else if (a == "--frames") args.frames = std::max(1, std::atoi(next().c_str()));
+    else if (a == "--paper-frames") args.paper_frames = std::max(0, std::atoi(next().c_str()));
+    else if (a == "--data") args.data_dir = next();
+    else if (a == "--only") args.only = next();
+    else if (a == "--backend") {
+      auto b = parse_backend_choice(next());
+      if (!b) die("--backend", b.error());
+      args.backend = *b;
+    } else {
+      std::fprintf(stderr, "usage: realtime_bench [--runs N] [--frames N] [--paper-frames N] [--backend B] "
+                           "[--data DIR] [--only speed|rd]\n");
+      return 2;
+    }
+  }
+  auto renderer = create_renderer(args.backend);
+  if (!renderer) die("renderer", renderer.error());
+  std::printf("realtime_bench: renderer %s (%s)\n", renderer->renderer->backend().c_str(),
+              renderer->renderer->device().c_str());
+  if (args.only.empty() || args.only == "speed") speed_section(args, *renderer->renderer);
+  if (args.only.empty() || args.only == "rd") {
+    std::printf("\n## B. Rate-distortion, capture pose and novel views at ground-truth poses\n");
+    auto icl = load_icl_case(args.data_dir);
+    if (!icl) die("ICL case", icl.error());
+    rd_case(*icl, *renderer->renderer);
+    auto tum = load_tum_groundtruth_case(args.data_dir, {5, 10, 15, 20});
+    if (!tum) die("TUM case", tum.error());
+    rd_case(*tum, *renderer->renderer);
+  }
+  return 0;
+}

@@ -1,0 +1,70 @@
+#pragma once
+// One function, frame -> textured scene node: the reduction (any preset, reduction/pipeline.h), the texture
+// (atlas/atlas.h) and, for the realtime preset, a byte budget met through the GLB encoder (gltf/gltf_io.h). It is
+// the only place that chains them: `rgbdcast reduce` (one frame and --sequence), the service's server-side
+// reduction, the benches and the tests all call it. It sits above reduction/, atlas/ and gltf/, and below app/ and
+// service/.
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "atlas/atlas.h"
+#include "gltf/gltf_io.h"
+#include "input/frame.h"
+#include "reduction/coverage_filter.h"
+#include "reduction/pipeline.h"
+#include "scene/scene.h"
+
+namespace rgbdcast {
+
+struct FrameReductionOptions {
+  ReductionParams params;  // the preset and every stage's parameters
+  // kAuto: with the paper preset, the atlas when the mesh's triangles are large (atlas.h); with the realtime preset,
+  // the frame texture, its triangles split until affine texturing is within DepthMeshParams::texture_deviation_px
+  // of the projective mapping. An explicit mode is used as given.
+  TextureMode texture = TextureMode::kAuto;
+  AtlasOptions atlas;      // cell size, JPEG quality (a budget chooses the quality itself)
+  GlbWriteOptions glb;
+  // Realtime preset: choose the mesh tolerance and the texture's quality and scale so that the GLB lands within
+  // +-10 % of budget_kb * 1000 bytes, or under it when the scene needs less. 0: no budget.
+  double budget_kb = 0;
+
+  Status validate() const;
+};
+
+// What a budget chose, and what it gave (reported in the GLB's extras and the reduce report).
+struct BudgetChoice {
+  double budget_bytes = 0;       // 0: no budget
+  double tolerance_factor = 0;   // mesh tolerance (sigma units)
+  int jpeg_quality = 0;
+  double texture_scale = 1.0;    // texture resolution relative to the colour frame
+  size_t geometry_bytes = 0, texture_bytes = 0, glb_bytes = 0;  // of the node alone (no extras)
+  int encodes = 0;               // GLB encodes and JPEG encodes tried
+  std::string rule;              // which case of the rule applied ("fits", "geometry-capped", ...)
+};
+
+struct TexturedFrame {
+  SceneNode node;
+  CaptureCamera camera;
+  std::vector<StageReport> stages;  // the reduction's stages, "covered" (with earlier views), "atlas" (the
+                                    // texture, whichever mode), "budget" (with a budget)
+  AtlasResult atlas_stats;          // the texture's figures (its mesh moved into node)
+  BudgetChoice budget;              // budget_bytes == 0 when none was asked
+  Preset preset = Preset::kPaper;
+};
+
+// Reduces and textures one frame; the node and camera are placed at camera_to_world. With `earlier` views, the
+// triangles they already cover are dropped before texturing (stage "covered"). Errors: the options' or the
+// reduction's (kInvalidArgument, kInvalidInput, kEmpty).
+Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameReductionOptions& options,
+                                         const Eigen::Matrix4d& camera_to_world = Eigen::Matrix4d::Identity(),
+                                         const std::vector<CoverageView>& earlier = {});
+
+// The single-frame scene of a reduced frame: its node, its capture camera, and `extras_json` (a JSON object text).
+Scene frame_scene(TexturedFrame frame, std::string extras_json);
+
+// JSON of the texture and budget choices, for extras and reports: {"preset", "texture", "budget"?}.
+std::string choices_json(const TexturedFrame& frame);
+
+}  // namespace rgbdcast

@@ -1,0 +1,520 @@
+// triangulate (realtime preset): the RTIN over the depth image. See depth_mesh.h for the model.
+//
+// Layout. The image is covered by tiles of S = tile_px pixels (the last row/column of tiles runs past the image; those
+// grid points are invalid). Grid points are pixel centres, shared by neighbouring tiles. Inside a tile the triangles
+// form an implicit binary tree (heap order): ids 2 and 3 are the two halves of the tile, the children of id are 2 id
+// (left) and 2 id + 1 (right); triangle (a, b, c) has its hypotenuse a-b and its right angle at c, and splits at the
+// hypotenuse's midpoint m into (c, a, m) and (b, c, m). Leaves have legs of one pixel (ids 2 S^2 .. 4 S^2 - 1).
+//
+// Errors. Each grid point of a tile is given to exactly one leaf; a triangle's pixel moments are its two children's
+// sums. Its error is the RMS distance (inverse depth, in sigma units) of its valid pixels from the plane through its
+// vertices, or infinite when it cannot stand for its pixels: an invalid vertex, more holes than allowed, an edge that
+// jumps in depth, or affine texturing off by more than allowed. A triangle reaching across a discontinuity holds
+// pixels of both surfaces, whose residuals are tens of sigma: it splits until it holds one. As in Martini's RTIN
+// the error goes to the hypotenuse midpoint, maxed with the children's midpoints: a triangle and its hypotenuse
+// neighbour share that point, so they split together and the mesh has no T-junction. Levels are processed
+// finest-first over all tiles, so a midpoint on a tile border holds both tiles' errors before any parent reads it.
+#include "reduction/depth_mesh.h"
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+
+namespace rgbdcast {
+
+namespace {
+
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+bool is_power_of_two(int v) { return v > 0 && (v & (v - 1)) == 0; }
+
+// Log depth in steps of kLogStep, 0 = invalid: relative jumps become absolute differences (for filterSpeckles).
+constexpr double kLogStep = 0.005;
+constexpr double kLogOrigin = 0.02;  // metres mapped to 1
+
+cv::Mat log_depth(const cv::Mat& depth_m) {
+  cv::Mat out(depth_m.size(), CV_16SC1);
+  for (int y = 0; y < depth_m.rows; ++y) {
+    const float* z = depth_m.ptr<float>(y);
+    std::int16_t* o = out.ptr<std::int16_t>(y);
+    for (int x = 0; x < depth_m.cols; ++x) {
+      if (!(z[x] > 0.f) || !std::isfinite(z[x])) {
+        o[x] = 0;
+        continue;
+      }
+      const double l = std::log(std::max<double>(z[x], kLogOrigin) / kLogOrigin) / kLogStep + 1.0;
+      o[x] = static_cast<std::int16_t>(std::min(l, 32767.0));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilterParams& p) {
+  if (depth_m.empty() || depth_m.type() != CV_32FC1)
+    return make_error(ErrorCode::kInvalidArgument, "depth filter: depth must be a non-empty CV_32FC1 image");
+  if (!(std::isfinite(p.jump_relative) && p.jump_relative > 0 && p.jump_relative < 10))
+    return make_error(ErrorCode::kInvalidArgument, "depth filter: jump must be between 0 and 10 (relative)");
+  if (p.min_region_px < 0 || p.min_support < 0 || p.min_support > 8)
+    return make_error(ErrorCode::kInvalidArgument, "depth filter: region size >= 0 and support 0..8");
+  DepthFilterResult r;
+  const int w = depth_m.cols, h = depth_m.rows;
+  cv::Mat l = log_depth(depth_m);
+  const int max_diff = std::max(1, static_cast<int>(std::lround(std::log1p(p.jump_relative) / kLogStep)));
+  r.valid = static_cast<size_t>(cv::countNonZero(l));
+
+  // Flying pixels: too few 8-neighbours on the same surface. Decided on the input, written to a copy.
+  cv::Mat kept = l.clone();
+  for (int y = 0; y < h; ++y) {
+    const std::int16_t* row = l.ptr<std::int16_t>(y);
+    std::int16_t* out = kept.ptr<std::int16_t>(y);
+    for (int x = 0; x < w; ++x) {
+      if (row[x] == 0) continue;
+      int support = 0;
+      for (int dy = -1; dy <= 1; ++dy) {
+        const int yy = y + dy;
+        if (yy < 0 || yy >= h) continue;
+        const std::int16_t* nrow = l.ptr<std::int16_t>(yy);
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int xx = x + dx;
+          if ((dx == 0 && dy == 0) || xx < 0 || xx >= w || nrow[xx] == 0) continue;
+          if (std::abs(nrow[xx] - row[x]) <= max_diff) ++support;
+        }
+      }
+      if (support < p.min_support) {
+        out[x] = 0;
+        ++r.flying;
+      }
+    }
+  }
+  // Speckles: continuous regions smaller than min_region_px.
+  const size_t before = static_cast<size_t>(cv::countNonZero(kept));
+  if (p.min_region_px > 0) cv::filterSpeckles(kept, 0, p.min_region_px, max_diff);
+  r.kept = static_cast<size_t>(cv::countNonZero(kept));
+  r.speckles = before - r.kept;
+
+  r.depth_m = cv::Mat::zeros(h, w, CV_32FC1);
+  depth_m.copyTo(r.depth_m, kept != 0);
+  if (p.gap_fill_px > 0) {
+    // Gaps: an invalid pixel whose window holds valid depth of one surface (largest / smallest depth within twice
+    // the jump) takes the window's mean depth (normalized convolution). Gaps between surfaces stay open.
+    const cv::Size win(2 * p.gap_fill_px + 1, 2 * p.gap_fill_px + 1);
+    const cv::Mat valid = r.depth_m > 0;
+    cv::Mat valid_f, sum, count, far, near_inv;
+    valid.convertTo(valid_f, CV_32F, 1.0 / 255);
+    cv::boxFilter(r.depth_m, sum, CV_32F, win, cv::Point(-1, -1), false);
+    cv::boxFilter(valid_f, count, CV_32F, win, cv::Point(-1, -1), false);
+    cv::dilate(r.depth_m, far, cv::getStructuringElement(cv::MORPH_RECT, win));
+    cv::Mat inv;  // 1 / depth, 0 where invalid: its maximum is the nearest depth
+    cv::divide(1.0, r.depth_m, inv);
+    inv.setTo(0, ~valid);
+    cv::dilate(inv, near_inv, cv::getStructuringElement(cv::MORPH_RECT, win));
+    const double max_ratio = 1 + 2 * p.jump_relative;
+    const float min_count = 0.25f * win.area();
+    for (int y = 0; y < h; ++y) {
+      float* out = r.depth_m.ptr<float>(y);
+      const std::uint8_t* v = valid.ptr<std::uint8_t>(y);
+      const float *s_ = sum.ptr<float>(y), *c = count.ptr<float>(y), *f = far.ptr<float>(y),
+                  *n = near_inv.ptr<float>(y);
+      for (int x = 0; x < w; ++x) {
+        if (v[x] || c[x] < min_count || n[x] <= 0) continue;
+        if (f[x] * n[x] > max_ratio) continue;  // far / near
+        out[x] = s_[x] / c[x];
+        ++r.filled;
+      }
+    }
+  }
+  return r;
+}
+
+Status DepthMeshParams::validate() const {
+  auto finite_pos = [](double v) { return std::isfinite(v) && v > 0; };
+  if (!(std::isfinite(tolerance_factor) && tolerance_factor >= 0 && tolerance_factor <= 1e6))
+    return make_error(ErrorCode::kInvalidArgument, "mesh tolerance factor must be between 0 and 1e6");
+  if (!finite_pos(noise_m_per_m2) || noise_m_per_m2 > 1)
+    return make_error(ErrorCode::kInvalidArgument, "depth noise must be > 0 and at most 1 (sigma = noise * z^2)");
+  if (!finite_pos(jump_relative) || jump_relative >= 10)
+    return make_error(ErrorCode::kInvalidArgument, "depth jump must be between 0 and 10 (relative)");
+  if (!(std::isfinite(max_hole_fraction) && max_hole_fraction >= 0 && max_hole_fraction <= 1))
+    return make_error(ErrorCode::kInvalidArgument, "hole fraction must be 0..1");
+  if (!(std::isfinite(texture_deviation_px) && texture_deviation_px >= 0))
+    return make_error(ErrorCode::kInvalidArgument, "texture deviation must be >= 0 pixels (0 = off)");
+  if (!is_power_of_two(tile_px) || tile_px < 2 || tile_px > 128)
+    return make_error(ErrorCode::kInvalidArgument, "tile size must be a power of two, 2..128");
+  if (!(std::isfinite(boundary_px_per_sigma) && boundary_px_per_sigma > 0))
+    return make_error(ErrorCode::kInvalidArgument, "boundary pixels per sigma must be > 0");
+  if (!(std::isfinite(boundary_push_px) && boundary_push_px >= 0 && boundary_push_px <= 1))
+    return make_error(ErrorCode::kInvalidArgument, "boundary push must be 0..1 pixels");
+  return ok_status();
+}
+
+// The implicit tree of one tile size: vertex coordinates of every triangle and the leaf that owns each grid point.
+struct RtinTable {
+  int S = 0;
+  std::vector<std::int16_t> ax, ay, bx, by, cx, cy;  // indexed by id, 2 .. 4 S^2 - 1
+  std::vector<std::int32_t> leaf_of_point;           // S * S
+  int first_leaf() const { return 2 * S * S; }
+  int end() const { return 4 * S * S; }
+
+  explicit RtinTable(int s) : S(s) {
+    const int n = 4 * S * S;
+    for (auto* v : {&ax, &ay, &bx, &by, &cx, &cy}) v->assign(n, 0);
+    // id 2: hypotenuse (S,S)-(0,0), right angle (0,S); id 3: (0,0)-(S,S), right angle (S,0).
+    ax[2] = S, ay[2] = S, bx[2] = 0, by[2] = 0, cx[2] = 0, cy[2] = S;
+    ax[3] = 0, ay[3] = 0, bx[3] = S, by[3] = S, cx[3] = S, cy[3] = 0;
+    for (int id = 2; id < first_leaf(); ++id) {
+      const int mx = (ax[id] + bx[id]) / 2, my = (ay[id] + by[id]) / 2;
+      const int l = 2 * id, r = 2 * id + 1;
+      ax[l] = cx[id], ay[l] = cy[id], bx[l] = ax[id], by[l] = ay[id], cx[l] = mx, cy[l] = my;
+      ax[r] = bx[id], ay[r] = by[id], bx[r] = cx[id], by[r] = cy[id], cx[r] = mx, cy[r] = my;
+    }
+    // Each grid point (x, y), 0 <= x, y < S, goes to the first leaf inside the unit square to its lower right that
+    // has it as a vertex.
+    leaf_of_point.assign(static_cast<size_t>(S) * S, -1);
+    for (int id = first_leaf(); id < end(); ++id) {
+      const int x0 = std::min({ax[id], bx[id], cx[id]}), y0 = std::min({ay[id], by[id], cy[id]});
+      if (x0 >= S || y0 >= S) continue;
+      const bool has = (ax[id] == x0 && ay[id] == y0) || (bx[id] == x0 && by[id] == y0) ||
+                       (cx[id] == x0 && cy[id] == y0);
+      auto& slot = leaf_of_point[static_cast<size_t>(y0) * S + x0];
+      if (has && slot < 0) slot = id;
+    }
+  }
+};
+
+namespace {
+
+std::shared_ptr<const RtinTable> table_for(int S) {
+  // Tables are small (4 S^2 entries) and cheap next to a frame; each hierarchy keeps its own.
+  return std::make_shared<const RtinTable>(S);
+}
+
+// Pixel moments of a set of valid pixels (tile-local u, v; w = 1/z), plus counts.
+struct Moments {
+  double n = 0, su = 0, sv = 0, sw = 0, suu = 0, suv = 0, svv = 0, suw = 0, svw = 0, sww = 0;
+  std::uint32_t total = 0;
+  void add(const Moments& o) {
+    n += o.n, su += o.su, sv += o.sv, sw += o.sw, suu += o.suu, suv += o.suv, svv += o.svv, suw += o.suw,
+        svw += o.svw, sww += o.sww, total += o.total;
+  }
+};
+
+// Affine texture interpolation against the projective mapping: the largest deviation (pixels) at the edge midpoints
+// and the centroid, from the vertices' pixels p_i and depths z_i (the true image point of barycentre b is
+// sum b_i z_i p_i / sum b_i z_i).
+double texture_deviation(const double px[3], const double py[3], const double z[3]) {
+  double worst = 0;
+  for (int i = 0; i < 3; ++i) {
+    const int j = (i + 1) % 3;
+    const double len = std::hypot(px[i] - px[j], py[i] - py[j]);
+    worst = std::max(worst, len * std::abs(z[i] - z[j]) / (2 * (z[i] + z[j])));
+  }
+  const double zs = z[0] + z[1] + z[2];
+  const double ux = (z[0] * px[0] + z[1] * px[1] + z[2] * px[2]) / zs - (px[0] + px[1] + px[2]) / 3;
+  const double uy = (z[0] * py[0] + z[1] * py[1] + z[2] * py[2]) / zs - (py[0] + py[1] + py[2]) / 3;
+  return std::max(worst, std::hypot(ux, uy));
+}
+
+}  // namespace
+
+Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, const Intrinsics& k,
+                                                     const DepthMeshParams& p) {
+  if (auto st = p.validate(); !st) return st.error();
+  if (depth_m.empty() || depth_m.type() != CV_32FC1)
+    return make_error(ErrorCode::kInvalidArgument, "depth mesh: depth must be a non-empty CV_32FC1 image");
+  if (!(std::isfinite(k.fx) && std::isfinite(k.fy) && k.fx > 0 && k.fy > 0 && std::isfinite(k.cx) &&
+        std::isfinite(k.cy)))
+    return make_error(ErrorCode::kInvalidArgument, "depth mesh: intrinsics must be finite with fx, fy > 0");
+  DepthMeshHierarchy h;
+  h.width_ = depth_m.cols;
+  h.height_ = depth_m.rows;
+  h.k_ = k;
+  h.params_ = p;
+  const int S = h.tile_ = p.tile_px;
+  h.tiles_x_ = (h.width_ + S - 1) / S;
+  h.tiles_y_ = (h.height_ + S - 1) / S;
+  h.grid_w_ = h.tiles_x_ * S + 1;
+  const int grid_h = h.tiles_y_ * S + 1;
+  h.table_ = table_for(S);
+  const RtinTable& t = *h.table_;
+
+  // Grid points are pixel centres. The one column and row just past the image (x = width, y = height) repeat the
+  // last pixel's depth and sit on it (snap()): tiles of 2^k pixels then end exactly on the image's last pixel, with
+  // degenerate leaves between the two, which are never emitted. Points further out are invalid.
+  h.depth_.assign(static_cast<size_t>(h.grid_w_) * grid_h, 0.f);
+  for (int y = 0; y <= h.height_ && y < grid_h; ++y) {
+    const float* z = depth_m.ptr<float>(std::min(y, h.height_ - 1));
+    for (int x = 0; x <= h.width_ && x < h.grid_w_; ++x) {
+      const float d = z[std::min(x, h.width_ - 1)];
+      if (d > 0.f && std::isfinite(d)) h.depth_[static_cast<size_t>(y) * h.grid_w_ + x] = d;
+    }
+  }
+  // Per triangle of the tree: the largest depth ratio each edge may span (jump_relative per pixel of its length).
+  std::vector<float> max_ratio(3 * static_cast<size_t>(t.first_leaf()));
+  std::vector<float> longest(t.first_leaf());
+  for (int id = 2; id < t.first_leaf(); ++id) {
+    const int px[3] = {t.ax[id], t.bx[id], t.cx[id]}, py[3] = {t.ay[id], t.by[id], t.cy[id]};
+    for (int e = 0; e < 3; ++e) {
+      const double len = std::hypot(px[e] - px[(e + 1) % 3], py[e] - py[(e + 1) % 3]);
+      max_ratio[3 * id + e] = static_cast<float>(std::pow(1 + p.jump_relative, len));
+      longest[id] = std::max<float>(longest[id], static_cast<float>(len));
+    }
+  }
+
+  const int tiles = h.tiles_x_ * h.tiles_y_;
+  const int first_leaf = t.first_leaf(), end = t.end();
+  std::vector<float> tri_error(static_cast<size_t>(tiles) * first_leaf, 0.f);
+  h.leaf_ok_.assign(static_cast<size_t>(tiles) * (end - first_leaf), 0);
+  const double sigma_w = p.noise_m_per_m2;
+  const double log_jump = std::log1p(p.jump_relative);  // leaves
+  const bool texture_split = p.texture_deviation_px > 0;
+  const std::vector<float>& D = h.depth_;
+  const int GW = h.grid_w_;
+
+#pragma omp parallel
+  {
+    std::vector<Moments> m(end);
+#pragma omp for schedule(static)
+    for (int tile = 0; tile < tiles; ++tile) {
+      const int ox = (tile % h.tiles_x_) * S, oy = (tile / h.tiles_x_) * S;
+      for (int id = first_leaf; id < end; ++id) m[id] = Moments{};
+      for (int y = 0; y < S; ++y) {
+        for (int x = 0; x < S; ++x) {
+          Moments& l = m[t.leaf_of_point[static_cast<size_t>(y) * S + x]];
+          ++l.total;
+          const int gx = ox + x, gy = oy + y;
+          if (gx >= h.width_ || gy >= h.height_) continue;
+          const float z = depth_m.at<float>(gy, gx);
+          if (!(z > 0.f)) continue;
+          const double w = 1.0 / z, u = x, v = y;
+          l.n += 1, l.su += u, l.sv += v, l.sw += w, l.suu += u * u, l.suv += u * v, l.svv += v * v;
+          l.suw += u * w, l.svw += v * w, l.sww += w * w;
+        }
+      }
+      auto depth_at = [&](int x, int y) { return D[static_cast<size_t>(oy + y) * GW + (ox + x)]; };
+      // Tile-local coordinates of a vertex after the snap onto the image's last pixel.
+      auto sx = [&](int x) { return double(std::min(ox + x, h.width_ - 1) - ox); };
+      auto sy = [&](int y) { return double(std::min(oy + y, h.height_ - 1) - oy); };
+      // Leaves: emittable when the three vertices are valid and no edge jumps in depth.
+      std::uint8_t* leaf_ok = &h.leaf_ok_[static_cast<size_t>(tile) * (end - first_leaf)];
+      for (int id = first_leaf; id < end; ++id) {
+        const float za = depth_at(t.ax[id], t.ay[id]), zb = depth_at(t.bx[id], t.by[id]),
+                    zc = depth_at(t.cx[id], t.cy[id]);
+        if (za <= 0 || zb <= 0 || zc <= 0) continue;
+        const bool ok = std::abs(std::log(za / zb)) <= log_jump * M_SQRT2 &&
+                        std::abs(std::log(zb / zc)) <= log_jump && std::abs(std::log(zc / za)) <= log_jump;
+        leaf_ok[id - first_leaf] = ok;
+      }
+      float* err = &tri_error[static_cast<size_t>(tile) * first_leaf];
+      for (int id = first_leaf - 1; id >= 2; --id) {
+        Moments& mt = m[id];
+        mt = m[2 * id];
+        mt.add(m[2 * id + 1]);
+        const double px[3] = {sx(t.ax[id]), sx(t.bx[id]), sx(t.cx[id])};
+        const double py[3] = {sy(t.ay[id]), sy(t.by[id]), sy(t.cy[id])};
+        const double z[3] = {depth_at(t.ax[id], t.ay[id]), depth_at(t.bx[id], t.by[id]),
+                             depth_at(t.cx[id], t.cy[id])};
+        if (z[0] <= 0 || z[1] <= 0 || z[2] <= 0) {
+          // On the edge of the valid depth: a triangle that stays whole here is not emitted, so its valid pixels
+          // beyond those along one edge (which its neighbour across that edge covers) would be lost. Its error
+          // is that loss, boundary_px_per_sigma pixels to a sigma: at the default tolerance a few pixels of a
+          // ragged border go, and a byte budget can trade more of them for bytes.
+          err[id] = static_cast<float>(std::max(0.0, mt.n - (longest[id] + 1)) / p.boundary_px_per_sigma);
+          continue;
+        }
+        if (mt.total - mt.n > p.max_hole_fraction * mt.total) {
+          err[id] = kInf;
+          continue;
+        }
+        bool jumps = false;
+        for (int e = 0; e < 3 && !jumps; ++e) {
+          const double lo = std::min(z[e], z[(e + 1) % 3]), hi = std::max(z[e], z[(e + 1) % 3]);
+          jumps = hi > lo * max_ratio[3 * id + e];
+        }
+        if (jumps || (texture_split && texture_deviation(px, py, z) > p.texture_deviation_px)) {
+          err[id] = kInf;
+          continue;
+        }
+        // Plane w = alpha u + beta v + gamma through the vertices; SSE of the pixels from their moments.
+        const double w[3] = {1 / z[0], 1 / z[1], 1 / z[2]};
+        const double du1 = px[1] - px[0], dv1 = py[1] - py[0], dw1 = w[1] - w[0];
+        const double du2 = px[2] - px[0], dv2 = py[2] - py[0], dw2 = w[2] - w[0];
+        const double cross = du1 * dv2 - dv1 * du2;
+        if (cross == 0) {  // squeezed flat by the snap at the image's edge: its pixels belong to its neighbours
+          err[id] = 0;
+          continue;
+        }
+        const double alpha = (dw1 * dv2 - dw2 * dv1) / cross, beta = (du1 * dw2 - du2 * dw1) / cross;
+        const double gamma = w[0] - alpha * px[0] - beta * py[0];
+        if (mt.n <= 0) continue;  // only holes inside (bounded by max_hole_fraction): error 0
+        const double sse = mt.sww - 2 * (alpha * mt.suw + beta * mt.svw + gamma * mt.sw) + alpha * alpha * mt.suu +
+                           2 * alpha * beta * mt.suv + beta * beta * mt.svv + 2 * alpha * gamma * mt.su +
+                           2 * beta * gamma * mt.sv + gamma * gamma * mt.n;
+        err[id] = static_cast<float>(std::sqrt(std::max(0.0, sse) / mt.n) / sigma_w);
+      }
+    }
+  }
+
+  // Martini's propagation, finest level first over all tiles: error(m) = max(own, children's midpoints).
+  h.error_.assign(h.depth_.size(), 0.f);
+  int level_begin = first_leaf / 2;
+  for (int lb = level_begin; lb >= 2; lb /= 2) {
+    const bool children_split = 2 * lb < first_leaf;
+    for (int tile = 0; tile < tiles; ++tile) {
+      const int ox = (tile % h.tiles_x_) * S, oy = (tile / h.tiles_x_) * S;
+      const float* err = &tri_error[static_cast<size_t>(tile) * first_leaf];
+      for (int id = lb; id < 2 * lb; ++id) {
+        auto mid = [&](int i) {
+          return static_cast<size_t>(oy + (t.ay[i] + t.by[i]) / 2) * GW + (ox + (t.ax[i] + t.bx[i]) / 2);
+        };
+        float e = err[id];
+        if (children_split) e = std::max({e, h.error_[mid(2 * id)], h.error_[mid(2 * id + 1)]});
+        float& slot = h.error_[mid(id)];
+        slot = std::max(slot, e);
+      }
+    }
+  }
+  return h;
+}
+
+template <class Emit>
+void DepthMeshHierarchy::walk(double tol, Emit&& emit) const {
+  const RtinTable& t = *table_;
+  const int S = tile_, first_leaf = t.first_leaf(), end = t.end();
+  std::vector<int> stack;
+  for (int tile = 0; tile < tiles_x_ * tiles_y_; ++tile) {
+    const int ox = (tile % tiles_x_) * S, oy = (tile / tiles_x_) * S;
+    const std::uint8_t* leaf_ok = &leaf_ok_[static_cast<size_t>(tile) * (end - first_leaf)];
+    stack.assign({2, 3});
+    while (!stack.empty()) {
+      const int id = stack.back();
+      stack.pop_back();
+      if (id >= first_leaf) {
+        if (leaf_ok[id - first_leaf]) emit(ox, oy, id);
+        continue;
+      }
+      const size_t m = static_cast<size_t>(oy + (t.ay[id] + t.by[id]) / 2) * grid_w_ + (ox + (t.ax[id] + t.bx[id]) / 2);
+      if (error_[m] > tol) {
+        stack.push_back(2 * id + 1);
+        stack.push_back(2 * id);
+      } else if (depth_[static_cast<size_t>(oy + t.ay[id]) * grid_w_ + ox + t.ax[id]] > 0 &&
+                 depth_[static_cast<size_t>(oy + t.by[id]) * grid_w_ + ox + t.bx[id]] > 0 &&
+                 depth_[static_cast<size_t>(oy + t.cy[id]) * grid_w_ + ox + t.cx[id]] > 0) {
+        emit(ox, oy, id);
+      }
+    }
+  }
+}
+
+size_t DepthMeshHierarchy::count(double tol) const {
+  size_t n = 0;
+  walk(tol, [&](int, int, int) { ++n; });
+  return n;
+}
+
+Mesh DepthMeshHierarchy::extract(double tol, std::vector<Eigen::Vector2i>* pixels) const {
+  const RtinTable& t = *table_;
+  // Triangles as grid point ids, counter-clockwise seen from the camera (negative signed area with v down).
+  std::vector<std::uint32_t> tris;
+  auto snapped = [&](std::uint32_t g) {
+    return Eigen::Vector2d(std::min<int>(g % grid_w_, width_ - 1), std::min<int>(g / grid_w_, height_ - 1));
+  };
+  walk(tol, [&](int ox, int oy, int id) {
+    const std::uint32_t a = static_cast<std::uint32_t>((oy + t.ay[id]) * grid_w_ + ox + t.ax[id]);
+    const std::uint32_t b = static_cast<std::uint32_t>((oy + t.by[id]) * grid_w_ + ox + t.bx[id]);
+    const std::uint32_t c = static_cast<std::uint32_t>((oy + t.cy[id]) * grid_w_ + ox + t.cx[id]);
+    const Eigen::Vector2d pa = snapped(a), pb = snapped(b), pc = snapped(c);
+    const double cross = (pb.x() - pa.x()) * (pc.y() - pa.y()) - (pb.y() - pa.y()) * (pc.x() - pa.x());
+    if (cross < 0) tris.insert(tris.end(), {a, b, c});
+    else if (cross > 0) tris.insert(tris.end(), {a, c, b});
+    // cross == 0: a leaf squeezed flat by the snap
+  });
+  Mesh mesh;
+  if (tris.empty()) return mesh;
+
+  // Boundary edges (used by one triangle): their vertices move outwards, perpendicular to the edge, in the image.
+  std::vector<std::uint64_t> edges;
+  edges.reserve(tris.size());
+  for (size_t i = 0; i < tris.size(); i += 3)
+    for (int e = 0; e < 3; ++e) {
+      const std::uint64_t a = tris[i + e], b = tris[i + (e + 1) % 3];
+      edges.push_back(std::min(a, b) << 32 | std::max(a, b));
+    }
+  std::vector<std::uint64_t> sorted = edges;
+  std::sort(sorted.begin(), sorted.end());
+  auto is_boundary = [&](std::uint64_t key) {
+    const auto range = std::equal_range(sorted.begin(), sorted.end(), key);
+    return range.second - range.first == 1;
+  };
+  std::vector<std::int32_t> remap(depth_.size(), -1);
+  std::vector<std::uint32_t> grid_of_vertex;
+  mesh.indices.reserve(tris.size());
+  for (std::uint32_t g : tris) {
+    if (remap[g] < 0) {
+      remap[g] = static_cast<std::int32_t>(grid_of_vertex.size());
+      grid_of_vertex.push_back(g);
+    }
+    mesh.indices.push_back(static_cast<std::uint32_t>(remap[g]));
+  }
+  // Each boundary vertex moves outwards (the sum of its boundary edges' outward normals, each axis clamped to the
+  // push), along the inverse-depth plane of its boundary triangles so that it stays on their surface.
+  const size_t nv = grid_of_vertex.size();
+  std::vector<Eigen::Vector2d> push(nv, Eigen::Vector2d::Zero()), gradient(nv, Eigen::Vector2d::Zero());
+  std::vector<int> gradient_count(nv, 0);
+  auto pixel = [&](std::uint32_t g) { return snapped(g); };
+  const double r = params_.boundary_push_px;
+  if (r > 0) {
+    for (size_t i = 0; i < tris.size(); i += 3) {
+      for (int e = 0; e < 3; ++e) {
+        if (!is_boundary(edges[i + e])) continue;
+        const std::uint32_t a = tris[i + e], b = tris[i + (e + 1) % 3], c = tris[i + (e + 2) % 3];
+        const Eigen::Vector2d pa = pixel(a), pb = pixel(b), pc = pixel(c);
+        Eigen::Vector2d n(pb.y() - pa.y(), pa.x() - pb.x());
+        n.normalize();
+        if (n.dot(pc - pa) > 0) n = -n;
+        // The triangle's plane in (u, v, w): w = w_a + g . (p - p_a).
+        const double wa = 1.0 / depth_[a], wb = 1.0 / depth_[b], wc = 1.0 / depth_[c];
+        const Eigen::Vector2d d1 = pb - pa, d2 = pc - pa;
+        const double det = d1.x() * d2.y() - d1.y() * d2.x();
+        const Eigen::Vector2d g(((wb - wa) * d2.y() - (wc - wa) * d1.y()) / det,
+                                ((wc - wa) * d1.x() - (wb - wa) * d2.x()) / det);
+        for (std::uint32_t v : {a, b}) {
+          push[remap[v]] += n;
+          gradient[remap[v]] += g;
+          ++gradient_count[remap[v]];
+        }
+      }
+    }
+    for (size_t i = 0; i < nv; ++i) push[i] = (r * push[i]).cwiseMax(-r).cwiseMin(r);
+    // A push must not fold a small triangle over: such vertices stay where they are.
+    for (int pass = 0; pass < 2; ++pass)
+      for (size_t i = 0; i < tris.size(); i += 3) {
+        const std::uint32_t ia = mesh.indices[i], ib = mesh.indices[i + 1], ic = mesh.indices[i + 2];
+        const Eigen::Vector2d a = pixel(tris[i]) + push[ia], b = pixel(tris[i + 1]) + push[ib],
+                              c = pixel(tris[i + 2]) + push[ic];
+        const double area = (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
+        if (area > -0.1) push[ia] = push[ib] = push[ic] = Eigen::Vector2d::Zero();
+      }
+  }
+  mesh.positions.resize(nv);
+  if (pixels) pixels->resize(nv);
+  for (size_t i = 0; i < nv; ++i) {
+    const std::uint32_t g = grid_of_vertex[i];
+    const Eigen::Vector2d p = pixel(g);
+    double z = depth_[g];
+    if (gradient_count[i] > 0 && push[i].squaredNorm() > 0) {
+      const double w = 1.0 / z + (gradient[i] / gradient_count[i]).dot(push[i]);
+      if (w > 0 && std::abs(std::log(w * z)) < std::log1p(params_.jump_relative)) z = 1.0 / w;
+    }
+    mesh.positions[i] = k_.backproject(p.x() + push[i].x(), p.y() + push[i].y(), z).cast<float>();
+    if (pixels) (*pixels)[i] = {static_cast<int>(p.x()), static_cast<int>(p.y())};
+  }
+  return mesh;
+}
+
+}  // namespace rgbdcast

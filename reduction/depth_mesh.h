@@ -1,0 +1,94 @@
+#pragma once
+// The realtime preset's two stages on the organized depth image (beyond the paper, which works on an unorganized
+// cloud): an O(pixels) depth filter, and an adaptive, crack-free triangulation of the depth image, a right-
+// triangulated irregular network (RTIN) over tiles of 2^k pixels.
+//
+// Why inverse depth: a plane in the camera frame projects to a depth image whose inverse depth w = 1/z is an affine
+// function of the pixel (u, v). So a triangle with its three vertices at pixel centres is a planar 3D triangle exactly
+// when w is interpolated linearly across it, and a pixel's distance from the triangle along its ray is
+// |z - 1/w_plane|. Kinect-class depth noise sigma_z = 1.425e-3 z^2 m is, to first order, a constant sigma_w =
+// 1.425e-3 1/m in inverse depth (sigma_w = sigma_z / z^2). So "metric distance above sensor noise" is one constant
+// tolerance in w, and the error of a triangle over all its pixels reduces to sums (moments) that add up from the
+// children: the whole hierarchy's errors cost O(pixels).
+//
+// Contract of the mesh: vertices at pixel centres (pushed half a pixel outwards on the mesh's boundary, so that every
+// pixel of a covered region is covered at the capture pose, its border pixels included); no T-junctions (the RTIN's
+// conforming splits, shared across tiles); every interior edge has exactly two triangles; no triangle spans a depth
+// discontinuity; deterministic (no randomness, no thread-order dependence).
+#include <cstdint>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "scene/intrinsics.h"
+#include "scene/mesh.h"
+#include "scene/result.h"
+
+namespace rgbdcast {
+
+struct RtinTable;  // the implicit triangle tree of one tile size (depth_mesh.cpp)
+
+struct DepthFilterParams {
+  double jump_relative = 0.08;  // adjacent pixels whose depths differ by more than this fraction are discontinuous
+  int min_region_px = 64;       // connected regions (across continuous neighbours) smaller than this are speckles
+  int min_support = 3;          // a pixel with fewer continuous 8-neighbours is a flying pixel (or a speckle)
+  int gap_fill_px = 3;          // gaps in one surface within this radius are filled with the surface's depth (0: off)
+};
+
+struct DepthFilterResult {
+  cv::Mat depth_m;  // CV_32FC1, the kept depth and the filled gaps (0 where removed or invalid)
+  size_t valid = 0, flying = 0, speckles = 0, kept = 0, filled = 0;
+};
+
+// filter: drops flying pixels (too few continuous 8-neighbours) and speckles (small continuous regions, through
+// OpenCV's filterSpeckles on log depth, where a relative jump is an absolute difference), then fills small gaps
+// inside one surface (never between two), so that the mesh need not trace every missing pixel. depth_m: CV_32FC1
+// metres, 0 = no depth. O(pixels).
+Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilterParams& params);
+
+struct DepthMeshParams {
+  double tolerance_factor = 2.0;      // split while a triangle's RMS distance from its pixels exceeds this many sigma
+  double noise_m_per_m2 = 1.425e-3;   // sensor depth noise: sigma_z = noise * z^2 (Kinect-class)
+  double jump_relative = 0.08;        // as DepthFilterParams: per pixel of edge length
+  double boundary_px_per_sigma = 1.0; // a border triangle dropped whole loses its inner valid pixels: this many cost
+                                      // as much as one sigma of fit error
+  double max_hole_fraction = 0.5;     // a triangle may bridge invalid pixels up to this fraction of its pixels
+  double texture_deviation_px = 0.5;  // split while affine texture interpolation deviates more (0: no such split)
+  int tile_px = 128;                  // largest triangle legs; a power of two, 2..128
+  double boundary_push_px = 0.5;      // boundary vertices move this far outwards (0: none)
+
+  Status validate() const;
+};
+
+// The RTIN's error hierarchy for one depth image: built once (O(pixels)), then extracted at any tolerance factor
+// in O(output). Holds no reference to the input.
+class DepthMeshHierarchy {
+ public:
+  // depth_m: CV_32FC1 metres (0 = none), as filter_depth leaves it; pinhole: the depth image's camera.
+  static Result<DepthMeshHierarchy> build(const cv::Mat& depth_m, const Intrinsics& pinhole,
+                                          const DepthMeshParams& params);
+
+  // The triangles at `tolerance_factor` (sigma units), as a vertex-coloured-less mesh in the camera frame (metres):
+  // positions and indices only, counter-clockwise seen from the camera. `pixels` (optional) gets each vertex's
+  // grid pixel (u, v) before the boundary push. Empty when nothing is representable.
+  Mesh extract(double tolerance_factor, std::vector<Eigen::Vector2i>* pixels = nullptr) const;
+  // Triangle count at a tolerance, without building the mesh (for budget searches).
+  size_t count(double tolerance_factor) const;
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+ private:
+  template <class Emit>
+  void walk(double tolerance_factor, Emit&& emit) const;
+
+  int width_ = 0, height_ = 0, tile_ = 0, tiles_x_ = 0, tiles_y_ = 0, grid_w_ = 0;
+  Intrinsics k_;
+  DepthMeshParams params_;
+  std::vector<float> depth_;        // grid (grid_w_ x grid_h), metres, 0 = none
+  std::vector<float> error_;        // grid: Martini-style max error (sigma units) at each hypotenuse midpoint
+  std::vector<std::uint8_t> leaf_ok_;  // per tile, per leaf triangle: emittable
+  std::shared_ptr<const RtinTable> table_;
+};
+
+}  // namespace rgbdcast

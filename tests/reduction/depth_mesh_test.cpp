@@ -1,0 +1,212 @@
+// The realtime preset's depth filter and RTIN triangulation (reduction/depth_mesh.h) on synthetic depth with known
+// answers, and on the shared real frames.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <map>
+#include <set>
+
+#include "input/frame_source.h"
+#include "reduction/depth_mesh.h"
+#include "reduction/pipeline.h"
+#include "tests/common/test_data.h"
+
+namespace rgbdcast {
+namespace {
+
+Intrinsics kinect() { return Intrinsics{}; }
+
+Result<RgbdFrame> fr1_frame(size_t i) {
+  SourceOptions o;
+  o.intrinsics = "fr1";
+  auto src = open_frame_source(test::data_path("tum/rgbd_dataset_freiburg1_xyz"), o);
+  if (!src) return src.error();
+  return (*src)->frame(i);
+}
+
+// Depth of the plane n . X = d seen by the camera: z = d / (n . K^-1 (u, v, 1)).
+cv::Mat plane_depth(const Intrinsics& k, const Eigen::Vector3d& n, double d) {
+  cv::Mat z(k.height, k.width, CV_32FC1);
+  for (int v = 0; v < k.height; ++v)
+    for (int u = 0; u < k.width; ++u) {
+      const Eigen::Vector3d ray((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
+      z.at<float>(v, u) = static_cast<float>(d / n.dot(ray));
+    }
+  return z;
+}
+
+struct Built {
+  Mesh mesh;
+  std::vector<Eigen::Vector2i> pixels;
+  DepthFilterResult filtered;
+};
+
+Built build(const cv::Mat& depth, const Intrinsics& k, double tol = 2.0, DepthMeshParams p = {}) {
+  auto f = filter_depth(depth, DepthFilterParams{});
+  EXPECT_TRUE(f) << f.error().message;
+  auto h = DepthMeshHierarchy::build(f->depth_m, k, p);
+  EXPECT_TRUE(h) << h.error().message;
+  Built b;
+  b.mesh = h->extract(tol, &b.pixels);
+  b.filtered = std::move(*f);
+  return b;
+}
+
+// Every edge of the mesh (grid pixels) with the number of triangles using it.
+std::map<std::pair<int, int>, int> edge_uses(const Mesh& m) {
+  std::map<std::pair<int, int>, int> uses;
+  for (size_t t = 0; t < m.indices.size(); t += 3)
+    for (int e = 0; e < 3; ++e) {
+      const int a = static_cast<int>(m.indices[t + e]), b = static_cast<int>(m.indices[t + (e + 1) % 3]);
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  return uses;
+}
+
+// Grid points lying strictly inside an edge that are vertices of the mesh: T-junctions.
+size_t t_junctions(const Mesh& m, const std::vector<Eigen::Vector2i>& px) {
+  std::set<std::pair<int, int>> vertices;
+  for (const auto& p : px) vertices.insert({p.x(), p.y()});
+  size_t found = 0;
+  for (const auto& [edge, uses] : edge_uses(m)) {
+    const Eigen::Vector2i a = px[edge.first], b = px[edge.second];
+    const Eigen::Vector2i d = b - a;
+    const int steps = std::max(std::abs(d.x()), std::abs(d.y()));
+    const Eigen::Vector2i step = d / steps;  // RTIN edges are axis-aligned or diagonal
+    for (int s = 1; s < steps; ++s) {
+      const Eigen::Vector2i q = a + s * step;
+      if (vertices.count({q.x(), q.y()})) ++found;
+    }
+  }
+  return found;
+}
+
+TEST(DepthMesh, PlaneGivesFewTrianglesAndZeroError) {
+  const Intrinsics k = kinect();
+  const Eigen::Vector3d n = Eigen::Vector3d(0.2, -0.5, 1.0).normalized();
+  const cv::Mat depth = plane_depth(k, n, 1.5);
+  DepthMeshParams geometry_only;
+  geometry_only.texture_deviation_px = 0;  // a tilted plane's large triangles would split for the frame texture
+  Built b = build(depth, k, 2.0, geometry_only);
+  ASSERT_FALSE(b.mesh.indices.empty());
+  // 80 tiles of 64 px would be 160 triangles; the last tile row runs 32 px past the image and splits once more.
+  EXPECT_LE(b.mesh.triangle_count(), 400u);
+  EXPECT_EQ(b.filtered.kept, static_cast<size_t>(k.width * k.height));
+  double worst_m = 0;
+  for (const auto& p : b.mesh.positions) worst_m = std::max(worst_m, std::abs(n.dot(p.cast<double>()) - 1.5));
+  EXPECT_LT(worst_m, 1e-5);
+  EXPECT_EQ(t_junctions(b.mesh, b.pixels), 0u);
+}
+
+TEST(DepthMesh, StepEdgeLeavesNoTriangleAcrossTheJump) {
+  const Intrinsics k = kinect();
+  cv::Mat depth(k.height, k.width, CV_32FC1, cv::Scalar(2.0f));
+  depth(cv::Rect(0, 0, 300, k.height)).setTo(1.0f);
+  depth(cv::Rect(200, 100, 200, 150)).setTo(1.2f);  // a box in front of the wall, straddling the step
+  Built b = build(depth, k);
+  ASSERT_GT(b.mesh.triangle_count(), 0u);
+  size_t across = 0;
+  for (size_t t = 0; t < b.mesh.indices.size(); t += 3) {
+    float lo = 1e9f, hi = 0;
+    for (int i = 0; i < 3; ++i) {
+      const float z = b.mesh.positions[b.mesh.indices[t + i]].z();
+      lo = std::min(lo, z), hi = std::max(hi, z);
+    }
+    if (hi > lo * 1.01f) ++across;
+  }
+  EXPECT_EQ(across, 0u);
+  // Large triangles on the flat parts, small ones only along the edges (x = 300, and the box's outline).
+  auto near_edge = [](const Eigen::Vector2i& p) {
+    const bool box_x = p.x() >= 197 && p.x() <= 402, box_y = p.y() >= 97 && p.y() <= 252;
+    return std::abs(p.x() - 300) <= 3 || (box_y && (std::abs(p.x() - 200) <= 3 || std::abs(p.x() - 399) <= 3)) ||
+           (box_x && (std::abs(p.y() - 100) <= 3 || std::abs(p.y() - 249) <= 3));
+  };
+  size_t large = 0, small_far = 0;
+  for (size_t t = 0; t < b.mesh.indices.size(); t += 3) {
+    const Eigen::Vector2i a = b.pixels[b.mesh.indices[t]], bb = b.pixels[b.mesh.indices[t + 1]],
+                          c = b.pixels[b.mesh.indices[t + 2]];
+    const int area2 = std::abs((bb - a).x() * (c - a).y() - (bb - a).y() * (c - a).x());
+    if (area2 >= 2 * 512) ++large;
+    if (area2 < 2 * 8 && !near_edge(a) && !near_edge(bb) && !near_edge(c)) ++small_far;
+  }
+  EXPECT_GT(large, 100u);
+  EXPECT_LT(small_far, b.mesh.triangle_count() / 10);
+  EXPECT_EQ(t_junctions(b.mesh, b.pixels), 0u);
+}
+
+TEST(DepthMesh, CrackFreeOnARealFrame) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  auto frame = fr1_frame(0);
+  ASSERT_TRUE(frame) << frame.error().message;
+  Built b = build(frame->depth_m, frame->intrinsics.pinhole());
+  ASSERT_GT(b.mesh.triangle_count(), 1000u);
+  EXPECT_EQ(t_junctions(b.mesh, b.pixels), 0u);
+  // Every edge has one triangle (the boundary) or two (interior); a boundary edge borders a dropped pixel or the
+  // image's edge.
+  size_t boundary = 0, interior = 0, over = 0;
+  for (const auto& [edge, uses] : edge_uses(b.mesh)) {
+    if (uses == 1) ++boundary;
+    else if (uses == 2) ++interior;
+    else ++over;
+  }
+  EXPECT_EQ(over, 0u);
+  EXPECT_GT(interior, boundary);
+  // Every triangle faces the camera (counter-clockwise seen from it).
+  size_t back = 0;
+  for (size_t t = 0; t < b.mesh.indices.size(); t += 3) {
+    const Eigen::Vector3f a = b.mesh.positions[b.mesh.indices[t]], bb = b.mesh.positions[b.mesh.indices[t + 1]],
+                          c = b.mesh.positions[b.mesh.indices[t + 2]];
+    if ((bb - a).cross(c - a).dot(a) >= 0) ++back;
+  }
+  EXPECT_EQ(back, 0u);
+}
+
+TEST(DepthMesh, DeterministicByteForByte) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  auto frame = fr1_frame(1);
+  ASSERT_TRUE(frame) << frame.error().message;
+  ReductionParams p = reduction_preset(Preset::kRealtime);
+  auto a = reduce_frame(*frame, p);
+  auto b = reduce_frame(*frame, p);
+  ASSERT_TRUE(a && b);
+  ASSERT_EQ(a->mesh.positions.size(), b->mesh.positions.size());
+  ASSERT_EQ(a->mesh.indices, b->mesh.indices);
+  EXPECT_EQ(std::memcmp(a->mesh.positions.data(), b->mesh.positions.data(),
+                        a->mesh.positions.size() * sizeof(Eigen::Vector3f)),
+            0);
+}
+
+TEST(DepthMesh, FilterDropsFlyingPixelsAndSpeckles) {
+  const Intrinsics k = kinect();
+  cv::Mat depth(k.height, k.width, CV_32FC1, cv::Scalar(2.0f));
+  depth(cv::Rect(0, 0, 320, k.height)).setTo(1.0f);
+  // Flying pixels on the edge: halfway between the two surfaces, one pixel wide.
+  for (int v = 0; v < k.height; v += 2) depth.at<float>(v, 320) = 1.5f;
+  // A speckle: a 3x3 island far in front of the wall.
+  depth(cv::Rect(500, 200, 3, 3)).setTo(0.6f);
+  auto f = filter_depth(depth, DepthFilterParams{});
+  ASSERT_TRUE(f) << f.error().message;
+  EXPECT_EQ(f->valid, static_cast<size_t>(k.width * k.height));
+  EXPECT_GE(f->flying + f->speckles, static_cast<size_t>(k.height / 2 + 9));
+  for (int v = 0; v < k.height; v += 2) EXPECT_EQ(f->depth_m.at<float>(v, 320), 0.f) << "row " << v;
+  EXPECT_EQ(f->depth_m.at<float>(201, 501), 0.f);
+  EXPECT_EQ(f->depth_m.at<float>(100, 100), 1.0f);
+  EXPECT_EQ(f->depth_m.at<float>(100, 600), 2.0f);
+}
+
+TEST(DepthMesh, RejectsAbsurdParameters) {
+  DepthMeshParams p;
+  p.tile_px = 48;
+  EXPECT_FALSE(p.validate());
+  p = {};
+  p.noise_m_per_m2 = -1;
+  EXPECT_FALSE(p.validate());
+  p = {};
+  p.tolerance_factor = std::nan("");
+  EXPECT_FALSE(p.validate());
+  cv::Mat empty;
+  EXPECT_FALSE(filter_depth(empty, DepthFilterParams{}));
+}
+
+}  // namespace
+}  // namespace rgbdcast
