@@ -50,10 +50,11 @@ double max_of(const std::vector<double>& v) { return v.empty() ? 0 : *std::max_e
   std::exit(1);
 }
 
-FrameReductionOptions realtime_options(double budget_kb) {
+FrameReductionOptions realtime_options(double budget_kb, double geometry_share = 0.45) {
   FrameReductionOptions o;
   o.params = reduction_preset(Preset::kRealtime);
   o.budget_kb = budget_kb;
+  o.budget_geometry_share = geometry_share;
   return o;
 }
 FrameReductionOptions paper_options() {
@@ -252,6 +253,9 @@ void rd_case(const TestCase& tc, Renderer& renderer) {
   for (double kb : {10.0, 20.0, 40.0, 80.0, 160.0})
     row("rgbdcast realtime, budget " + std::to_string(int(kb)) + " kB", encode(tc.sent, realtime_options(kb)),
         glb_decode, mesh);
+  for (double share : {0.3, 0.6, 0.75})
+    row("rgbdcast realtime, budget 40 kB, geometry share " + std::to_string(share).substr(0, 4),
+        encode(tc.sent, realtime_options(40, share)), glb_decode, mesh);
   row("rgbdcast realtime, no budget (tolerance 2 sigma, q85)", encode(tc.sent, realtime_options(0)), glb_decode, mesh);
   row("rgbdcast paper preset", encode(tc.sent, paper_options()), glb_decode, mesh);
   for (int step : {1, 2, 4})

@@ -18,10 +18,11 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 
 // Bytes of a GLB kept for the caller's extras (stage lists, intrinsics, capture metadata) when meeting a budget.
 constexpr double kExtrasReserveBytes = 1200;
-// The budget's rule: the mesh keeps its default tolerance while its bytes are at most this share of the budget;
-// beyond it the tolerance rises until they are. The texture gets the rest (bench/realtime_bench measures the split).
-constexpr double kGeometryShare = 0.45;
 constexpr int kMinQuality = 20, kMaxQuality = 92;
+// Limits of what a budget may give up: the mesh's tolerance (sigma units) and the texture's resolution. A budget
+// below what they allow is not met; the report says so ("over-budget").
+constexpr double kMaxToleranceFactor = 32;
+constexpr double kMinTextureScale = 0.5;
 
 TextureMode resolve_texture(const FrameReductionOptions& o) {
   if (o.texture != TextureMode::kAuto) return o.texture;
@@ -65,6 +66,8 @@ Status FrameReductionOptions::validate() const {
     return make_error(ErrorCode::kInvalidArgument, "budget must be 0 (none) or up to 100000 kB");
   if (budget_kb > 0 && budget_kb < 4)
     return make_error(ErrorCode::kInvalidArgument, "budget must be at least 4 kB (a GLB's headers and a texture)");
+  if (!(std::isfinite(budget_geometry_share) && budget_geometry_share > 0 && budget_geometry_share < 1))
+    return make_error(ErrorCode::kInvalidArgument, "the budget's geometry share must be between 0 and 1");
   if (budget_kb > 0 && params.preset != Preset::kRealtime)
     return make_error(ErrorCode::kInvalidArgument, "a byte budget needs the realtime preset (--preset realtime)");
   return ok_status();
@@ -144,11 +147,11 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     } else {
       // Geometry: at most its share of the budget (triangle count scaled to the bytes, then the tolerance found by
       // bisection on the count alone, which costs no encoding).
-      const double geometry_cap = kGeometryShare * target;
+      const double geometry_cap = options.budget_geometry_share * target;
       if (b.geometry_bytes > geometry_cap) {
         const double want = prepared->hierarchy.count(tol0) * geometry_cap / b.geometry_bytes;
         double lo = tol0, hi = tol0;
-        while (prepared->hierarchy.count(hi) > want && hi < 1e5) lo = hi, hi *= 2;
+        while (prepared->hierarchy.count(hi) > want && hi < kMaxToleranceFactor) lo = hi, hi *= 2;
         for (int i = 0; i < 20 && hi / lo > 1.01; ++i) {
           const double mid = std::sqrt(lo * hi);
           (prepared->hierarchy.count(mid) > want ? lo : hi) = mid;
@@ -171,7 +174,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
       for (;;) {
         if (auto s = encode_texture(textured->mesh, full_texture, kMinQuality, scale); !s) return s.error();
         ++b.encodes;
-        if (textured->mesh.texture_encoded.size() <= texture_target || scale < 0.2) break;
+        if (textured->mesh.texture_encoded.size() <= texture_target || scale * 0.7 < kMinTextureScale) break;
         scale *= 0.7;
       }
       while (q_hi - q_lo > 2) {
@@ -184,6 +187,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
       b.jpeg_quality = q_lo;
       b.texture_scale = scale;
       if (auto s = measure(textured->mesh); !s) return s.error();
+      if (b.glb_bytes > 1.1 * target) b.rule = "over-budget";
     }
     out.stages.push_back({"budget", "bytes", b.glb_bytes, ms_since(t0)});
   }

@@ -29,6 +29,9 @@ struct FrameReductionOptions {
   // Realtime preset: choose the mesh tolerance and the texture's quality and scale so that the GLB lands within
   // +-10 % of budget_kb * 1000 bytes, or under it when the scene needs less. 0: no budget.
   double budget_kb = 0;
+  // The budget's split: the mesh keeps its tolerance while its bytes are at most this share of the budget; beyond it
+  // the tolerance rises until they are. The texture gets the rest (bench/realtime_bench measures the split).
+  double budget_geometry_share = 0.45;
 
   Status validate() const;
 };
@@ -41,7 +44,10 @@ struct BudgetChoice {
   double texture_scale = 1.0;    // texture resolution relative to the colour frame
   size_t geometry_bytes = 0, texture_bytes = 0, glb_bytes = 0;  // of the node alone (no extras)
   int encodes = 0;               // GLB encodes and JPEG encodes tried
-  std::string rule;              // which case of the rule applied ("fits", "geometry-capped", ...)
+  // Which case applied: "fits" (the scene needs less), "texture-fitted" (the mesh at its tolerance, the texture
+  // fitted), "geometry-capped" (the tolerance raised too), "over-budget" (the limits of tolerance and texture
+  // scale reached: the GLB is larger than the budget).
+  std::string rule;
 };
 
 struct TexturedFrame {

@@ -205,19 +205,17 @@ struct Moments {
 };
 
 // Affine texture interpolation against the projective mapping: the largest deviation (pixels) at the edge midpoints
-// and the centroid, from the vertices' pixels p_i and depths z_i (the true image point of barycentre b is
-// sum b_i z_i p_i / sum b_i z_i).
-double texture_deviation(const double px[3], const double py[3], const double z[3]) {
-  double worst = 0;
+// and the centroid, from the vertices' pixels p_i, depths z_i and edge lengths (the true image point of barycentre b
+// is sum b_i z_i p_i / sum b_i z_i). Compares against `limit` without square roots.
+bool texture_deviates(const double px[3], const double py[3], const double z[3], const float len[3], double limit) {
   for (int i = 0; i < 3; ++i) {
     const int j = (i + 1) % 3;
-    const double len = std::hypot(px[i] - px[j], py[i] - py[j]);
-    worst = std::max(worst, len * std::abs(z[i] - z[j]) / (2 * (z[i] + z[j])));
+    if (len[i] * std::abs(z[i] - z[j]) > limit * 2 * (z[i] + z[j])) return true;
   }
   const double zs = z[0] + z[1] + z[2];
   const double ux = (z[0] * px[0] + z[1] * px[1] + z[2] * px[2]) / zs - (px[0] + px[1] + px[2]) / 3;
   const double uy = (z[0] * py[0] + z[1] * py[1] + z[2] * py[2]) / zs - (py[0] + py[1] + py[2]) / 3;
-  return std::max(worst, std::hypot(ux, uy));
+  return ux * ux + uy * uy > limit * limit;
 }
 
 }  // namespace
@@ -255,13 +253,14 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
     }
   }
   // Per triangle of the tree: the largest depth ratio each edge may span (jump_relative per pixel of its length).
-  std::vector<float> max_ratio(3 * static_cast<size_t>(t.first_leaf()));
+  std::vector<float> max_ratio(3 * static_cast<size_t>(t.first_leaf())), edge_len(3 * static_cast<size_t>(t.first_leaf()));
   std::vector<float> longest(t.first_leaf());
   for (int id = 2; id < t.first_leaf(); ++id) {
     const int px[3] = {t.ax[id], t.bx[id], t.cx[id]}, py[3] = {t.ay[id], t.by[id], t.cy[id]};
     for (int e = 0; e < 3; ++e) {
       const double len = std::hypot(px[e] - px[(e + 1) % 3], py[e] - py[(e + 1) % 3]);
       max_ratio[3 * id + e] = static_cast<float>(std::pow(1 + p.jump_relative, len));
+      edge_len[3 * id + e] = static_cast<float>(len);
       longest[id] = std::max<float>(longest[id], static_cast<float>(len));
     }
   }
@@ -271,7 +270,7 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
   std::vector<float> tri_error(static_cast<size_t>(tiles) * first_leaf, 0.f);
   h.leaf_ok_.assign(static_cast<size_t>(tiles) * (end - first_leaf), 0);
   const double sigma_w = p.noise_m_per_m2;
-  const double log_jump = std::log1p(p.jump_relative);  // leaves
+  const double leg_ratio = 1 + p.jump_relative, diagonal_ratio = std::pow(leg_ratio, M_SQRT2);  // leaves
   const bool texture_split = p.texture_deviation_px > 0;
   const std::vector<float>& D = h.depth_;
   const int GW = h.grid_w_;
@@ -306,8 +305,8 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
         const float za = depth_at(t.ax[id], t.ay[id]), zb = depth_at(t.bx[id], t.by[id]),
                     zc = depth_at(t.cx[id], t.cy[id]);
         if (za <= 0 || zb <= 0 || zc <= 0) continue;
-        const bool ok = std::abs(std::log(za / zb)) <= log_jump * M_SQRT2 &&
-                        std::abs(std::log(zb / zc)) <= log_jump && std::abs(std::log(zc / za)) <= log_jump;
+        auto within = [](float a, float b, double ratio) { return std::max(a, b) <= std::min(a, b) * ratio; };
+        const bool ok = within(za, zb, diagonal_ratio) && within(zb, zc, leg_ratio) && within(zc, za, leg_ratio);
         leaf_ok[id - first_leaf] = ok;
       }
       float* err = &tri_error[static_cast<size_t>(tile) * first_leaf];
@@ -336,7 +335,7 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
           const double lo = std::min(z[e], z[(e + 1) % 3]), hi = std::max(z[e], z[(e + 1) % 3]);
           jumps = hi > lo * max_ratio[3 * id + e];
         }
-        if (jumps || (texture_split && texture_deviation(px, py, z) > p.texture_deviation_px)) {
+        if (jumps || (texture_split && texture_deviates(px, py, z, &edge_len[3 * id], p.texture_deviation_px))) {
           err[id] = kInf;
           continue;
         }

@@ -1,0 +1,138 @@
+// pipeline/frame_scene.h on the shared real captures: the realtime preset's byte budget and its coverage of the
+// valid pixels at the capture pose (the decoded GLB rendered, as a receiver sees it).
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include "evaluation/image_metrics.h"
+#include "gltf/gltf_io.h"
+#include "input/frame_source.h"
+#include "pipeline/frame_scene.h"
+#include "renderer/renderer.h"
+#include "tests/common/test_data.h"
+
+namespace rgbdcast {
+namespace {
+
+struct SharedFrames {
+  std::string folder, intrinsics;
+  std::vector<size_t> frames;
+};
+
+// Every shared capture; of the 120-frame excerpt, every 20th frame.
+const std::vector<SharedFrames> kShared = {
+    {"tum/rgbd_dataset_freiburg1_xyz", "fr1", {0, 1, 2}},
+    {"tum/rgbd_dataset_freiburg1_xyz_200_319", "fr1", {0, 20, 40, 60, 80, 100}},
+    {"tum/rgbd_dataset_freiburg3_long_office_household", "fr3", {0, 1}},
+    {"tum/freiburg2_desk_pair", "fr2", {0, 1}},
+    {"augmented_icl_livingroom", "", {0, 1, 2, 3, 4}},
+    {"icl_nuim_livingroom", "", {0, 1, 2, 3, 4}},
+    {"pcl_kinect_organized/pcd", "kinect", {0, 1, 2}},
+};
+
+FrameReductionOptions realtime(double budget_kb) {
+  FrameReductionOptions o;
+  o.params = reduction_preset(Preset::kRealtime);
+  o.budget_kb = budget_kb;
+  return o;
+}
+
+template <class F>
+void for_each_shared_frame(F&& f) {
+  for (const auto& set : kShared) {
+    REQUIRE_DATA(set.folder);
+    SourceOptions o;
+    o.intrinsics = set.intrinsics;
+    auto src = open_frame_source(test::data_path(set.folder), o);
+    ASSERT_TRUE(src) << set.folder << ": " << src.error().message;
+    for (size_t i : set.frames) {
+      auto frame = (*src)->frame(i);
+      ASSERT_TRUE(frame) << set.folder << " " << i << ": " << frame.error().message;
+      f(*frame, set.folder + " frame " + std::to_string(i));
+    }
+  }
+}
+
+TEST(FrameScene, BudgetMetWithinTenPercentOnEverySharedFrame) {
+  for (double kb : {20.0, 40.0}) {
+    for_each_shared_frame([&](const RgbdFrame& frame, const std::string& what) {
+      auto t = reduce_and_texture(frame, realtime(kb));
+      ASSERT_TRUE(t) << what << ": " << t.error().message;
+      const BudgetChoice b = t->budget;
+      auto glb = encode_glb(frame_scene(std::move(*t), "{}"));
+      ASSERT_TRUE(glb) << what;
+      const double bytes = static_cast<double>(glb->size()), target = kb * 1000;
+      if (b.rule == "fits") EXPECT_LE(bytes, 1.1 * target) << what;
+      else EXPECT_NEAR(bytes, target, 0.1 * target) << what << " (" << b.rule << ", tolerance " << b.tolerance_factor
+                                                      << ", q" << b.jpeg_quality << ")";
+    });
+  }
+}
+
+TEST(FrameScene, CoversTheValidPixelsAtTheCapturePose) {
+  auto renderer = create_renderer(BackendChoice::kAuto);
+  ASSERT_TRUE(renderer) << renderer.error().message;
+  Renderer& r = *renderer->renderer;
+  for_each_shared_frame([&](const RgbdFrame& frame, const std::string& what) {
+    auto t = reduce_and_texture(frame, realtime(40));
+    ASSERT_TRUE(t) << what << ": " << t.error().message;
+    auto glb = encode_glb(frame_scene(std::move(*t), "{}"));
+    ASSERT_TRUE(glb) << what;
+    auto scene = decode_glb(glb->data(), glb->size());
+    ASSERT_TRUE(scene) << what << ": " << scene.error().message;
+    auto id = r.upload(*scene);
+    ASSERT_TRUE(id) << what;
+    CaptureCamera cam;
+    cam.intrinsics = frame.intrinsics.pinhole();
+    auto img = r.render(*id, ViewCamera::from_capture(cam), RenderOptions{});
+    r.release(*id);
+    ASSERT_TRUE(img) << what;
+    auto f = compare_views(frame.color_rgb, img->color, frame.depth_m > 0);
+    ASSERT_TRUE(f) << what;
+    EXPECT_GE(f->coverage, 0.99) << what;
+    EXPECT_GE(f->psnr_db, 25.0) << what;
+  });
+}
+
+TEST(FrameScene, RecordsItsChoices) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  SourceOptions o;
+  o.intrinsics = "fr1";
+  auto src = open_frame_source(test::data_path("tum/rgbd_dataset_freiburg1_xyz"), o);
+  ASSERT_TRUE(src);
+  auto frame = (*src)->frame(0);
+  ASSERT_TRUE(frame);
+  auto t = reduce_and_texture(*frame, realtime(40));
+  ASSERT_TRUE(t) << t.error().message;
+  const auto j = nlohmann::json::parse(choices_json(*t));
+  EXPECT_EQ(j["preset"], "realtime");
+  EXPECT_EQ(j["texture"], "frame");
+  EXPECT_EQ(j["budget"]["budget_bytes"], 40000.0);
+  EXPECT_GT(j["budget"]["jpeg_quality"].get<int>(), 0);
+  // A budget needs the realtime preset.
+  FrameReductionOptions paper;
+  paper.budget_kb = 40;
+  EXPECT_EQ(reduce_and_texture(*frame, paper).error().code, ErrorCode::kInvalidArgument);
+}
+
+TEST(FrameScene, ImplausibleDepthNamesTheDepthScale) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  SourceOptions o;
+  o.intrinsics = "fr1";
+  o.depth_scale = 5;  // 5 raw units a metre instead of 5000: a median of about a kilometre
+  auto src = open_frame_source(test::data_path("tum/rgbd_dataset_freiburg1_xyz"), o);
+  ASSERT_TRUE(src);
+  auto frame = (*src)->frame(0);
+  ASSERT_TRUE(frame);
+  for (Preset p : {Preset::kRealtime, Preset::kPaper}) {
+    FrameReductionOptions opt;
+    opt.params = reduction_preset(p);
+    auto t = reduce_and_texture(*frame, opt);
+    ASSERT_FALSE(t);
+    EXPECT_EQ(t.error().code, ErrorCode::kInvalidInput);
+    EXPECT_NE(t.error().message.find("--depth-scale"), std::string::npos) << t.error().message;
+  }
+}
+
+}  // namespace
+}  // namespace rgbdcast
