@@ -70,12 +70,24 @@ TEST_F(RosbagCli, Frame0ReducesToTheFolderTriangleCount) {
 TEST_F(RosbagCli, SequenceOfTheBagMatchesTheFolder) {
   REQUIRE_DATA(kFr1);
   REQUIRE_BAG_WRITER();
-  const nlohmann::json folder = reduce(test::data_path(kFr1), "--sequence --no-progress", "seq_folder");
-  const nlohmann::json b = reduce(bag("f32", {test::BagDepth::kMetres32F, "rgb8"}), "--sequence --no-progress",
-                                  "seq_bag");
+  // --keyframe-gap 1 makes every frame a keyframe: three reductions placed by tracking, not one.
+  const std::string args = "--sequence --no-progress --keyframe-gap 1";
+  const nlohmann::json folder = reduce(test::data_path(kFr1), args, "seq_folder");
+  const nlohmann::json b = reduce(bag("f32", {test::BagDepth::kMetres32F, "rgb8"}), args, "seq_bag");
   ASSERT_TRUE(folder.contains("triangles") && b.contains("triangles"));
-  EXPECT_EQ(b.at("triangles"), folder.at("triangles"));
+  EXPECT_EQ(folder.at("keyframes").size(), 3u);
   EXPECT_EQ(b.at("keyframes").size(), folder.at("keyframes").size());
+  EXPECT_EQ(b.at("triangles"), folder.at("triangles"));
+  ASSERT_EQ(b.at("frames").size(), folder.at("frames").size());
+  for (size_t i = 0; i < folder.at("frames").size(); ++i) {
+    const auto& fa = folder.at("frames")[i];
+    const auto& fb = b.at("frames")[i];
+    EXPECT_EQ(fb.at("matches"), fa.at("matches")) << "frame " << i;
+    EXPECT_EQ(fb.at("inliers"), fa.at("inliers")) << "frame " << i;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c)
+        EXPECT_NEAR(fb.at("pose")[r][c].get<double>(), fa.at("pose")[r][c].get<double>(), 1e-9) << i << r << c;
+  }
 }
 
 class RosbagCliBad : public RosbagCli {

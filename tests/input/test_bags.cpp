@@ -1,6 +1,7 @@
 #include "tests/input/test_bags.h"
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
@@ -112,6 +113,7 @@ MadeBag make_fr1_bag(const std::string& dir, const std::string& name, const BagS
   made.path = dir + "/" + name + ".bag";
   auto r = run_command("/usr/bin/python3 '" + source_path("tests/input/write_test_bag.py") + "' '" + manifest_path +
                        "' '" + made.path + "' 2>&1");
+  for (const auto& image : images) std::remove(image.at("file").get<std::string>().c_str());
   made.ok = r.exit_code == 0;
   if (!made.ok) made.why_not = "write_test_bag.py failed: " + r.out;
   return made;
