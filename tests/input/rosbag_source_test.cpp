@@ -101,6 +101,17 @@ TEST(RosbagSource, RawTumUnitsWithADepthScaleGiveTheFolderDepthExactly) {
   expect_same_frame(*folder, *bagsrc, 0, 0.0);
 }
 
+TEST(RosbagSource, CompressedChunksGiveTheSameFrames) {
+  for (const char* compression : {"bz2", "lz4"}) {
+    REQUIRE_BAG(b, std::string("fr1_32f_") + compression, test::BagDepth::kMetres32F, "rgb8", true, compression);
+    auto folder = open_or_die(test::data_path(kFr1));
+    auto bagsrc = open_or_die(b.path);
+    ASSERT_TRUE(folder && bagsrc);
+    ASSERT_EQ(bagsrc->size(), 3u);
+    expect_same_frame(*folder, *bagsrc, 2, 0.0);
+  }
+}
+
 TEST(RosbagSource, MissingTopicNamesTheTopicsTheBagHas) {
   REQUIRE_BAG(b, "fr1_32f", test::BagDepth::kMetres32F, "rgb8");
   SourceOptions o;

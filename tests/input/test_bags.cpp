@@ -99,7 +99,7 @@ MadeBag make_fr1_bag(const std::string& dir, const std::string& name, const BagS
                       {"height", pixels.rows}, {"encoding", encoding},
                       {"step", pixels.cols * int(pixels.elemSize())}, {"file", file}});
   }
-  nlohmann::json manifest = {{"images", images}};
+  nlohmann::json manifest = {{"images", images}, {"compression", spec.compression}};
   if (spec.camera_info)
     manifest["camera_info"] = {{"topic", "/camera/rgb/camera_info"},
                                {"stamp", (*rgb)[0].timestamp},

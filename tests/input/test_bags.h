@@ -19,6 +19,7 @@ struct BagSpec {
   std::string color_encoding = "rgb8";  // rgb8 or bgr8: the colour pixels are converted; anything else is written
                                         // as rgb8 bytes under that name (for the unsupported-encoding test)
   bool camera_info = true;              // fr1's published intrinsics and distortion as a sensor_msgs/CameraInfo
+  std::string compression = "none";     // rosbag chunk compression: none, bz2 or lz4
 };
 
 struct MadeBag {

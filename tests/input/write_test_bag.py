@@ -5,7 +5,8 @@ The test decides every pixel (it writes the raw buffers); this script only wraps
 bag holds exactly what the test compares against. Usage: write_test_bag.py MANIFEST.json OUT.bag
 
 MANIFEST: {"camera_info": {"topic", "stamp", "width", "height", "K": [9], "D": [..], "distortion_model"} (optional),
-           "images": [{"topic", "stamp", "width", "height", "encoding", "step", "file"}]}
+           "images": [{"topic", "stamp", "width", "height", "encoding", "step", "file"}],
+           "compression": "none" | "bz2" | "lz4" (optional, chunk compression)}
 Messages are written in stamp order with the bag time equal to the header stamp.
 """
 import json
@@ -50,7 +51,7 @@ def main():
             msg.data = f.read()
         records.append((im["stamp"], im["topic"], msg))
     records.sort(key=lambda r: r[0])
-    with rosbag.Bag(out_path, "w") as bag:
+    with rosbag.Bag(out_path, "w", compression=manifest.get("compression", "none")) as bag:
         for t, topic, msg in records:
             bag.write(topic, msg, stamp(t))
 
