@@ -4,7 +4,11 @@
 #include <cmath>
 #include <cstring>
 
+#include <fstream>
+
+#include "input/frame_source.h"
 #include "input/ros_image.h"
+#include "tests/common/test_data.h"
 
 namespace rgbdcast {
 namespace {
@@ -120,6 +124,17 @@ TEST(RosImage, CameraInfoGivesPinholeAndOpenCvOrderedDistortion) {
   bad = fr1_info();
   bad.width = 0;
   EXPECT_FALSE(intrinsics_from_camera_info(bad, "ci"));
+}
+
+// A build without Debian's ROS packages drops the bag tests; this one says so (and fails under CI=true).
+TEST(RosbagSupport, IsBuiltIn) {
+  const std::string dir = test::temp_dir("bag-support");
+  std::ofstream(dir + "/x.bag") << "not a bag";
+  auto s = open_frame_source(dir + "/x.bag", {});
+  ASSERT_FALSE(s);
+  if (s.error().code == ErrorCode::kUnavailable) RGBDCAST_MISSING_PREREQUISITE(s.error().message);
+  EXPECT_EQ(s.error().code, ErrorCode::kInvalidInput) << s.error().message;  // read, and found not to be a bag
+  EXPECT_NE(s.error().message.find("not a readable ROS 1 bag"), std::string::npos) << s.error().message;
 }
 
 }  // namespace
