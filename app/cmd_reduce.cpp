@@ -101,8 +101,9 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
   if (auto st = write_text_file_atomic(a.report, r.dump(2) + "\n"); !st) fail(st.error());
 }
 
-void run_reduce(const ReduceArgs& a) {
+void run_reduce(const ReduceArgs& a, const RosbagTopics& topics) {
   SourceOptions so;
+  so.rosbag = topics;
   so.intrinsics = a.intrinsics;
   so.depth_path = a.depth;
   so.associations_path = a.associations;
@@ -121,9 +122,17 @@ void run_reduce(const ReduceArgs& a) {
 
 void register_reduce(CLI::App& app) {
   auto args = std::make_shared<ReduceArgs>();
+  auto topics = std::make_shared<RosbagTopics>();
   CLI::App* cmd = app.add_subcommand("reduce", "Reduce RGB-D frames to a small textured mesh (GLB)");
   cmd->add_option("--input", args->input,
-                  "TUM folder, color/+depth/ folder, colour image (with --depth) or organized .pcd")->required();
+                  "TUM folder, color/+depth/ folder, colour image (with --depth), organized .pcd or ROS 1 .bag")
+      ->required();
+  cmd->add_option("--color-topic", topics->color, "ROS bag: colour sensor_msgs/Image (rgb8, bgr8, mono8)")
+      ->capture_default_str();
+  cmd->add_option("--depth-topic", topics->depth, "ROS bag: depth sensor_msgs/Image (16UC1 mm, 32FC1 m)")
+      ->capture_default_str();
+  cmd->add_option("--camera-info-topic", topics->camera_info, "ROS bag: sensor_msgs/CameraInfo (K, D)")
+      ->capture_default_str();
   cmd->add_option("--frame", args->frame, "Frame index (N-th associated rgb/depth pair)");
   cmd->add_option("--depth", args->depth, "Depth PNG for a single colour image");
   cmd->add_option("--intrinsics", args->intrinsics, "fr1|fr2|fr3|kinect|icl or a JSON file (default: guessed)");
@@ -194,7 +203,7 @@ void register_reduce(CLI::App& app) {
   cmd->add_option("--trajectory", args->trajectory, "Sequence: write the estimated poses (.log Redwood, else TUM)");
   cmd->add_option("--out", args->out, "Output GLB")->required();
   cmd->add_option("--report", args->report, "Write the JSON report here");
-  cmd->callback([args] { run_reduce(*args); });
+  cmd->callback([args, topics] { run_reduce(*args, *topics); });
 }
 
 }  // namespace rgbdcast::app

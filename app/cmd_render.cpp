@@ -1,5 +1,8 @@
-// rgbdcast render: a view of a GLB scene from the capture pose or any look-at camera, on a software GPU.
+// rgbdcast render: a view of a GLB scene from the capture pose, any look-at camera or a full camera (--camera JSON),
+// on a software GPU.
+#include <fstream>
 #include <iostream>
+#include <sstream>
 #include <nlohmann/json.hpp>
 
 #include "app/cli_error.h"
@@ -7,6 +10,7 @@
 #include "app/report.h"
 #include "app/view_options.h"
 #include "gltf/gltf_io.h"
+#include "service/camera_json.h"
 
 namespace rgbdcast::app {
 
@@ -14,8 +18,22 @@ namespace {
 
 struct RenderArgs {
   std::string scene, out, report;
+  std::string camera;  // a camera JSON file (service/camera_json.h)
   ViewArgs view;
 };
+
+// The camera of --camera FILE, which replaces the pose and size options.
+Result<ViewCamera> camera_from_file(const RenderArgs& a) {
+  if (!a.view.pose.empty() || !a.view.eye.empty() || !a.view.target.empty() || a.view.width || a.view.height)
+    return make_error(ErrorCode::kInvalidArgument, "--camera excludes --pose, --eye, --target, --width and --height");
+  std::ifstream in(a.camera, std::ios::binary);
+  if (!in) return make_error(ErrorCode::kNotFound, "cannot open " + a.camera);
+  std::ostringstream text;
+  text << in.rdbuf();
+  auto camera = service::parse_camera_json(text.str(), kMaxImageSize);
+  if (!camera) return make_error(camera.error().code, a.camera + ": " + camera.error().message);
+  return camera;
+}
 
 void run_render(const RenderArgs& a) {
   auto fail = [](const Error& e) { app::fail("render", e); };
@@ -23,7 +41,7 @@ void run_render(const RenderArgs& a) {
   if (!options) fail(options.error());
   auto scene = read_glb_file(a.scene);
   if (!scene) fail(scene.error());
-  auto camera = view_camera(a.view, *scene);
+  auto camera = a.camera.empty() ? view_camera(a.view, *scene) : camera_from_file(a);
   if (!camera) fail(camera.error());
   auto selection = make_renderer(a.view);
   if (!selection) fail(selection.error());
@@ -55,6 +73,9 @@ void register_render(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("render", "Render a view of a GLB scene headless (Vulkan/lavapipe or OSMesa)");
   cmd->add_option("--scene", args->scene, "GLB scene")->required();
   add_camera_options(cmd, &args->view);
+  cmd->add_option("--camera", args->camera,
+                  "Camera JSON {fx,fy,cx,cy,width,height,pose}: pose a row-major 4x4 camera-to-world matrix in the "
+                  "scene's world frame (x right, y down, z forward)");
   add_backend_options(cmd, &args->view);
   cmd->add_option("--out", args->out, "Output image (.png or .jpg)")->required();
   cmd->add_option("--report", args->report, "Write timings as JSON here");

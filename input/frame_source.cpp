@@ -12,6 +12,9 @@
 
 #include "input/intrinsics_io.h"
 #include "input/pcd_source.h"
+#ifdef RGBDCAST_HAVE_ROSBAG
+#include "input/rosbag_source.h"
+#endif
 
 namespace fs = std::filesystem;
 
@@ -344,6 +347,14 @@ Result<std::unique_ptr<FrameSource>> open_frame_source(const std::string& path, 
     if (fs::is_directory(p / "color") && fs::is_directory(p / "depth")) return open_numbered(p, options);
     return make_error(ErrorCode::kInvalidInput,
                       path + ": not a TUM folder (rgb.txt, depth.txt) nor a color/ + depth/ folder");
+  }
+  if (lower(p.extension().string()) == ".bag") {
+#ifdef RGBDCAST_HAVE_ROSBAG
+    return open_rosbag_source(path, options);
+#else
+    return make_error(ErrorCode::kUnavailable, path + ": this build has no ROS bag support (install "
+                                               "librosbag-storage-dev and libsensor-msgs-dev, scripts/setup.sh)");
+#endif
   }
   if (lower(p.extension().string()) == ".pcd") {
     auto k = pick_intrinsics(options, "kinect");

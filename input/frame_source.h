@@ -1,5 +1,6 @@
 #pragma once
-// Sources of RGB-D frames: TUM sequences, Redwood/Open3D and ICL-NUIM folders, a single PNG pair, an organized PCD.
+// Sources of RGB-D frames: TUM sequences, Redwood/Open3D and ICL-NUIM folders, a single PNG pair, an organized PCD,
+// a ROS 1 bag.
 // Frame N of a TUM sequence is the N-th rgb/depth pair associated by nearest timestamp (TUM's associate.py).
 #include <memory>
 #include <optional>
@@ -11,12 +12,20 @@
 
 namespace rgbdcast {
 
+// The topics of a ROS 1 bag; the defaults are those of openni_launch recordings and the TUM benchmark's bags.
+struct RosbagTopics {
+  std::string color = "/camera/rgb/image_color";
+  std::string depth = "/camera/depth/image";
+  std::string camera_info = "/camera/rgb/camera_info";
+};
+
 struct SourceOptions {
   std::string intrinsics;         // preset name or JSON path; empty = guess from the source (see README)
   std::optional<double> depth_scale;  // raw units per metre; overrides the intrinsics' value
   std::string depth_path;         // for a single colour image: its depth PNG
   std::string associations_path;  // TUM: read pairs from this file instead of associating rgb.txt/depth.txt
   double max_time_difference_s = 0.02;
+  RosbagTopics rosbag;            // for a .bag file
 };
 
 struct FrameEntry {
@@ -27,7 +36,7 @@ struct FrameEntry {
 class FrameSource {
  public:
   virtual ~FrameSource() = default;
-  virtual std::string kind() const = 0;  // "tum", "redwood", "pair", "pcd"
+  virtual std::string kind() const = 0;  // "tum", "redwood", "pair", "pcd", "rosbag"
   virtual size_t size() const = 0;
   virtual const Intrinsics& intrinsics() const = 0;  // as given, with distortion
   // Loads, validates and undistorts frame i. Errors: kNotFound (index past the end, missing file),
@@ -38,7 +47,8 @@ class FrameSource {
 };
 
 // Opens `path`: a folder with rgb.txt and depth.txt (TUM), a folder with color/ and depth/ (Redwood/Open3D,
-// ICL-NUIM), a colour image with options.depth_path, or a .pcd file.
+// ICL-NUIM), a colour image with options.depth_path, a .pcd file, or a .bag file (ROS 1; see rosbag_source.h;
+// kUnavailable when built without librosbag-storage-dev).
 Result<std::unique_ptr<FrameSource>> open_frame_source(const std::string& path, const SourceOptions& options);
 
 // TUM's associate.py: pairs each rgb stamp with the nearest unused depth stamp within max_difference, greedily by
@@ -57,7 +67,8 @@ Result<std::vector<StampedPath>> read_tum_list(const std::string& path);
 Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std::string& what);
 Result<cv::Mat> decode_depth16(const std::vector<unsigned char>& bytes, const std::string& what);
 // Builds a frame from decoded images: checks sizes against each other and the intrinsics, converts depth to metres,
-// undistorts. color is RGB CV_8UC3, depth_raw CV_16UC1.
+// undistorts. color is RGB CV_8UC3, depth_raw CV_16UC1 in units of intrinsics.depth_scale (or CV_32FC1 with
+// depth_scale 1: metres, 0 = no reading).
 Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw, const Intrinsics& intrinsics);
 
 }  // namespace rgbdcast

@@ -10,6 +10,7 @@ DEB_PACKAGES=(
   glslang-tools glslang-dev
   libtinygltf-dev nlohmann-json3-dev libstb-dev libcpp-httplib-dev libgtest-dev libcli11-dev
   libmeshoptimizer-dev libdraco-dev libturbojpeg0-dev
+  librosbag-storage-dev libsensor-msgs-dev python3-rosbag python3-sensor-msgs
   chromium wrk curl jq
 )
 # Node.js with npm: the machine image ships Node 20 (with npm); a bare Debian 12 gets Debian's.

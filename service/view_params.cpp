@@ -4,6 +4,8 @@
 #include <cmath>
 #include <set>
 
+#include "service/camera_json.h"
+
 namespace rgbdcast::service {
 namespace {
 
@@ -57,7 +59,7 @@ Result<Eigen::Vector3d> parse_vec3(const std::string& name, const std::string& t
 
 Result<ViewRequest> parse_view_request(const QueryParams& params) {
   static const std::set<std::string> kKnown = {"pose",   "eye",  "target", "up",      "fov",       "width",
-                                               "height", "mode", "format", "quality", "point_size"};
+                                               "height", "mode", "format", "quality", "point_size", "camera"};
   std::map<std::string, std::string> one;
   for (const auto& [name, value] : params) {
     if (!kKnown.count(name)) return bad(shorten(name), "unknown parameter");
@@ -66,7 +68,17 @@ Result<ViewRequest> parse_view_request(const QueryParams& params) {
   auto has = [&](const char* n) { return one.count(n) > 0; };
   ViewRequest r;
 
-  if (has("pose")) {
+  if (has("camera")) {
+    for (const char* other : {"pose", "eye", "target", "up", "fov", "width", "height"})
+      if (has(other)) return bad("camera", std::string("a full camera excludes ") + other);
+    auto camera = parse_camera_json(one["camera"], kMaxViewSize);
+    if (!camera) return bad("camera", camera.error().message);
+    r.full_camera = true;
+    r.camera = *camera;
+    r.capture_pose = false;
+    r.width = camera->width;
+    r.height = camera->height;
+  } else if (has("pose")) {
     if (one["pose"] != "capture") return bad("pose", "only 'capture' is known; use eye and target for other views");
     if (has("eye") || has("target") || has("up") || has("fov"))
       return bad("pose", "pose=capture excludes eye, target, up and fov");
@@ -136,6 +148,7 @@ Result<ViewRequest> parse_view_request(const QueryParams& params) {
 }
 
 Result<ViewCamera> make_view_camera(const ViewRequest& request, const std::vector<CaptureCamera>& cameras) {
+  if (request.full_camera) return request.camera;
   if (request.capture_pose) {
     const CaptureCamera cam = cameras.empty() ? CaptureCamera{} : cameras.front();
     if (cam.intrinsics.width < 1 || cam.intrinsics.height < 1)

@@ -29,6 +29,8 @@ struct ViewRequest {
   ImageFormat format = ImageFormat::kJpeg;
   int quality = 85;                          // JPEG quality 1..100 (ignored for PNG)
   float point_size_px = 2.0f;                // points mode splat size 1..64
+  bool full_camera = false;                  // camera=JSON (service/camera_json.h): replaces pose and size
+  ViewCamera camera;
 };
 
 // Query parameters as the HTTP library gives them (name -> value, a name may repeat).

@@ -154,7 +154,9 @@ void ViewService::Impl::post_scene(const httplib::Request& req, httplib::Respons
 void ViewService::Impl::get_view(const httplib::Request& req, httplib::Response& res) {
   auto scene = scene_or_error(req, res);
   if (!scene) return;
-  auto request = parse_view_request(req.params);
+  QueryParams params = req.params;
+  if (req.method == "POST") params.emplace("camera", req.body);  // the camera JSON as the body (camera_json.h)
+  auto request = parse_view_request(params);
   if (!request) return send_error(res, request.error());
   auto out = pool->render(scene->id, *request);
   if (!out) return send_error(res, out.error());
@@ -272,6 +274,9 @@ void ViewService::Impl::routes() {
     get_glb(req, res);
   }));
   server.Get(R"(/v1/scenes/([^/]+)/view)", guarded([this](const httplib::Request& req, httplib::Response& res) {
+    get_view(req, res);
+  }));
+  server.Post(R"(/v1/scenes/([^/]+)/view)", guarded([this](const httplib::Request& req, httplib::Response& res) {
     get_view(req, res);
   }));
 }

@@ -1,0 +1,94 @@
+#!/usr/bin/env bash
+# Builds docker/Dockerfile for real and checks the container: it answers /healthz and serves a view of an uploaded
+# scene. Run as root on Debian 12 with docker.io (or podman with DOCKER=podman) and debootstrap installed.
+#
+# There is no registry for base images here, so the base image debian:bookworm is made from Debian's archive:
+# debootstrap bookworm into a folder, then `docker import` (skipped when the image already exists).
+#
+# Environment: DOCKER (default: docker), DOCKER_HOST (to use a daemon on another socket), MIRROR (default
+# http://deb.debian.org/debian), IMAGE (default rgbdcast:verify), PORT (default 18080), SCENE (a GLB to upload;
+# default: reduce TUM fr1/xyz frame 0 from ../shared/data with the image's own binary).
+# Prints one line per step with its time; exits non-zero at the first failing step, saying which.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+DOCKER="${DOCKER:-docker}"
+MIRROR="${MIRROR:-http://deb.debian.org/debian}"
+IMAGE="${IMAGE:-rgbdcast:verify}"
+PORT="${PORT:-18080}"
+work="$(mktemp -d /tmp/rgbdcast-docker.XXXXXX)"
+container=""
+cleanup() {
+  [ -n "$container" ] && "$DOCKER" rm -f "$container" >/dev/null 2>&1 || true
+  rm -rf "$work"
+}
+trap cleanup EXIT
+
+step_start=0
+step() { step_start=$(date +%s); echo "docker/build.sh: $*"; }
+done_step() { echo "docker/build.sh:   ok ($(( $(date +%s) - step_start )) s)"; }
+die() { echo "docker/build.sh: FAILED: $*" >&2; exit 1; }
+
+"$DOCKER" version >/dev/null 2>&1 || die "no container engine answers: $("$DOCKER" version 2>&1 | tail -1)"
+
+if ! "$DOCKER" image inspect debian:bookworm >/dev/null 2>&1; then
+  step "base image: debootstrap bookworm from $MIRROR, then $DOCKER import"
+  command -v debootstrap >/dev/null || die "debootstrap is not installed (apt-get install debootstrap)"
+  debootstrap --variant=minbase bookworm "$work/rootfs" "$MIRROR" > "$work/debootstrap.log" 2>&1 ||
+    die "debootstrap: $(tail -3 "$work/debootstrap.log")"
+  # The same suites as a stock Debian image: updates and security too.
+  cat > "$work/rootfs/etc/apt/sources.list" <<EOF
+deb $MIRROR bookworm main
+deb $MIRROR bookworm-updates main
+deb http://deb.debian.org/debian-security bookworm-security main
+EOF
+  rm -rf "$work/rootfs/var/cache/apt/archives/"*.deb "$work/rootfs/var/lib/apt/lists/"*
+  tar -C "$work/rootfs" -c . | "$DOCKER" import - debian:bookworm >/dev/null
+  done_step
+  echo "docker/build.sh:   debian:bookworm $("$DOCKER" image inspect -f '{{.Size}}' debian:bookworm) bytes"
+fi
+
+step "build $IMAGE from docker/Dockerfile"
+"$DOCKER" build -f docker/Dockerfile -t "$IMAGE" . > "$work/build.log" 2>&1 || {
+  tail -20 "$work/build.log" >&2
+  die "$DOCKER build (last lines above)"
+}
+done_step
+echo "docker/build.sh:   $IMAGE $("$DOCKER" image inspect -f '{{.Size}}' "$IMAGE") bytes"
+
+step "run $IMAGE, wait for /healthz"
+container="$("$DOCKER" run -d -p "127.0.0.1:$PORT:8080" "$IMAGE")"
+for _ in $(seq 1 60); do
+  curl -fsS "http://127.0.0.1:$PORT/healthz" > "$work/healthz.json" 2>/dev/null && break
+  sleep 0.5
+done
+[ -s "$work/healthz.json" ] || die "/healthz did not answer within 30 s; container log: $("$DOCKER" logs "$container" 2>&1 | tail -5)"
+echo "docker/build.sh:   /healthz: $(cat "$work/healthz.json")"
+done_step
+
+scene="${SCENE:-}"
+if [ -z "$scene" ]; then
+  step "reduce TUM fr1/xyz frame 0 with the image's binary"
+  data="$(cd .. && pwd)/shared/data/tum/rgbd_dataset_freiburg1_xyz"
+  [ -d "$data" ] || die "no scene: set SCENE=file.glb or provide $data"
+  "$DOCKER" run --rm -v "$data:/data:ro" -v "$work:/out" --user "$(id -u):$(id -g)" "$IMAGE" \
+    rgbdcast reduce --input /data --frame 0 --out /out/scene.glb > "$work/reduce.log" 2>&1 ||
+    die "reduce in the container: $(tail -2 "$work/reduce.log")"
+  scene="$work/scene.glb"
+  done_step
+fi
+
+step "upload $(basename "$scene") ($(stat -c %s "$scene") bytes) and fetch a view"
+code="$(curl -sS -o "$work/upload.json" -w '%{http_code}' -H 'Content-Type: model/gltf-binary' \
+  --data-binary "@$scene" "http://127.0.0.1:$PORT/v1/scenes")"
+[ "$code" = 201 ] || die "POST /v1/scenes answered $code: $(cat "$work/upload.json")"
+id="$(sed -n 's/.*"id": *"\([^"]*\)".*/\1/p' "$work/upload.json" | head -1)"
+[ -n "$id" ] || die "no scene id in $(cat "$work/upload.json")"
+code="$(curl -sS -D "$work/view.headers" -o "$work/view.png" -w '%{http_code}' \
+  "http://127.0.0.1:$PORT/v1/scenes/$id/view?pose=capture&format=png")"
+[ "$code" = 200 ] || die "GET view answered $code: $(cat "$work/view.png")"
+head -c 8 "$work/view.png" | od -An -tx1 | grep -q '89 50 4e 47' || die "the view is not a PNG"
+backend="$(grep -i '^X-Backend:' "$work/view.headers" | tr -d '\r' | cut -d' ' -f2)"
+render_ms="$(grep -i '^X-Render-Ms:' "$work/view.headers" | tr -d '\r' | cut -d' ' -f2)"
+echo "docker/build.sh:   scene $id: view $(stat -c %s "$work/view.png") bytes PNG, backend $backend, render $render_ms ms"
+done_step
+echo "docker/build.sh: container verified"

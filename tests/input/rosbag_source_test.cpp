@@ -1,0 +1,196 @@
+// ROS 1 bags as a frame source (input/rosbag_source.h), on bags written at test time from the shared TUM fr1/xyz
+// frames: the bag must give the folder's frames, pixel for pixel where the encoding allows it.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include "input/frame_source.h"
+#include "input/intrinsics_io.h"
+#include "tests/common/test_data.h"
+#include "tests/input/test_bags.h"
+
+namespace fs = std::filesystem;
+
+namespace rgbdcast {
+namespace {
+
+const char* kFr1 = "tum/rgbd_dataset_freiburg1_xyz";
+
+#define REQUIRE_BAG(var, name, ...)                                          \
+  REQUIRE_DATA(kFr1);                                                        \
+  REQUIRE_BAG_WRITER();                                                      \
+  const test::MadeBag var = bag(name, test::BagSpec{__VA_ARGS__});           \
+  ASSERT_TRUE(var.ok) << var.why_not
+
+// One bag per spec and test binary run: writing one takes Python a second.
+test::MadeBag bag(const std::string& name, const test::BagSpec& spec) {
+  static const std::string dir = test::temp_dir("rosbag-source");
+  static std::map<std::string, test::MadeBag> made;
+  auto it = made.find(name);
+  if (it == made.end()) {
+    it = made.emplace(name, test::make_fr1_bag(dir, name, spec)).first;
+    if (it->second.ok)
+      std::printf("[ bag ] %s: %ju bytes\n", it->second.path.c_str(), std::uintmax_t(fs::file_size(it->second.path)));
+  }
+  return it->second;
+}
+
+std::unique_ptr<FrameSource> open_or_die(const std::string& path, const SourceOptions& o = {}) {
+  auto s = open_frame_source(path, o);
+  EXPECT_TRUE(s) << s.error().message;
+  return s ? std::move(*s) : nullptr;
+}
+
+// Frame i of both sources: the same colour pixels, depth within tolerance_m (0: bit for bit), the same valid pixels.
+void expect_same_frame(const FrameSource& folder, const FrameSource& bag, size_t i, double tolerance_m) {
+  auto a = folder.frame(i);
+  auto c = bag.frame(i);
+  ASSERT_TRUE(a) << a.error().message;
+  ASSERT_TRUE(c) << c.error().message;
+  EXPECT_NEAR(c->timestamp, a->timestamp, 1e-6) << "frame " << i;
+  EXPECT_EQ(c->index, int(i));
+  EXPECT_EQ(cv::norm(c->color_rgb, a->color_rgb, cv::NORM_INF), 0.0) << "colour of frame " << i;
+  EXPECT_LE(cv::norm(c->depth_m, a->depth_m, cv::NORM_INF), tolerance_m) << "depth of frame " << i;
+  EXPECT_EQ(cv::countNonZero(c->depth_m), cv::countNonZero(a->depth_m)) << "valid depth of frame " << i;
+  EXPECT_GT(cv::countNonZero(c->depth_m), 200000);
+}
+
+TEST(RosbagSource, Fr1MetreBagGivesTheFolderFramesPixelForPixel) {
+  REQUIRE_BAG(b, "fr1_32f", test::BagDepth::kMetres32F, "rgb8");
+  auto folder = open_or_die(test::data_path(kFr1));
+  auto bagsrc = open_or_die(b.path);
+  ASSERT_TRUE(folder && bagsrc);
+  EXPECT_EQ(bagsrc->kind(), "rosbag");
+  // 4 colour and 3 depth images: the colour image without depth within 0.02 s is dropped, as in the folder.
+  ASSERT_EQ(bagsrc->size(), 3u);
+  ASSERT_EQ(bagsrc->size(), folder->size());
+  const Intrinsics& kb = bagsrc->intrinsics();
+  const Intrinsics& kf = folder->intrinsics();
+  EXPECT_EQ(kb.fx, kf.fx);
+  EXPECT_EQ(kb.fy, kf.fy);
+  EXPECT_EQ(kb.cx, kf.cx);
+  EXPECT_EQ(kb.cy, kf.cy);
+  EXPECT_EQ(kb.distortion, kf.distortion) << "fr1 needs the lens distortion from CameraInfo";
+  for (size_t i = 0; i < folder->size(); ++i) {
+    expect_same_frame(*folder, *bagsrc, i, 0.0);
+    EXPECT_NEAR(bagsrc->entries()[i].depth_timestamp, folder->entries()[i].depth_timestamp, 1e-6);
+    EXPECT_NE(bagsrc->entries()[i].color_path.find(":/camera/rgb/image_color@"), std::string::npos);
+  }
+}
+
+TEST(RosbagSource, MillimetreBgrBagMatchesTheFolderToTheMillimetre) {
+  REQUIRE_BAG(b, "fr1_16u_bgr", test::BagDepth::kMillimetres16U, "bgr8");
+  auto folder = open_or_die(test::data_path(kFr1));
+  auto bagsrc = open_or_die(b.path);
+  ASSERT_TRUE(folder && bagsrc);
+  ASSERT_EQ(bagsrc->size(), 3u);
+  EXPECT_EQ(bagsrc->intrinsics().depth_scale, 1000.0);
+  // bgr8 decodes to the same RGB; 1/5000 m rounded to the nearest millimetre is at most half a millimetre off.
+  for (size_t i = 0; i < folder->size(); ++i) expect_same_frame(*folder, *bagsrc, i, 0.0005 + 1e-6);
+}
+
+TEST(RosbagSource, RawTumUnitsWithADepthScaleGiveTheFolderDepthExactly) {
+  REQUIRE_BAG(b, "fr1_16u_raw", test::BagDepth::kTumRaw16U, "rgb8");
+  auto folder = open_or_die(test::data_path(kFr1));
+  SourceOptions o;
+  o.depth_scale = 5000.0;
+  auto bagsrc = open_or_die(b.path, o);
+  ASSERT_TRUE(folder && bagsrc);
+  expect_same_frame(*folder, *bagsrc, 0, 0.0);
+}
+
+TEST(RosbagSource, CompressedChunksGiveTheSameFrames) {
+  for (const char* compression : {"bz2", "lz4"}) {
+    REQUIRE_BAG(b, std::string("fr1_32f_") + compression, test::BagDepth::kMetres32F, "rgb8", true, compression);
+    auto folder = open_or_die(test::data_path(kFr1));
+    auto bagsrc = open_or_die(b.path);
+    ASSERT_TRUE(folder && bagsrc);
+    ASSERT_EQ(bagsrc->size(), 3u);
+    expect_same_frame(*folder, *bagsrc, 2, 0.0);
+  }
+}
+
+TEST(RosbagSource, MissingTopicNamesTheTopicsTheBagHas) {
+  REQUIRE_BAG(b, "fr1_32f", test::BagDepth::kMetres32F, "rgb8");
+  SourceOptions o;
+  o.rosbag.depth = "/camera/depth_registered/image_raw";
+  auto s = open_frame_source(b.path, o);
+  ASSERT_FALSE(s);
+  const std::string& m = s.error().message;
+  EXPECT_EQ(s.error().code, ErrorCode::kInvalidInput);
+  EXPECT_EQ(m.find('\n'), std::string::npos) << "one line";
+  EXPECT_NE(m.find("no topic /camera/depth_registered/image_raw (--depth-topic)"), std::string::npos) << m;
+  for (const char* t : {"/camera/rgb/image_color (sensor_msgs/Image, 4 messages)",
+                        "/camera/depth/image (sensor_msgs/Image, 3 messages)",
+                        "/camera/rgb/camera_info (sensor_msgs/CameraInfo, 1 messages)"})
+    EXPECT_NE(m.find(t), std::string::npos) << t << " in: " << m;
+  // A topic of the wrong type says so.
+  o.rosbag.depth = "/camera/rgb/camera_info";
+  auto w = open_frame_source(b.path, o);
+  ASSERT_FALSE(w);
+  EXPECT_NE(w.error().message.find("holds 1 sensor_msgs/CameraInfo messages, not sensor_msgs/Image"),
+            std::string::npos) << w.error().message;
+}
+
+TEST(RosbagSource, WithoutCameraInfoItAsksForIntrinsicsAndTakesThem) {
+  REQUIRE_BAG(b, "fr1_32f_noinfo", test::BagDepth::kMetres32F, "rgb8", false);
+  auto s = open_frame_source(b.path, {});
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.error().message.find("no topic /camera/rgb/camera_info (--camera-info-topic or --intrinsics)"),
+            std::string::npos) << s.error().message;
+  SourceOptions o;
+  o.intrinsics = "fr1";
+  auto bagsrc = open_or_die(b.path, o);
+  auto folder = open_or_die(test::data_path(kFr1));
+  ASSERT_TRUE(bagsrc && folder);
+  expect_same_frame(*folder, *bagsrc, 1, 0.0);
+}
+
+TEST(RosbagSource, UnsupportedEncodingFailsAtOpenNamingIt) {
+  REQUIRE_BAG(b, "fr1_yuv", test::BagDepth::kMetres32F, "yuv422");
+  auto s = open_frame_source(b.path, {});
+  ASSERT_FALSE(s);
+  EXPECT_EQ(s.error().code, ErrorCode::kInvalidInput);
+  EXPECT_NE(s.error().message.find("colour encoding \"yuv422\" is not supported (rgb8, bgr8 or mono8)"),
+            std::string::npos) << s.error().message;
+}
+
+TEST(RosbagSource, TruncatedOrForeignFilesGiveOneLine) {
+  REQUIRE_BAG(b, "fr1_32f", test::BagDepth::kMetres32F, "rgb8");
+  const std::string dir = test::temp_dir("rosbag-truncated");
+  const auto size = fs::file_size(b.path);
+  for (double keep : {0.5, 0.99}) {
+    const std::string cut = dir + "/cut.bag";
+    fs::copy_file(b.path, cut, fs::copy_options::overwrite_existing);
+    fs::resize_file(cut, std::uintmax_t(size * keep));
+    auto s = open_frame_source(cut, {});
+    ASSERT_FALSE(s) << "kept " << keep;
+    EXPECT_EQ(s.error().code, ErrorCode::kInvalidInput);
+    EXPECT_NE(s.error().message.find("not a readable ROS 1 bag (truncated or corrupt"), std::string::npos)
+        << s.error().message;
+    EXPECT_EQ(s.error().message.find('\n'), std::string::npos);
+  }
+  std::ofstream(dir + "/text.bag") << "not a bag\n";
+  auto t = open_frame_source(dir + "/text.bag", {});
+  ASSERT_FALSE(t);
+  EXPECT_NE(t.error().message.find("not a readable ROS 1 bag"), std::string::npos) << t.error().message;
+}
+
+TEST(RosbagSource, PairsOnlyWithinTheTimeLimit) {
+  REQUIRE_BAG(b, "fr1_32f", test::BagDepth::kMetres32F, "rgb8");
+  SourceOptions o;
+  o.max_time_difference_s = 1e-4;  // fr1's colour and depth stamps are milliseconds apart
+  auto s = open_frame_source(b.path, o);
+  ASSERT_FALSE(s);
+  EXPECT_EQ(s.error().code, ErrorCode::kEmpty);
+  auto past = open_or_die(b.path);
+  ASSERT_TRUE(past);
+  auto f = past->frame(3);
+  ASSERT_FALSE(f);
+  EXPECT_EQ(f.error().code, ErrorCode::kNotFound);
+}
+
+}  // namespace
+}  // namespace rgbdcast
