@@ -129,6 +129,30 @@ Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilter
       }
     }
   }
+  // Vertex depth: the mean inverse depth over a full window of one surface (exact on a plane, whose inverse depth is
+  // affine in the pixel), else the pixel's own. The fit is still judged on the pixels themselves.
+  r.vertex_depth_m = r.depth_m.clone();
+  if (p.smooth_px > 0) {
+    const cv::Size win(2 * p.smooth_px + 1, 2 * p.smooth_px + 1);
+    const cv::Mat valid = r.depth_m > 0;
+    cv::Mat inv, inv_sum, count, valid_f, far, near_inv;
+    cv::divide(1.0, r.depth_m, inv);
+    inv.setTo(0, ~valid);
+    valid.convertTo(valid_f, CV_32F, 1.0 / 255);
+    cv::boxFilter(inv, inv_sum, CV_32F, win, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+    cv::boxFilter(valid_f, count, CV_32F, win, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+    cv::dilate(r.depth_m, far, cv::getStructuringElement(cv::MORPH_RECT, win));
+    cv::dilate(inv, near_inv, cv::getStructuringElement(cv::MORPH_RECT, win));
+    const double max_ratio = 1 + 2 * p.jump_relative;
+    const float full = static_cast<float>(win.area()) - 0.5f;
+    for (int y = 0; y < h; ++y) {
+      float* out = r.vertex_depth_m.ptr<float>(y);
+      const float *s_ = inv_sum.ptr<float>(y), *c = count.ptr<float>(y), *f = far.ptr<float>(y),
+                  *n = near_inv.ptr<float>(y);
+      for (int x = 0; x < w; ++x)
+        if (out[x] > 0 && c[x] > full && f[x] * n[x] <= max_ratio) out[x] = c[x] / s_[x];
+    }
+  }
   return r;
 }
 
@@ -220,11 +244,13 @@ bool texture_deviates(const double px[3], const double py[3], const double z[3],
 
 }  // namespace
 
-Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, const Intrinsics& k,
-                                                     const DepthMeshParams& p) {
+Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, const cv::Mat& vertex_depth_m,
+                                                     const Intrinsics& k, const DepthMeshParams& p) {
   if (auto st = p.validate(); !st) return st.error();
   if (depth_m.empty() || depth_m.type() != CV_32FC1)
     return make_error(ErrorCode::kInvalidArgument, "depth mesh: depth must be a non-empty CV_32FC1 image");
+  if (vertex_depth_m.size() != depth_m.size() || vertex_depth_m.type() != CV_32FC1)
+    return make_error(ErrorCode::kInvalidArgument, "depth mesh: vertex depth must be CV_32FC1 of the depth's size");
   if (!(std::isfinite(k.fx) && std::isfinite(k.fy) && k.fx > 0 && k.fy > 0 && std::isfinite(k.cx) &&
         std::isfinite(k.cy)))
     return make_error(ErrorCode::kInvalidArgument, "depth mesh: intrinsics must be finite with fx, fy > 0");
@@ -246,7 +272,7 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
   // degenerate leaves between the two, which are never emitted. Points further out are invalid.
   h.depth_.assign(static_cast<size_t>(h.grid_w_) * grid_h, 0.f);
   for (int y = 0; y <= h.height_ && y < grid_h; ++y) {
-    const float* z = depth_m.ptr<float>(std::min(y, h.height_ - 1));
+    const float* z = vertex_depth_m.ptr<float>(std::min(y, h.height_ - 1));
     for (int x = 0; x <= h.width_ && x < h.grid_w_; ++x) {
       const float d = z[std::min(x, h.width_ - 1)];
       if (d > 0.f && std::isfinite(d)) h.depth_[static_cast<size_t>(y) * h.grid_w_ + x] = d;

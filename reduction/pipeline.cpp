@@ -145,7 +145,7 @@ Result<RealtimeReduction> prepare_realtime(const RgbdFrame& frame, const Reducti
   timer.done("filter", "points", filtered->kept);
   if (filtered->valid == 0) return make_error(ErrorCode::kEmpty, "no valid depth in the frame");
   if (filtered->kept == 0) return make_error(ErrorCode::kEmpty, "the depth filter left no pixels");
-  auto hierarchy = DepthMeshHierarchy::build(filtered->depth_m, frame.intrinsics.pinhole(),
+  auto hierarchy = DepthMeshHierarchy::build(filtered->depth_m, filtered->vertex_depth_m, frame.intrinsics.pinhole(),
                                              params.depth_mesh);
   if (!hierarchy) return hierarchy.error();
   timer.done("hierarchy", "points", filtered->kept);

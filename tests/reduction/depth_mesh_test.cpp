@@ -44,7 +44,7 @@ struct Built {
 Built build(const cv::Mat& depth, const Intrinsics& k, double tol = 2.0, DepthMeshParams p = {}) {
   auto f = filter_depth(depth, DepthFilterParams{});
   EXPECT_TRUE(f) << f.error().message;
-  auto h = DepthMeshHierarchy::build(f->depth_m, k, p);
+  auto h = DepthMeshHierarchy::build(f->depth_m, f->vertex_depth_m, k, p);
   EXPECT_TRUE(h) << h.error().message;
   Built b;
   b.mesh = h->extract(tol, &b.pixels);
