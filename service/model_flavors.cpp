@@ -49,7 +49,9 @@ void send_error(httplib::Response& res, int status, const std::string& detail) {
 
 }  // namespace
 
-Result<FlavoredModel> ModelFlavors::get(const StoredScene& scene, GlbFlavor flavor, const SceneStore& store) {
+Result<FlavoredModel> ModelFlavors::get(const StoredScene& scene, GlbFlavor flavor, const SceneStore& store,
+                                        bool* converted_now) {
+  if (converted_now) *converted_now = false;
   const Key key{scene.id, flavor};
   std::promise<Result<FlavoredModel>> promise;
   std::optional<std::shared_future<Result<FlavoredModel>>> cached;
@@ -81,6 +83,7 @@ Result<FlavoredModel> ModelFlavors::get(const StoredScene& scene, GlbFlavor flav
   {
     std::lock_guard lock(mutex_);
     conversions_ += converted ? 1 : 0;
+    if (converted_now) *converted_now = converted;
     auto it = entries_.find(key);
     const bool still_ours = it != entries_.end() && it->second.source_etag == scene.etag && it->second.bytes == 0;
     if (still_ours && made && converted) {
@@ -145,13 +148,15 @@ bool ModelFlavors::serve(const httplib::Request& req, httplib::Response& res, co
     send_error(res, 400, flavor.error().message);
     return true;
   }
-  auto model = get(scene, *flavor, store);
+  bool converted_now = false;
+  auto model = get(scene, *flavor, store, &converted_now);
   if (!model) {
     send_error(res, http_status_for(model.error().code), model.error().message);
     return true;
   }
   res.set_header("ETag", model->etag);
   res.set_header("Cache-Control", "no-cache");
+  res.set_header("X-Flavor-Cache", converted_now ? "miss" : "hit");
   const std::string inm = req.get_header_value("If-None-Match");
   if (!inm.empty() && (inm == "*" || inm.find(model->etag) != std::string::npos)) {
     res.status = 304;

@@ -5,7 +5,8 @@
 //   default), else converted once.
 // - compat: converted once per scene (convert_glb) and cached in memory, keyed by scene id and the stored file's
 //   ETag, so a replaced scene is never served stale. Concurrent first requests convert once: the others wait.
-// - Each flavour has its own strong ETag (of its bytes); If-None-Match gives 304. An unknown flavour is 400 with a
+// - Each flavour has its own strong ETag (of its bytes); If-None-Match gives 304. X-Flavor-Cache says "miss" on the
+//   request that converted, "hit" otherwise. An unknown flavour is 400 with a
 //   JSON body naming the flavours; a stored file that no longer converts is 500.
 // The cache holds at most max_cached_bytes of converted files (oldest evicted first). Thread-safe.
 #include <cstdint>
@@ -37,8 +38,10 @@ class ModelFlavors {
  public:
   explicit ModelFlavors(size_t max_cached_bytes = size_t(256) << 20) : max_bytes_(max_cached_bytes) {}
 
-  // The scene's GLB in `flavor`, converted at most once while cached.
-  Result<FlavoredModel> get(const StoredScene& scene, GlbFlavor flavor, const SceneStore& store);
+  // The scene's GLB in `flavor`, converted at most once while cached. *converted_now (optional) tells whether this
+  // call made it.
+  Result<FlavoredModel> get(const StoredScene& scene, GlbFlavor flavor, const SceneStore& store,
+                            bool* converted_now = nullptr);
   // Answers the request when it has a flavor parameter (returns true); false leaves it to the caller.
   bool serve(const httplib::Request& req, httplib::Response& res, const StoredScene& scene, const SceneStore& store);
   // Drops the cached flavours of a deleted scene.

@@ -3,8 +3,13 @@
 // real command line (rgbdcast reduce --flavor, rgbdcast convert) on real data: TUM fr1/xyz frame 0, and a
 // multi-keyframe scene of the augmented ICL-NUIM living room (--sequence --keyframe-gap 1). Every count a viewer
 // reports is compared with the counts of the scene that was written (read back with read_glb_file).
-// A viewer that is not installed skips its test on a developer machine and fails it under CI=true.
+// A viewer that is not installed skips its test on a developer machine and fails it under CI=true. The files are
+// made once per rgbdcast binary in <build>/tests/gltf/viewer-files (see files()).
 #include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -102,28 +107,55 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// What the files were made from: the rgbdcast binary (size and time). ctest runs every test in its own process; the
+// files are made by the first and reused by the others while the binary is the same.
+std::string stamp_of(const std::string& bin) {
+  std::error_code ec;
+  const auto size = fs::file_size(bin, ec);
+  const auto time = fs::last_write_time(bin, ec).time_since_epoch().count();
+  return bin + " " + std::to_string(size) + " " + std::to_string(time) + "\n";
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
 const Files& files() {
   static const Files f = [] {
     Files f;
-    f.dir = test::temp_dir("gltf-viewers");
+    f.dir = test::binary_path("tests/gltf/viewer-files");
+    fs::create_directories(f.dir);
     const std::string bin = test::rgbdcast_binary();
     f.tum_compact = f.dir + "/tum-compact.glb";
     f.tum_compat = f.dir + "/tum-compat.glb";
     f.tum_converted = f.dir + "/tum-converted.glb";
     f.seq_compact = f.dir + "/icl-seq-compact.glb";
     f.seq_compat = f.dir + "/icl-seq-compat.glb";
-    const std::string tum = "reduce --input " + test::data_path(kTum) + " --frame 0";
-    auto t0 = std::chrono::steady_clock::now();
-    run_ok(bin + " " + tum + " --out " + f.tum_compact, &f.why_not);
-    f.tum_reduce_s = seconds_since(t0);
-    run_ok(bin + " " + tum + " --flavor compat --out " + f.tum_compat, &f.why_not);
-    run_ok(bin + " convert " + f.tum_compact + " --flavor compat -o " + f.tum_converted, &f.why_not);
-    t0 = std::chrono::steady_clock::now();
-    run_ok(bin + " reduce --input " + test::data_path(kIcl) + " --sequence --keyframe-gap 1 --no-progress --out " +
-               f.seq_compact, &f.why_not);
-    f.seq_reduce_s = seconds_since(t0);
-    run_ok(bin + " convert " + f.seq_compact + " -o " + f.seq_compat, &f.why_not);
-    std::printf("[ files ] reduce TUM frame 0: %.1f s, reduce ICL sequence: %.1f s\n", f.tum_reduce_s, f.seq_reduce_s);
+    // One maker at a time (ctest -j): the others wait on the lock, then find the stamp.
+    const int lock = ::open((f.dir + "/.lock").c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0644);
+    if (lock >= 0) ::flock(lock, LOCK_EX);
+    const std::string stamp_file = f.dir + "/stamp", stamp = stamp_of(bin);
+    if (slurp(stamp_file) != stamp) {
+      fs::remove(stamp_file);
+      const std::string tum = "reduce --input " + test::data_path(kTum) + " --frame 0";
+      auto t0 = std::chrono::steady_clock::now();
+      run_ok(bin + " " + tum + " --out " + f.tum_compact, &f.why_not);
+      f.tum_reduce_s = seconds_since(t0);
+      run_ok(bin + " " + tum + " --flavor compat --out " + f.tum_compat, &f.why_not);
+      run_ok(bin + " convert " + f.tum_compact + " --flavor compat -o " + f.tum_converted, &f.why_not);
+      t0 = std::chrono::steady_clock::now();
+      run_ok(bin + " reduce --input " + test::data_path(kIcl) + " --sequence --keyframe-gap 1 --no-progress --out " +
+                 f.seq_compact, &f.why_not);
+      f.seq_reduce_s = seconds_since(t0);
+      run_ok(bin + " convert " + f.seq_compact + " -o " + f.seq_compat, &f.why_not);
+      std::printf("[ files ] made in %s: reduce TUM frame 0 %.1f s, reduce ICL sequence %.1f s\n", f.dir.c_str(),
+                  f.tum_reduce_s, f.seq_reduce_s);
+      if (f.why_not.empty()) std::ofstream(stamp_file) << stamp;
+    }
+    if (lock >= 0) ::close(lock);
     return f;
   }();
   return f;
