@@ -30,8 +30,9 @@
 //    viewers that ship a meshopt decoder (three.js with MeshoptDecoder set; tested in tests/gltf/test_gltf_viewers).
 //  - compat, for every viewer: float POSITION and TEXCOORD_0, float COLOR_0, no EXT_meshopt_compression, no
 //    KHR_mesh_quantization, no KHR_texture_transform, every texture a JPEG. `quantize` and `meshopt` are ignored.
-//    Opens in Blender 3.4, Assimp 5.2.5 and three.js. Assimp 5.2.5 drops every primitive whose POSITION is not
-//    float ("No meshes remaining" on a quantized file), which is why compat exists.
+//    Opens in Blender 3.4, Assimp 5.2.5 and three.js. Neither Blender 3.4 nor Assimp 5.2.5 reads meshopt; Assimp
+//    5.2.5 also ignores KHR_mesh_quantization: it takes int16 POSITION bytes as floats (zeros, NaN, 1e38), its
+//    post-processing then drops every triangle, and the import fails with "No meshes remaining".
 #include <cstdint>
 #include <string>
 #include <string_view>

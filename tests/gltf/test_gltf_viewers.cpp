@@ -291,6 +291,27 @@ TEST(GltfViewers, AssimpOpensTheCompatGlbOfAMultiKeyframeScene) {
   expect_assimp_opens(files().seq_compat, "ICL sequence compat");
 }
 
+TEST(GltfViewers, AssimpCannotOpenTheCompactOrAQuantizedGlb) {
+  // Why compat has float positions: Assimp 5.2.5 has no meshopt decoder, and it reads KHR_mesh_quantization's int16
+  // positions as floats, so its post-processing drops every triangle.
+  REQUIRE_TOOL("/usr/bin/assimp", "assimp-utils");
+  REQUIRE_FILES();
+  const AssimpInfo compact = assimp_info(files().tum_compact);
+  EXPECT_NE(compact.exit_code, 0);
+  EXPECT_NE(compact.text.find("missing the \"uri\" attribute"), std::string::npos) << compact.text;
+  auto bytes = glb::read_file_bytes(files().tum_compat, size_t(1) << 30);
+  ASSERT_TRUE(bytes.ok());
+  GlbWriteOptions quantized;  // compact without meshopt: what --no-meshopt writes
+  quantized.meshopt = false;
+  auto q = convert_glb(bytes->data(), bytes->size(), quantized);
+  ASSERT_TRUE(q.ok()) << q.error().message;
+  const std::string path = files().dir + "/tum-quantized.glb";
+  ASSERT_TRUE(glb::write_file_atomically(path, *q).ok());
+  const auto r = test::run_command("/usr/bin/assimp info " + path);  // with Assimp's default post-processing
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE((r.out + r.err).find("No meshes remaining"), std::string::npos) << r.out << r.err;
+}
+
 // --- three.js ------------------------------------------------------------------------------------------------------
 
 void expect_threejs_opens(const std::string& glb, bool meshopt_decoder, const std::string& tag) {
