@@ -107,6 +107,17 @@ TEST(ServiceModelFlavors, CompatIsConvertedOnceCachedAndHasItsOwnEtag) {
   auto unknown = c.Get((base + "?flavor=tiny").c_str());
   EXPECT_NE(unknown->body.find("compat"), std::string::npos) << unknown->body;
 
+  // A scene uploaded as compat: its compact flavour is converted (meshopt), its compat flavour is a file of its own.
+  auto up_compat = c.Post("/v1/scenes", first->body, "model/gltf-binary");
+  ASSERT_TRUE(up_compat);
+  ASSERT_EQ(up_compat->status, 201) << up_compat->body;
+  const std::string compat_id = json::parse(up_compat->body)["id"];
+  auto packed = c.Get(("/v1/scenes/" + compat_id + "/model.glb?flavor=compact").c_str());
+  ASSERT_TRUE(packed && packed->status == 200);
+  EXPECT_EQ(packed->get_header_value("X-Flavor-Cache"), "miss");
+  EXPECT_NE(glb_json(packed->body).dump().find("EXT_meshopt_compression"), std::string::npos);
+  EXPECT_LT(packed->body.size(), first->body.size());
+
   auto del = c.Delete(("/v1/scenes/" + id).c_str());
   ASSERT_TRUE(del);
   EXPECT_EQ(del->status, 204);
