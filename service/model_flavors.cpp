@@ -30,7 +30,7 @@ Result<FlavoredModel> make_flavor(const StoredScene& scene, GlbFlavor flavor, co
   if (!stored) return stored.error();
   *converted = false;
   if (flavor == GlbFlavor::kCompact && uses_meshopt(*stored))
-    return FlavoredModel{std::make_shared<const std::vector<std::uint8_t>>(std::move(*stored)), scene.etag};
+    return FlavoredModel{std::make_shared<const std::vector<std::uint8_t>>(std::move(*stored)), scene.etag, true};
   GlbWriteOptions options;
   options.flavor = flavor;
   auto out = convert_glb(stored->data(), stored->size(), options);
@@ -156,7 +156,7 @@ bool ModelFlavors::serve(const httplib::Request& req, httplib::Response& res, co
   }
   res.set_header("ETag", model->etag);
   res.set_header("Cache-Control", "no-cache");
-  res.set_header("X-Flavor-Cache", converted_now ? "miss" : "hit");
+  res.set_header("X-Flavor-Cache", model->stored_file ? "stored" : converted_now ? "miss" : "hit");
   const std::string inm = req.get_header_value("If-None-Match");
   if (!inm.empty() && (inm == "*" || inm.find(model->etag) != std::string::npos)) {
     res.status = 304;

@@ -93,6 +93,7 @@ TEST(ServiceModelFlavors, CompatIsConvertedOnceCachedAndHasItsOwnEtag) {
   auto as_compact = c.Get((base + "?flavor=compact").c_str());
   ASSERT_TRUE(as_compact && as_compact->status == 200);
   EXPECT_EQ(as_compact->get_header_value("ETag"), stored_etag);
+  EXPECT_EQ(as_compact->get_header_value("X-Flavor-Cache"), "stored");
   EXPECT_TRUE(as_compact->body == compact);
 
   for (const char* bad : {"?flavor=tiny", "?flavor=", "?flavor=compat&flavor=compact"}) {
