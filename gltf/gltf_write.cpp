@@ -441,6 +441,11 @@ Result<std::vector<std::uint8_t>> convert_glb(const std::uint8_t* data, size_t s
                                               GlbStats* stats) {
   auto scene = decode_glb(data, size);
   if (!scene) return scene.error();
+  // The reader names a node after its glTF mesh node ("keyframe_0_mesh"); the writer appends the suffix again.
+  for (SceneNode& n : scene->nodes)
+    for (const std::string suffix : {"_mesh", "_points"})
+      if (n.name.size() > suffix.size() && n.name.compare(n.name.size() - suffix.size(), suffix.size(), suffix) == 0)
+        n.name.resize(n.name.size() - suffix.size());
   return encode_glb(*scene, options, stats);
 }
 

@@ -140,6 +140,7 @@ TEST(GltfFlavors, ConvertGoesBothWaysAndCopiesAJpegByteForByte) {
   auto a = decode_glb(compact->data(), compact->size()), b = decode_glb(compat->data(), compat->size());
   ASSERT_TRUE(a.ok() && b.ok());
   ASSERT_EQ(a->nodes.size(), b->nodes.size());
+  for (size_t i = 0; i < a->nodes.size(); ++i) EXPECT_EQ(b->nodes[i].name, a->nodes[i].name);  // not "x_mesh_mesh"
   EXPECT_EQ(a->nodes[0].mesh.texture_encoded, b->nodes[0].mesh.texture_encoded);  // no JPEG generation loss
   const std::vector<std::uint8_t> junk = {'g', 'l', 'T', 'F', 2, 0, 0, 0, 12, 0, 0, 0};
   auto bad = convert_glb(junk.data(), junk.size(), to_compat);
