@@ -1,6 +1,9 @@
 #pragma once
 // Each subcommand of the rgbdcast CLI lives in its own file (app/cmd_<name>.cpp) and registers itself here.
 #include <CLI/CLI.hpp>
+#include <string>
+
+#include "gltf/gltf_io.h"
 
 namespace rgbdcast::app {
 
@@ -9,6 +12,11 @@ void register_render(CLI::App& app);
 void register_eval(CLI::App& app);
 void register_eval_trajectory(CLI::App& app);
 void register_serve(CLI::App& app);
+void register_convert(CLI::App& app);
+
+// --flavor compact|compat into glb->flavor (app/cmd_convert.cpp); an unknown name is a one-line error, exit 2.
+// default_name is what the help shows; the caller's glb->flavor holds the default itself.
+void add_flavor_option(CLI::App* cmd, GlbWriteOptions* glb, const std::string& default_name);
 
 }  // namespace rgbdcast::app
 

@@ -24,8 +24,18 @@
 // coordinates with KHR_texture_transform scale (1/width, 1/height) on the baseColorTexture, other UVs in [0,1] as
 // uint16 in 1/8 texel (scale 1/(8 width), 1/(8 height)). A triangle list whose indices are 0, 1, 2, ... (the atlas mesh) is written without indices.
 // With `meshopt`, EXT_meshopt_compression (vertex and index codecs) on top.
+//
+// Two flavours of the same scene (GlbFlavor):
+//  - compact, the wire format: quantization and meshopt as GlbWriteOptions says (both on by default). Opens in
+//    viewers that ship a meshopt decoder (three.js with MeshoptDecoder set; tested in tests/gltf/test_gltf_viewers).
+//  - compat, for every viewer: float POSITION and TEXCOORD_0, float COLOR_0, no EXT_meshopt_compression, no
+//    KHR_mesh_quantization, no KHR_texture_transform, every texture a JPEG. `quantize` and `meshopt` are ignored.
+//    Opens in Blender 3.4, Assimp 5.2.5 and three.js. Neither Blender 3.4 nor Assimp 5.2.5 reads meshopt; Assimp
+//    5.2.5 also ignores KHR_mesh_quantization: it takes int16 POSITION bytes as floats (zeros, NaN, 1e38), its
+//    post-processing then drops every triangle, and the import fails with "No meshes remaining".
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "scene/result.h"
@@ -33,7 +43,13 @@
 
 namespace rgbdcast {
 
+enum class GlbFlavor { kCompact, kCompat };
+const char* to_string(GlbFlavor flavor);  // "compact", "compat"
+// "compact" or "compat"; anything else is kInvalidArgument with a message naming both.
+Result<GlbFlavor> parse_glb_flavor(std::string_view name);
+
 struct GlbWriteOptions {
+  GlbFlavor flavor = GlbFlavor::kCompact;  // compat overrides quantize and meshopt (see the top of this file)
   int jpeg_quality = 85;  // used only for meshes with pixels but no texture_encoded (1..100)
   std::string generator = "rgbdcast";
   bool quantize = true;   // KHR_mesh_quantization (Khronos validator accepts it; three.js reads it)
@@ -71,5 +87,12 @@ Status write_glb_file(const Scene& scene, const std::string& path, const GlbWrit
 // UVs have KHR_texture_transform applied (0..1 over the texture, origin top-left).
 Result<Scene> decode_glb(const std::uint8_t* data, size_t size);
 Result<Scene> read_glb_file(const std::string& path);
+
+// Re-encodes GLB bytes from an untrusted source in the flavour options.flavor: decode_glb, then encode_glb. Geometry,
+// cameras (with their exact intrinsics), node placement and scene extras carry over; a JPEG texture is copied
+// byte for byte, a PNG one is re-encoded as JPEG (options.jpeg_quality) for compat. Errors are decode_glb's
+// (kInvalidInput, kEmpty) or encode_glb's.
+Result<std::vector<std::uint8_t>> convert_glb(const std::uint8_t* data, size_t size, const GlbWriteOptions& options,
+                                              GlbStats* stats = nullptr);
 
 }  // namespace rgbdcast

@@ -144,8 +144,15 @@ class ModelBuilder {
     return add_accessor(v, kFloat, false, uvs.size(), TINYGLTF_TYPE_VEC2);
   }
 
-  // COLOR_0: linear RGB as normalized uint16 (stride 8).
+  // COLOR_0: linear RGB as normalized uint16 (stride 8); float for compat (stride 12), which every reader takes.
   int add_colors(const std::vector<Rgb8>& colors) {
+    if (opt_.flavor == GlbFlavor::kCompat) {
+      std::vector<float> data(colors.size() * 3);
+      for (size_t i = 0; i < colors.size(); ++i)
+        for (int k = 0; k < 3; ++k) data[3 * i + k] = glb::srgb8_to_linear16(colors[i][k]) / 65535.0f;
+      const int v = add_view(data.data(), data.size() * 4, 12, TINYGLTF_TARGET_ARRAY_BUFFER, true);
+      return add_accessor(v, kFloat, false, colors.size(), TINYGLTF_TYPE_VEC3);
+    }
     std::vector<std::uint16_t> data(colors.size() * 4, 0);
     for (size_t i = 0; i < colors.size(); ++i)
       for (int k = 0; k < 3; ++k) data[4 * i + k] = glb::srgb8_to_linear16(colors[i][k]);
@@ -190,19 +197,27 @@ class ModelBuilder {
   Result<int> add_texture(const Mesh& mesh) {
     std::vector<std::uint8_t> encoded = mesh.texture_encoded;
     std::string mime = mesh.texture_mime;
-    if (encoded.empty()) {
-      const Image& t = mesh.texture;
-      if (t.channels != 3 && t.channels != 4) return invalid("texture must be RGB8 or RGBA8");
-      if (t.data.size() != size_t(t.width) * t.height * t.channels) return invalid("texture size disagrees with its pixels");
-      cv::Mat view(t.height, t.width, t.channels == 3 ? CV_8UC3 : CV_8UC4, const_cast<std::uint8_t*>(t.data.data()));
+    if (!encoded.empty() && mime != "image/jpeg" && mime != "image/png")
+      return invalid("texture mime must be image/jpeg or image/png");
+    // compat: every texture a JPEG (some viewers read nothing else); a PNG is re-encoded from its pixels.
+    if (opt_.flavor == GlbFlavor::kCompat && mime == "image/png") {
       cv::Mat bgr;
-      cv::cvtColor(view, bgr, t.channels == 3 ? cv::COLOR_RGB2BGR : cv::COLOR_RGBA2BGR);
-      if (opt_.jpeg_quality < 1 || opt_.jpeg_quality > 100) return invalid("JPEG quality must be 1..100");
-      if (!cv::imencode(".jpg", bgr, encoded, {cv::IMWRITE_JPEG_QUALITY, opt_.jpeg_quality, cv::IMWRITE_JPEG_OPTIMIZE, 1}))
-        return make_error(ErrorCode::kInternal, "glTF export: JPEG encoding failed");
+      if (mesh.texture.empty()) {
+        bgr = cv::imdecode(cv::Mat(1, static_cast<int>(encoded.size()), CV_8UC1, encoded.data()), cv::IMREAD_COLOR);
+        if (bgr.empty()) return invalid("texture_encoded is not a readable PNG");
+      } else {
+        auto b = bgr_of(mesh.texture);
+        if (!b) return b.error();
+        bgr = *b;
+      }
+      if (auto st = encode_jpeg(bgr, &encoded); !st) return st.error();
+      mime = "image/jpeg";
+    } else if (encoded.empty()) {
+      auto bgr = bgr_of(mesh.texture);
+      if (!bgr) return bgr.error();
+      if (auto st = encode_jpeg(*bgr, &encoded); !st) return st.error();
       mime = "image/jpeg";
     }
-    if (mime != "image/jpeg" && mime != "image/png") return invalid("texture mime must be image/jpeg or image/png");
     if (model_.samplers.empty()) {
       tinygltf::Sampler s;
       s.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
@@ -220,6 +235,23 @@ class ModelBuilder {
     tex.sampler = 0;
     model_.textures.push_back(tex);
     return static_cast<int>(model_.textures.size() - 1);
+  }
+
+  // The texture's pixels as an OpenCV BGR image (a copy).
+  static Result<cv::Mat> bgr_of(const Image& t) {
+    if (t.channels != 3 && t.channels != 4) return invalid("texture must be RGB8 or RGBA8");
+    if (t.data.size() != size_t(t.width) * t.height * t.channels) return invalid("texture size disagrees with its pixels");
+    cv::Mat view(t.height, t.width, t.channels == 3 ? CV_8UC3 : CV_8UC4, const_cast<std::uint8_t*>(t.data.data()));
+    cv::Mat bgr;
+    cv::cvtColor(view, bgr, t.channels == 3 ? cv::COLOR_RGB2BGR : cv::COLOR_RGBA2BGR);
+    return bgr;
+  }
+
+  Status encode_jpeg(const cv::Mat& bgr, std::vector<std::uint8_t>* out) const {
+    if (opt_.jpeg_quality < 1 || opt_.jpeg_quality > 100) return invalid("JPEG quality must be 1..100");
+    if (!cv::imencode(".jpg", bgr, *out, {cv::IMWRITE_JPEG_QUALITY, opt_.jpeg_quality, cv::IMWRITE_JPEG_OPTIMIZE, 1}))
+      return make_error(ErrorCode::kInternal, "glTF export: JPEG encoding failed");
+    return ok_status();
   }
 
   int add_mesh_node(const std::string& name, tinygltf::Primitive prim, const tinygltf::Node& dequant) {
@@ -256,9 +288,21 @@ Status check_mesh(const Mesh& m, const std::string& name) {
 
 }  // namespace
 
-Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteOptions& options, GlbStats* stats) {
+const char* to_string(GlbFlavor flavor) { return flavor == GlbFlavor::kCompat ? "compat" : "compact"; }
+
+Result<GlbFlavor> parse_glb_flavor(std::string_view name) {
+  if (name == "compact") return GlbFlavor::kCompact;
+  if (name == "compat") return GlbFlavor::kCompat;
+  return make_error(ErrorCode::kInvalidArgument,
+                    "unknown GLB flavor '" + std::string(name) + "' (compact: meshopt + quantized, for three.js, "
+                    "Babylon.js, Foxglove; compat: plain floats, for Blender, Assimp and every viewer)");
+}
+
+Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteOptions& requested, GlbStats* stats) {
   const auto t0 = std::chrono::steady_clock::now();
   if (scene.nodes.empty() && scene.cameras.empty()) return make_error(ErrorCode::kEmpty, "glTF export: empty scene");
+  GlbWriteOptions options = requested;
+  if (options.flavor == GlbFlavor::kCompat) options.quantize = options.meshopt = false;
   ModelBuilder b(options);
   tinygltf::Node root;
   root.name = "rgbdcast_world";
@@ -391,6 +435,18 @@ Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteO
     stats->ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   return glb;
+}
+
+Result<std::vector<std::uint8_t>> convert_glb(const std::uint8_t* data, size_t size, const GlbWriteOptions& options,
+                                              GlbStats* stats) {
+  auto scene = decode_glb(data, size);
+  if (!scene) return scene.error();
+  // The reader names a node after its glTF mesh node ("keyframe_0_mesh"); the writer appends the suffix again.
+  for (SceneNode& n : scene->nodes)
+    for (const std::string suffix : {"_mesh", "_points"})
+      if (n.name.size() > suffix.size() && n.name.compare(n.name.size() - suffix.size(), suffix.size(), suffix) == 0)
+        n.name.resize(n.name.size() - suffix.size());
+  return encode_glb(*scene, options, stats);
 }
 
 Status write_glb_file(const Scene& scene, const std::string& path, const GlbWriteOptions& options, GlbStats* stats) {

@@ -14,6 +14,7 @@
 #include "service/http_errors.h"
 #include "service/image_encode.h"
 #include "service/metrics.h"
+#include "service/model_flavors.h"
 #include "service/render_pool.h"
 #include "service/scene_ingest.h"
 #include "service/scene_store.h"
@@ -87,6 +88,7 @@ struct ViewService::Impl {
   std::string backend_reason;
   std::mutex reason_mutex;
   Metrics metrics;
+  ModelFlavors flavors;
   httplib::Server server;
   int port = 0;
 
@@ -179,7 +181,7 @@ void ViewService::Impl::get_view(const httplib::Request& req, httplib::Response&
 
 void ViewService::Impl::get_glb(const httplib::Request& req, httplib::Response& res) {
   auto scene = scene_or_error(req, res);
-  if (!scene) return;
+  if (!scene || flavors.serve(req, res, *scene, *store)) return;  // ?flavor=: service/model_flavors.h
   res.set_header("ETag", scene->etag);
   res.set_header("Cache-Control", "no-cache");
   const std::string inm = req.get_header_value("If-None-Match");
@@ -268,6 +270,7 @@ void ViewService::Impl::routes() {
     auto st = store->remove(s->id);
     if (!st) return send_error(res, st.error());
     pool->forget(s->id);
+    flavors.forget(s->id);
     res.status = 204;
   }));
   server.Get(R"(/v1/scenes/([^/]+)/model\.glb)", guarded([this](const httplib::Request& req, httplib::Response& res) {

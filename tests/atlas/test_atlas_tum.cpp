@@ -5,11 +5,6 @@
 //    glTF camera; the screenshot covers the frame and correlates with the frame's colours.
 #include <gtest/gtest.h>
 
-#include <fcntl.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-
 #include <chrono>
 #include <fstream>
 #include <cstdio>
@@ -25,11 +20,10 @@
 #include "tests/common/run_command.h"
 #include "tests/common/test_data.h"
 #include "tests/common/gltf_validator.h"
-#include "tests/gltf/static_http_server.h"
+#include "tests/gltf/headless_chromium.h"
 
 using namespace rgbdcast;
 namespace fs = std::filesystem;
-extern char** environ;
 
 namespace {
 
@@ -76,12 +70,6 @@ Scene scene_of(const Mesh& mesh, const RgbdFrame& frame) {
   s.cameras.push_back(cam);
   s.extras_json = R"({"rgbdcast":{"frame":0}})";
   return s;
-}
-
-std::string find_chromium() {
-  for (const char* p : {"/usr/bin/chromium", "/usr/bin/chromium-headless-shell", "/usr/lib/chromium/chromium"})
-    if (fs::exists(p)) return p;
-  return {};
 }
 
 bool in_ci() { return std::getenv("CI") && std::string(std::getenv("CI")) == "true"; }
@@ -156,7 +144,7 @@ TEST(AtlasTum, Frame0AtlasGlbIsValidAndSmall) {
 
 // three.js in headless Chromium renders the GLB from the glTF capture camera.
 static void render_in_chromium(const Mesh& mesh, const RgbdFrame& frame, bool meshopt, const std::string& tag) {
-  const std::string chromium = find_chromium();
+  const std::string chromium = test::find_chromium();
   const std::string three = test::source_path("tools/node_modules/three/build/three.module.js");
   if (chromium.empty() || !fs::exists(three)) {
     const std::string why = chromium.empty() ? "chromium not installed" : "tools/node_modules/three missing (scripts/setup.sh)";
@@ -169,43 +157,17 @@ static void render_in_chromium(const Mesh& mesh, const RgbdFrame& frame, bool me
   w.meshopt = meshopt;
   ASSERT_TRUE(write_glb_file(scene_of(mesh, frame), glb, w).ok());
 
-  test::StaticHttpServer server(test::source_path("tools"));
-  server.map("/scene.glb", glb);
-  ASSERT_TRUE(server.start());
   const int W = frame.intrinsics.width, H = frame.intrinsics.height;
-  const std::string url = "http://127.0.0.1:" + std::to_string(server.port()) + "/threejs_view.html?glb=/scene.glb&w=" +
-                          std::to_string(W) + "&h=" + std::to_string(H) + "&bg=ff00ff";
-  const std::string profile = f->dir + "/chromium-profile-" + tag;
   const std::string shot = f->dir + "/" + tag + ".png";
-  // Chromium runs in the background until the page POSTs its canvas (or an error) back; then we end it by its pid.
-  std::vector<std::string> args = {chromium, "--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
-                                   "--use-angle=swiftshader", "--no-first-run", "--disable-background-networking",
-                                   "--disable-component-update", "--disable-sync", "--hide-scrollbars",
-                                   "--user-data-dir=" + profile,
-                                   "--window-size=" + std::to_string(W) + "," + std::to_string(H), url};
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  const std::string log = f->dir + "/" + tag + "-chromium.log";
-  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
-  const auto t0 = std::chrono::steady_clock::now();
-  pid_t pid = -1;
-  ASSERT_EQ(posix_spawn(&pid, chromium.c_str(), &actions, nullptr, argv.data(), environ), 0);
-  posix_spawn_file_actions_destroy(&actions);
-  const auto posted = server.wait_for_post({"/result", "/error"}, 90000);
-  kill(pid, SIGTERM);
-  int status = 0;
-  waitpid(pid, &status, 0);
-  test::remove_tree_quietly(profile);
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  ASSERT_TRUE(posted.has_value()) << "the page did not report within 90 s; see " << log;
-  ASSERT_EQ(posted->first, "/result") << posted->second;
+  const auto post = test::run_tools_page(chromium, "threejs_view.html?glb=/scene.glb&w=" + std::to_string(W) + "&h=" +
+                                                       std::to_string(H) + "&bg=ff00ff",
+                                         {{"/scene.glb", glb}}, f->dir, tag, W, H);
+  const double ms = post.ms;
+  ASSERT_TRUE(post.reported) << "the page did not report within 90 s; see " << post.log;
+  ASSERT_TRUE(post.ok) << post.body;
   {
     std::ofstream png(shot, std::ios::binary);
-    png.write(posted->second.data(), static_cast<std::streamsize>(posted->second.size()));
+    png.write(post.body.data(), static_cast<std::streamsize>(post.body.size()));
   }
   cv::Mat bgr = cv::imread(shot, cv::IMREAD_COLOR);
   ASSERT_EQ(bgr.cols, W);

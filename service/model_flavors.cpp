@@ -1,0 +1,178 @@
+#include "service/model_flavors.h"
+
+#include <httplib.h>
+
+#include <algorithm>
+#include <optional>
+
+#include <nlohmann/json.hpp>
+
+#include "gltf/glb_container.h"
+#include "service/http_errors.h"
+
+namespace rgbdcast::service {
+namespace {
+
+bool uses_meshopt(const std::vector<std::uint8_t>& glb) {
+  auto chunks = glb::parse_glb(glb.data(), glb.size());
+  if (!chunks) return false;
+  const auto doc = nlohmann::json::parse(chunks->json, nullptr, false);
+  if (doc.is_discarded() || !doc.contains("extensionsUsed") || !doc["extensionsUsed"].is_array()) return false;
+  for (const auto& e : doc["extensionsUsed"])
+    if (e == "EXT_meshopt_compression") return true;
+  return false;
+}
+
+// The stored file in `flavor`: itself when it already is compact, else converted.
+Result<FlavoredModel> make_flavor(const StoredScene& scene, GlbFlavor flavor, const SceneStore& store,
+                                  bool* converted) {
+  auto stored = store.read_glb(scene.id);
+  if (!stored) return stored.error();
+  *converted = false;
+  if (flavor == GlbFlavor::kCompact && uses_meshopt(*stored))
+    return FlavoredModel{std::make_shared<const std::vector<std::uint8_t>>(std::move(*stored)), scene.etag, true};
+  GlbWriteOptions options;
+  options.flavor = flavor;
+  auto out = convert_glb(stored->data(), stored->size(), options);
+  if (!out)
+    return make_error(ErrorCode::kInternal, "stored scene " + scene.id + " does not convert to " +
+                                                to_string(flavor) + ": " + out.error().message);
+  *converted = true;
+  std::string etag = etag_of(out->data(), out->size());
+  return FlavoredModel{std::make_shared<const std::vector<std::uint8_t>>(std::move(*out)), std::move(etag)};
+}
+
+void send_error(httplib::Response& res, int status, const std::string& detail) {
+  res.status = status;
+  res.set_content(error_body(status, detail), "application/json");
+}
+
+}  // namespace
+
+Result<FlavoredModel> ModelFlavors::get(const StoredScene& scene, GlbFlavor flavor, const SceneStore& store,
+                                        bool* converted_now) {
+  if (converted_now) *converted_now = false;
+  const Key key{scene.id, flavor};
+  std::promise<Result<FlavoredModel>> promise;
+  std::optional<std::shared_future<Result<FlavoredModel>>> cached;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = entries_.find(key);
+    if (it != entries_.end() && it->second.source_etag == scene.etag) {
+      cached = it->second.model;
+      order_.remove(key);
+      order_.push_back(key);
+    } else if (it != entries_.end()) {  // the scene was replaced: its old flavours are stale
+      total_bytes_ -= it->second.bytes;
+      order_.remove(key);
+      entries_.erase(it);
+    }
+    if (!cached) {
+      entries_[key] = Entry{scene.etag, promise.get_future().share(), 0};
+      order_.push_back(key);
+    }
+  }
+  if (cached) return cached->get();  // waits, without the lock, for a conversion in flight
+  bool converted = false;
+  Result<FlavoredModel> made = make_error(ErrorCode::kInternal, "conversion failed");
+  try {
+    made = make_flavor(scene, flavor, store, &converted);
+  } catch (const std::exception& e) {  // e.g. out of memory: an error for every waiter, never a broken promise
+    made = make_error(ErrorCode::kInternal, std::string("conversion failed: ") + e.what());
+  }
+  {
+    std::lock_guard lock(mutex_);
+    conversions_ += converted ? 1 : 0;
+    if (converted_now) *converted_now = converted;
+    auto it = entries_.find(key);
+    const bool still_ours = it != entries_.end() && it->second.source_etag == scene.etag && it->second.bytes == 0;
+    if (still_ours && made && converted) {
+      it->second.bytes = made->bytes->size();
+      total_bytes_ += it->second.bytes;
+      evict_locked();
+    } else if (still_ours) {  // errors are retried by the next request; the stored compact file is not copied
+      order_.remove(key);
+      entries_.erase(it);
+    }
+  }
+  promise.set_value(made);
+  return made;
+}
+
+void ModelFlavors::evict_locked() {
+  // Oldest first, never the newest entry, never a conversion in flight (bytes == 0).
+  for (auto it = order_.begin(); total_bytes_ > max_bytes_ && it != order_.end() && std::next(it) != order_.end();) {
+    auto e = entries_.find(*it);
+    if (e == entries_.end() || e->second.bytes == 0) {
+      ++it;
+      continue;
+    }
+    total_bytes_ -= e->second.bytes;
+    entries_.erase(e);
+    it = order_.erase(it);
+  }
+}
+
+void ModelFlavors::forget(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  for (auto it = entries_.begin(); it != entries_.end();) {
+    if (it->first.first != id) {
+      ++it;
+      continue;
+    }
+    total_bytes_ -= it->second.bytes;
+    order_.remove(it->first);
+    it = entries_.erase(it);
+  }
+}
+
+size_t ModelFlavors::cached_bytes() const {
+  std::lock_guard lock(mutex_);
+  return total_bytes_;
+}
+
+size_t ModelFlavors::conversions() const {
+  std::lock_guard lock(mutex_);
+  return conversions_;
+}
+
+bool ModelFlavors::serve(const httplib::Request& req, httplib::Response& res, const StoredScene& scene,
+                         const SceneStore& store) {
+  if (!req.has_param("flavor")) return false;
+  if (req.get_param_value_count("flavor") != 1) {
+    send_error(res, 400, "flavor given more than once");
+    return true;
+  }
+  auto flavor = parse_glb_flavor(req.get_param_value("flavor"));
+  if (!flavor) {
+    send_error(res, 400, flavor.error().message);
+    return true;
+  }
+  bool converted_now = false;
+  auto model = get(scene, *flavor, store, &converted_now);
+  if (!model) {
+    send_error(res, http_status_for(model.error().code), model.error().message);
+    return true;
+  }
+  res.set_header("ETag", model->etag);
+  res.set_header("Cache-Control", "no-cache");
+  res.set_header("X-Flavor-Cache", model->stored_file ? "stored" : converted_now ? "miss" : "hit");
+  const std::string inm = req.get_header_value("If-None-Match");
+  if (!inm.empty() && (inm == "*" || inm.find(model->etag) != std::string::npos)) {
+    res.status = 304;
+    return true;
+  }
+  res.status = 200;
+  res.set_header("Content-Disposition",
+                 "attachment; filename=\"" + scene.id + "-" + to_string(*flavor) + ".glb\"");
+  auto bytes = model->bytes;  // the cached file is shared with the response, not copied
+  res.set_content_provider(bytes->size(), "model/gltf-binary",
+                           [bytes](size_t offset, size_t length, httplib::DataSink& sink) {
+                             if (offset >= bytes->size()) return false;
+                             length = std::min(length, bytes->size() - offset);
+                             return sink.write(reinterpret_cast<const char*>(bytes->data()) + offset, length);
+                           });
+  return true;
+}
+
+}  // namespace rgbdcast::service
