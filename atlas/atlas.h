@@ -1,16 +1,22 @@
 #pragma once
-// Texturing a reduced mesh from its colour frame (paper, section 3.3), in one of two modes:
+// Texturing a reduced mesh from its colour frame (paper, section 3.3), in one of three modes:
 //  - kAtlas: every triangle gets its own undistorted texture in a square cell of an atlas (see atlas_layout.h and
 //    triangle_homography.h); the output mesh gives each triangle its own three vertices (positions duplicated) with
 //    UVs at its cell's corners.
 //  - kFrame: the baseline: the whole colour frame is the texture and each vertex's UV is its projected pixel
 //    (projective texturing, affine across each triangle, so large oblique triangles are distorted). Shared vertices
 //    are kept (reordered for compression when reorder_triangles; vertices no triangle uses are dropped).
+//  - kFootprint: the undistorted atlas with cells sized to each triangle's footprint in the colour image (about one
+//    texel per source pixel along each leg, AtlasOptions::texels_per_px), two triangles of a size class per cell,
+//    shelf-packed into one image (footprint_layout.h); texels outside every cell's triangles and gutters are filled
+//    smoothly (unsampled_fill.h) so JPEG spends almost nothing on them. Meant for meshes of large triangles of mixed
+//    sizes (the realtime preset's right-triangulated depth image). Output mesh as kAtlas.
 // Input: mesh positions in the camera frame of color_rgb (CV_8UC3, RGB order) which is already undistorted, so
 // `pinhole` must be the pinhole intrinsics (distortion ignored) of that image. Triangles with a vertex at z <= 0 or
 // no area are dropped (counted). The texture is returned as pixels (Mesh::texture, RGB8) and JPEG-encoded
 // (Mesh::texture_encoded, texture_mime "image/jpeg").
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 
 #include "scene/intrinsics.h"
@@ -22,9 +28,10 @@ namespace rgbdcast {
 // kAuto picks per frame: the atlas when the mesh's median triangle covers more source pixels than a cell gives it
 // (undistortion then matters), else the frame texture (tiny triangles: projective texturing is exact to a pixel and
 // the frame costs far fewer bytes; see BENCHMARKS.md). AtlasResult::mode says which was used.
-enum class TextureMode { kAtlas, kFrame, kAuto };
+// kAuto chooses between kAtlas and kFrame only.
+enum class TextureMode { kAtlas, kFrame, kAuto, kFootprint };
 const char* to_string(TextureMode mode);
-// "atlas", "frame" or "auto"; anything else is kInvalidArgument.
+// "atlas", "frame", "auto" or "footprint"; anything else is kInvalidArgument.
 Result<TextureMode> parse_texture_mode(const std::string& name);
 
 struct AtlasOptions {
@@ -35,6 +42,11 @@ struct AtlasOptions {
   int jpeg_quality = 85;    // 1..100
   bool reorder_triangles = true;  // meshoptimizer vertex-cache order: neighbouring triangles in neighbouring cells
   int max_atlas_side_px = 8192;
+  // kFootprint: texels per source pixel along a triangle's legs (cells are rounded up to the next size class).
+  double texels_per_px = 1.0;
+  // Fill texels that no triangle samples smoothly (unsampled_fill.h). Unset: on for kFootprint, off for kAtlas and
+  // kFrame (their goldens predate it). For kFrame, the texels are the frame's pixels that no triangle covers.
+  std::optional<bool> fill_unsampled;
 };
 
 struct AtlasResult {
@@ -43,11 +55,14 @@ struct AtlasResult {
   int width = 0, height = 0;  // texture size (texels)
   size_t texels = 0;          // width * height
   size_t cells = 0;           // atlas cells used (0 in frame mode)
+  double packing_efficiency = 0.0;  // kFootprint: triangles' own texels / atlas texels (footprint_layout.h)
+  size_t unsampled_texels = 0;      // texels no triangle samples (counted when they are filled)
   size_t triangles = 0;       // triangles textured
   size_t dropped_triangles = 0;
   double median_source_px = 0.0;  // median projected area of a triangle in the colour image (pixels)
   double texels_per_triangle = 0.0;  // texels of a triangle's own area in its cell (frame mode: = source px)
-  double ms = 0.0;            // building the texture and the mesh
+  double ms = 0.0;            // building the texture and the mesh, including the fill
+  double fill_ms = 0.0;       // of which: filling unsampled texels
   double encode_ms = 0.0;     // JPEG encoding
 };
 

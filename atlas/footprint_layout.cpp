@@ -1,0 +1,133 @@
+#include "atlas/footprint_layout.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "atlas/atlas_layout.h"
+
+namespace rgbdcast {
+
+const std::vector<int>& footprint_leg_classes() {
+  static const std::vector<int> classes = [] {
+    std::vector<int> c;
+    for (int k = 0; k <= 16; ++k) {
+      const int n = static_cast<int>(std::ceil(std::pow(2.0, k / 2.0) - 1e-9));
+      if (c.empty() || n != c.back()) c.push_back(n);
+    }
+    return c;
+  }();
+  return classes;
+}
+
+int footprint_leg_class(double leg_px) {
+  const auto& c = footprint_leg_classes();
+  if (!(leg_px > 1.0)) return c.front();
+  const auto it = std::lower_bound(c.begin(), c.end(), leg_px - 1e-3);
+  return it == c.end() ? c.back() : *it;
+}
+
+double footprint_leg_px(const std::array<Eigen::Vector2d, 3>& p, int* right_angle) {
+  int best = 0;
+  double best_cos = 2.0;
+  for (int i = 0; i < 3; ++i) {
+    const Eigen::Vector2d a = p[(i + 1) % 3] - p[i], b = p[(i + 2) % 3] - p[i];
+    const double na = a.norm(), nb = b.norm();
+    const double cosine = (na > 0 && nb > 0) ? a.dot(b) / (na * nb) : 1.0;
+    if (cosine < best_cos) best_cos = cosine, best = i;
+  }
+  if (right_angle) *right_angle = best;
+  const Eigen::Vector2d e1 = p[(best + 1) % 3] - p[best], e2 = p[(best + 2) % 3] - p[best];
+  // Largest singular value of [e1 e2]: sqrt of the largest eigenvalue of its Gram matrix.
+  const double a = e1.squaredNorm(), b = e1.dot(e2), c = e2.squaredNorm();
+  const double half_diff = 0.5 * (a - c);
+  return std::sqrt(0.5 * (a + c) + std::sqrt(half_diff * half_diff + b * b));
+}
+
+std::array<Eigen::Vector2d, 3> FootprintLayout::corners(size_t t) const {
+  const FootprintSlot& s = slots[t];
+  return cell_triangle_corners(s.x0, s.y0, s.cell_px, gutter_px, true, s.lower);
+}
+
+double FootprintLayout::efficiency() const {
+  const double texels = static_cast<double>(width) * height;
+  return texels > 0 ? triangle_texels / texels : 0.0;
+}
+
+bool make_footprint_layout(const std::vector<int>& leg_texels, int gutter_px, int max_side, FootprintLayout* out) {
+  if (gutter_px < 0 || gutter_px > 64) return false;
+  FootprintLayout l;
+  l.gutter_px = gutter_px;
+  l.slots.resize(leg_texels.size());
+  const auto side = [&](int leg) { return leg + 3 * gutter_px + 1; };
+
+  // Cells: pairs of consecutive triangles of the same leg, biggest legs first, triangle order within a leg.
+  struct Cell {
+    int side;
+    std::uint32_t first, second;  // second == first when alone
+  };
+  std::vector<std::uint32_t> order(leg_texels.size());
+  for (size_t t = 0; t < order.size(); ++t) {
+    if (leg_texels[t] <= 0 || side(leg_texels[t]) > max_side) return false;
+    order[t] = static_cast<std::uint32_t>(t);
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return leg_texels[a] > leg_texels[b]; });
+  std::vector<Cell> cells;
+  cells.reserve(order.size() / 2 + 1);
+  double area = 0;
+  for (size_t k = 0; k < order.size();) {
+    const int leg = leg_texels[order[k]];
+    const bool pair = k + 1 < order.size() && leg_texels[order[k + 1]] == leg;
+    cells.push_back({side(leg), order[k], pair ? order[k + 1] : order[k]});
+    area += double(side(leg)) * side(leg);
+    l.triangle_texels += 0.5 * leg * leg + (pair ? 0.5 * (leg + 1) * (leg + 1) : 0.0);
+    k += pair ? 2 : 1;
+  }
+  l.cells = cells.size();
+  l.cell_texels = area;
+  if (cells.empty()) {
+    l.width = l.height = 8;
+    *out = std::move(l);
+    return true;
+  }
+
+  const int widest = cells.front().side;
+  int width = std::max(widest, static_cast<int>(std::ceil(std::sqrt(area))));
+  width = (width + 7) / 8 * 8;
+  if (width > max_side) return false;
+  int shelf_y = 0, shelf_h = 0, x = 0;     // current shelf and the next free column in it
+  int col_x = 0, col_side = 0, col_y = 0;  // current column: where the next cell of its side goes
+  auto place = [&](const Cell& c, int cx, int cy) {
+    FootprintSlot s{cx, cy, c.side, false, c.second != c.first};
+    l.slots[c.first] = s;
+    if (s.paired) {
+      s.lower = true;
+      l.slots[c.second] = s;
+    }
+  };
+  for (const Cell& c : cells) {
+    if (shelf_h > 0 && col_side == c.side && col_y + c.side <= shelf_y + shelf_h) {
+      place(c, col_x, col_y);
+      col_y += c.side;
+      continue;
+    }
+    if (shelf_h == 0 || x + c.side > width) {  // a new shelf, as high as this cell
+      shelf_y += shelf_h;
+      shelf_h = c.side;
+      x = 0;
+    }
+    col_x = x;
+    col_side = c.side;
+    place(c, col_x, shelf_y);
+    col_y = shelf_y + c.side;
+    x += c.side;
+  }
+  const int height = (shelf_y + shelf_h + 7) / 8 * 8;
+  if (height > max_side) return false;
+  l.width = width;
+  l.height = height;
+  *out = std::move(l);
+  return true;
+}
+
+}  // namespace rgbdcast
