@@ -44,6 +44,9 @@ struct AtlasOptions {
   int max_atlas_side_px = 8192;
   // kFootprint: texels per source pixel along a triangle's legs (cells are rounded up to the next size class).
   double texels_per_px = 1.0;
+  // kFootprint: two triangles that share their hypotenuse share one cell without a gutter between them (a "diamond",
+  // footprint_layout.h): about a third fewer texels on a right-triangulated depth image, and no seam inside the cell.
+  bool footprint_diamonds = true;
   // Fill texels that no triangle samples smoothly (unsampled_fill.h). Unset: on for kFootprint, off for kAtlas and
   // kFrame (their goldens predate it). For kFrame, the texels are the frame's pixels that no triangle covers.
   std::optional<bool> fill_unsampled;

@@ -23,47 +23,65 @@ double ms_between(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
 }
 
-// Bilinear RGB lookup at pixel (u, v) (centres at integers), clamped to the image.
-inline void sample_rgb(const cv::Mat& rgb, double u, double v, std::uint8_t* out) {
-  u = std::clamp(u, 0.0, rgb.cols - 1.0);
-  v = std::clamp(v, 0.0, rgb.rows - 1.0);
+// The colour image as plain numbers, so that the texel loop keeps them in registers (stores through uint8_t* may
+// alias anything, which would make the compiler reload cv::Mat's fields for every texel).
+struct Source {
+  const std::uint8_t* data;
+  size_t stride;
+  double max_u, max_v;
+  int cols, rows;
+};
+
+// Bilinear RGB lookup at pixel (u, v) (centres at integers), clamped to the image; 8-bit fixed-point weights (the
+// result is within one level of the exact interpolation), integer arithmetic throughout.
+inline void sample_rgb(const Source& s, double u, double v, std::uint8_t* out) {
+  u = std::min(std::max(u, 0.0), s.max_u);
+  v = std::min(std::max(v, 0.0), s.max_v);
   const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
-  const int dx = x0 + 1 < rgb.cols ? 3 : 0;
-  const size_t dy = y0 + 1 < rgb.rows ? rgb.step[0] : 0;
-  const float fx = static_cast<float>(u - x0), fy = static_cast<float>(v - y0);
-  const std::uint8_t* p = rgb.ptr<std::uint8_t>(y0) + 3 * x0;
+  const int dx = x0 + 1 < s.cols ? 3 : 0;
+  const size_t dy = y0 + 1 < s.rows ? s.stride : 0;
+  const int wx = static_cast<int>((u - x0) * 256.0 + 0.5), wy = static_cast<int>((v - y0) * 256.0 + 0.5);
+  const std::uint8_t* p = s.data + y0 * s.stride + 3 * x0;
+  const std::uint8_t* q = p + dy;
+  int rgb[3];
   for (int c = 0; c < 3; ++c) {
-    const float top = p[c] + fx * (p[c + dx] - p[c]);
-    const float bot = p[c + dy] + fx * (p[c + dy + dx] - p[c + dy]);
-    out[c] = static_cast<std::uint8_t>(top + fy * (bot - top) + 0.5f);
+    const int top = (p[c] << 8) + wx * (p[c + dx] - p[c]);
+    const int bot = (q[c] << 8) + wx * (q[c + dx] - q[c]);
+    rgb[c] = ((top << 8) + wy * (bot - top) + (1 << 15)) >> 16;
   }
+  out[0] = static_cast<std::uint8_t>(rgb[0]);
+  out[1] = static_cast<std::uint8_t>(rgb[1]);
+  out[2] = static_cast<std::uint8_t>(rgb[2]);
 }
 
 // Fills the texels of a cell that belong to one triangle (the upper part i + j + 1 < S, or the rest for the lower
 // triangle) from the colour image through M^-1, and marks them sampled. Texels whose continued plane passes behind
 // the camera take the centroid's pixel.
-void fill_cell_part(const FootprintSlot& slot, const TriangleTextureMap& map, const cv::Mat& rgb, Image* atlas,
+void fill_cell_part(const FootprintSlot& slot, const TriangleTextureMap& map, const Source& src, Image* atlas,
                     std::uint8_t* sampled) {
   const int S = slot.cell_px;
   const Eigen::Matrix3d& M = map.image_from_atlas;
   const Eigen::Vector3d c = map.H * Eigen::Vector3d((map.plane[0].x() + map.plane[1].x() + map.plane[2].x()) / 3,
                                                     (map.plane[0].y() + map.plane[1].y() + map.plane[2].y()) / 3, 1);
   const double cu = c.x() / c.z(), cv = c.y() / c.z(), min_w = 1e-9 * std::abs(c.z());
-  const Eigen::Vector3d step = M.col(0);
+  const double sx = M(0, 0), sy = M(1, 0), sz = M(2, 0);
+  const int width = atlas->width;
+  std::uint8_t* const texels = atlas->data.data();
   for (int j = 0; j < S; ++j) {
     const int split = S - 1 - j;  // texels i < split are the upper triangle's
     const int i0 = slot.lower ? split : 0, i1 = slot.lower ? S : split;
-    Eigen::Vector3d h = M * Eigen::Vector3d(slot.x0 + i0 + 0.5, slot.y0 + j + 0.5, 1.0);
-    std::uint8_t* px = atlas->pixel(slot.x0 + i0, slot.y0 + j);
-    std::uint8_t* mk = sampled + static_cast<size_t>(slot.y0 + j) * atlas->width + slot.x0 + i0;
-    for (int i = i0; i < i1; ++i, h += step, px += 3, ++mk) {
-      if (h.z() > min_w) {
-        const double inv = 1.0 / h.z();
-        sample_rgb(rgb, h.x() * inv, h.y() * inv, px);
+    const Eigen::Vector3d h0 = M * Eigen::Vector3d(slot.x0 + i0 + 0.5, slot.y0 + j + 0.5, 1.0);
+    double hx = h0.x(), hy = h0.y(), hz = h0.z();
+    const size_t row = static_cast<size_t>(slot.y0 + j) * width + slot.x0;
+    std::uint8_t* px = texels + 3 * (row + i0);
+    std::fill(sampled + row + i0, sampled + row + i1, std::uint8_t{1});
+    for (int i = i0; i < i1; ++i, hx += sx, hy += sy, hz += sz, px += 3) {
+      if (hz > min_w) {
+        const double inv = 1.0 / hz;
+        sample_rgb(src, hx * inv, hy * inv, px);
       } else {
-        sample_rgb(rgb, cu, cv, px);
+        sample_rgb(src, cu, cv, px);
       }
-      *mk = 1;
     }
   }
 }
@@ -73,6 +91,38 @@ bool texturable(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen:
   if (!(a.z() > 0.0 && b.z() > 0.0 && c.z() > 0.0)) return false;
   const Eigen::Vector3d d1 = b - a;
   return d1.squaredNorm() > 0.0 && 0.5 * d1.cross(c - a).norm() > 1e-12;
+}
+
+// Diamonds: pairs of triangles with the same hypotenuse (v1, v2 after the rotation) whose right angles project on
+// opposite sides of it in the image (no fold). Pairs are found by sorting the hypotenuses, so the result is
+// deterministic; an edge with more than two such triangles (non-manifold) gets no diamond.
+void find_diamonds(const std::vector<std::array<std::uint32_t, 3>>& tris, const std::vector<Eigen::Vector2d>& right_px,
+                   const Mesh& mesh, const Eigen::Matrix3d& K, std::vector<FootprintTriangle>* cells) {
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> edges(tris.size());
+  for (size_t t = 0; t < tris.size(); ++t) {
+    const std::uint64_t a = std::min(tris[t][1], tris[t][2]), b = std::max(tris[t][1], tris[t][2]);
+    edges[t] = {a << 32 | b, static_cast<std::uint32_t>(t)};
+  }
+  std::sort(edges.begin(), edges.end());
+  auto pixel = [&](std::uint32_t v) -> Eigen::Vector2d {
+    const Eigen::Vector3d h = K * mesh.positions[v].cast<double>();
+    return h.head<2>() / h.z();
+  };
+  for (size_t k = 0; k + 1 < edges.size();) {
+    size_t n = 1;
+    while (k + n < edges.size() && edges[k + n].first == edges[k].first) ++n;
+    if (n == 2) {
+      const std::uint32_t t = edges[k].second, u = edges[k + 1].second;  // t < u
+      const Eigen::Vector2d p1 = pixel(tris[t][1]), d = pixel(tris[t][2]) - p1;
+      auto side = [&](const Eigen::Vector2d& q) { return d.x() * (q - p1).y() - d.y() * (q - p1).x(); };
+      if (side(right_px[t]) * side(right_px[u]) < 0) {
+        (*cells)[t].diamond_partner = u;
+        (*cells)[u].diamond_partner = t;
+        (*cells)[u].swapped = tris[u][1] == tris[t][1];
+      }
+    }
+    k += n;
+  }
 }
 
 }  // namespace
@@ -94,9 +144,11 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
   AtlasResult r;
   r.mode = TextureMode::kFootprint;
   std::vector<std::array<std::uint32_t, 3>> tris;
-  std::vector<int> legs;
+  std::vector<FootprintTriangle> cells;
+  std::vector<Eigen::Vector2d> right_px;  // the right-angle vertex's pixel
   tris.reserve(order.size() / 3);
-  legs.reserve(order.size() / 3);
+  cells.reserve(order.size() / 3);
+  right_px.reserve(order.size() / 3);
   for (size_t t = 0; t + 2 < order.size(); t += 3) {
     std::array<Eigen::Vector3d, 3> v;
     for (int i = 0; i < 3; ++i) v[i] = mesh.positions[order[t + i]].cast<double>();
@@ -112,17 +164,21 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
     int right = 0;
     const double leg_px = footprint_leg_px(px, &right);
     tris.push_back({order[t + right], order[t + (right + 1) % 3], order[t + (right + 2) % 3]});
-    legs.push_back(footprint_leg_class(options.texels_per_px * leg_px));
+    cells.push_back({footprint_leg_class(options.texels_per_px * leg_px), -1, false});
+    right_px.push_back(px[right]);
   }
   if (tris.empty()) return make_error(ErrorCode::kEmpty, "footprint atlas: no triangle in front of the camera with an area");
+  if (options.footprint_diamonds) find_diamonds(tris, right_px, mesh, K, &cells);
 
   FootprintLayout layout;
-  if (!make_footprint_layout(legs, options.gutter_px, options.max_atlas_side_px, &layout))
+  if (!make_footprint_layout(cells, options.gutter_px, options.max_atlas_side_px, &layout))
     return make_error(ErrorCode::kInvalidArgument,
                       "footprint atlas: " + std::to_string(tris.size()) + " triangles at " +
                           std::to_string(options.texels_per_px) + " texels per pixel exceed a " +
                           std::to_string(options.max_atlas_side_px) + " texel atlas");
 
+  const Source src{color_rgb.ptr<std::uint8_t>(0), color_rgb.step[0], color_rgb.cols - 1.0, color_rgb.rows - 1.0,
+                   color_rgb.cols, color_rgb.rows};
   Image atlas = Image::make(layout.width, layout.height, 3);
   std::vector<std::uint8_t> sampled(static_cast<size_t>(layout.width) * layout.height, 0);
   Mesh& out = r.mesh;
@@ -134,7 +190,7 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
     if (!triangle_texture_map(mesh.positions[tris[k][0]].cast<double>(), mesh.positions[tris[k][1]].cast<double>(),
                               mesh.positions[tris[k][2]].cast<double>(), K, corners, &map))
       return make_error(ErrorCode::kInternal, "footprint atlas: triangle map failed on a texturable triangle");
-    fill_cell_part(layout.slots[k], map, color_rgb, &atlas, sampled.data());
+    fill_cell_part(layout.slots[k], map, src, &atlas, sampled.data());
     append_cell_triangle(mesh, tris[k], corners, inv_size, &out);
   }
   if (options.fill_unsampled.value_or(true)) {

@@ -45,7 +45,13 @@ double footprint_leg_px(const std::array<Eigen::Vector2d, 3>& p, int* right_angl
 
 std::array<Eigen::Vector2d, 3> FootprintLayout::corners(size_t t) const {
   const FootprintSlot& s = slots[t];
-  return cell_triangle_corners(s.x0, s.y0, s.cell_px, gutter_px, true, s.lower);
+  if (!s.diamond) return cell_triangle_corners(s.x0, s.y0, s.cell_px, gutter_px, true, s.lower);
+  // The square [g, S - g]^2 split along its diagonal from (S - g, g) to (g, S - g).
+  const double g = gutter_px, f = s.cell_px - gutter_px;
+  const Eigen::Vector2d o(s.x0, s.y0), top_right = o + Eigen::Vector2d(f, g), bottom_left = o + Eigen::Vector2d(g, f);
+  if (!s.lower) return {o + Eigen::Vector2d(g, g), top_right, bottom_left};
+  if (s.swapped) return {o + Eigen::Vector2d(f, f), top_right, bottom_left};
+  return {o + Eigen::Vector2d(f, f), bottom_left, top_right};
 }
 
 double FootprintLayout::efficiency() const {
@@ -53,35 +59,55 @@ double FootprintLayout::efficiency() const {
   return texels > 0 ? triangle_texels / texels : 0.0;
 }
 
-bool make_footprint_layout(const std::vector<int>& leg_texels, int gutter_px, int max_side, FootprintLayout* out) {
+bool make_footprint_layout(const std::vector<FootprintTriangle>& tris, int gutter_px, int max_side,
+                           FootprintLayout* out) {
   if (gutter_px < 0 || gutter_px > 64) return false;
   FootprintLayout l;
   l.gutter_px = gutter_px;
-  l.slots.resize(leg_texels.size());
-  const auto side = [&](int leg) { return leg + 3 * gutter_px + 1; };
+  l.slots.resize(tris.size());
+  const auto side = [&](int leg, bool diamond) { return leg + (diamond ? 2 * gutter_px : 3 * gutter_px + 1); };
 
-  // Cells: pairs of consecutive triangles of the same leg, biggest legs first, triangle order within a leg.
+  // Cells: diamonds (at their first triangle), then pairs of consecutive other triangles of the same leg; biggest
+  // cells first, triangle order within a size.
   struct Cell {
-    int side;
+    int side, leg;
+    bool diamond;
     std::uint32_t first, second;  // second == first when alone
   };
-  std::vector<std::uint32_t> order(leg_texels.size());
-  for (size_t t = 0; t < order.size(); ++t) {
-    if (leg_texels[t] <= 0 || side(leg_texels[t]) > max_side) return false;
-    order[t] = static_cast<std::uint32_t>(t);
-  }
-  std::stable_sort(order.begin(), order.end(),
-                   [&](std::uint32_t a, std::uint32_t b) { return leg_texels[a] > leg_texels[b]; });
   std::vector<Cell> cells;
-  cells.reserve(order.size() / 2 + 1);
-  double area = 0;
-  for (size_t k = 0; k < order.size();) {
-    const int leg = leg_texels[order[k]];
-    const bool pair = k + 1 < order.size() && leg_texels[order[k + 1]] == leg;
-    cells.push_back({side(leg), order[k], pair ? order[k + 1] : order[k]});
-    area += double(side(leg)) * side(leg);
-    l.triangle_texels += 0.5 * leg * leg + (pair ? 0.5 * (leg + 1) * (leg + 1) : 0.0);
+  cells.reserve(tris.size() / 2 + 1);
+  std::vector<std::uint32_t> loose;  // triangles without a partner
+  for (size_t t = 0; t < tris.size(); ++t) {
+    const FootprintTriangle& tri = tris[t];
+    if (tri.leg <= 0) return false;
+    const std::int64_t p = tri.diamond_partner;
+    if (p < 0) {
+      loose.push_back(static_cast<std::uint32_t>(t));
+      continue;
+    }
+    if (p >= static_cast<std::int64_t>(tris.size()) || p == static_cast<std::int64_t>(t) ||
+        tris[p].diamond_partner != static_cast<std::int64_t>(t))
+      return false;
+    if (p < static_cast<std::int64_t>(t)) continue;  // laid out with its first triangle
+    const int leg = std::max(tri.leg, tris[p].leg);
+    cells.push_back({side(leg, true), leg, true, static_cast<std::uint32_t>(t), static_cast<std::uint32_t>(p)});
+  }
+  std::stable_sort(loose.begin(), loose.end(), [&](std::uint32_t a, std::uint32_t b) { return tris[a].leg > tris[b].leg; });
+  for (size_t k = 0; k < loose.size();) {
+    const int leg = tris[loose[k]].leg;
+    const bool pair = k + 1 < loose.size() && tris[loose[k + 1]].leg == leg;
+    cells.push_back({side(leg, false), leg, false, loose[k], pair ? loose[k + 1] : loose[k]});
     k += pair ? 2 : 1;
+  }
+  std::stable_sort(cells.begin(), cells.end(), [](const Cell& a, const Cell& b) { return a.side > b.side; });
+  double area = 0;
+  for (const Cell& c : cells) {
+    if (c.side > max_side) return false;
+    area += double(c.side) * c.side;
+    const bool pair = c.second != c.first;
+    // Own areas: a split cell's lower triangle has legs one texel longer (atlas_layout.h); a diamond's are equal.
+    l.triangle_texels += 0.5 * c.leg * c.leg;
+    if (pair) l.triangle_texels += c.diamond ? 0.5 * c.leg * c.leg : 0.5 * (c.leg + 1) * (c.leg + 1);
   }
   l.cells = cells.size();
   l.cell_texels = area;
@@ -98,10 +124,11 @@ bool make_footprint_layout(const std::vector<int>& leg_texels, int gutter_px, in
   int shelf_y = 0, shelf_h = 0, x = 0;     // current shelf and the next free column in it
   int col_x = 0, col_side = 0, col_y = 0;  // current column: where the next cell of its side goes
   auto place = [&](const Cell& c, int cx, int cy) {
-    FootprintSlot s{cx, cy, c.side, false, c.second != c.first};
+    FootprintSlot s{cx, cy, c.side, false, c.second != c.first, c.diamond, false};
     l.slots[c.first] = s;
     if (s.paired) {
       s.lower = true;
+      s.swapped = c.diamond && tris[c.second].swapped;
       l.slots[c.second] = s;
     }
   };

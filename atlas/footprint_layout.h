@@ -3,6 +3,11 @@
 // triangle's footprint in the colour image, two triangles of the same size class per cell (upper + lower, the cell
 // geometry of atlas_layout.h with its gutter), all cells shelf-packed into one image.
 //
+// Diamonds: two triangles that share their hypotenuse (the edge opposite the right angle: an RTIN's diamond, a square
+// in the image) can share one cell without a gutter between them, S = n + 2 g: the cell is then the image square,
+// continuous across the diagonal (both triangles' maps agree on the shared edge), so a lookup near the diagonal that
+// reads the partner's texels reads the same surface. Other triangles pair up as upper + lower with the gutter between.
+//
 // Size classes: a triangle needs legs of n texels, n the smallest class >= its footprint (see footprint_leg_px). The
 // classes are ceil(2^(k/2)): 1, 2, 3, 4, 6, 8, 12, 16, 23, 32, 46, 64, 91, 128, 182, 256, i.e. the legs of a
 // right-triangulated irregular network (1..64 px, axis-aligned or diagonal) rounded up to whole texels, so an RTIN
@@ -32,11 +37,22 @@ int footprint_leg_class(double leg_px);
 // should be p0.
 double footprint_leg_px(const std::array<Eigen::Vector2d, 3>& image_px, int* right_angle);
 
+// One triangle to lay out: its leg class, and its diamond partner (the triangle sharing its hypotenuse), if any.
+struct FootprintTriangle {
+  int leg = 1;                     // texels (footprint_leg_class)
+  std::int64_t diamond_partner = -1;  // index of the partner, which must name this one back; -1 for none
+  // For the second triangle of a diamond (the higher index): true when its v1 is the first one's v1 (so its legs run
+  // the other way round in the cell).
+  bool swapped = false;
+};
+
 struct FootprintSlot {
   int x0 = 0, y0 = 0;  // top-left texel of the cell
   int cell_px = 0;     // side of the (square) cell
   bool lower = false;  // the cell's lower triangle (else upper)
   bool paired = false; // the cell holds two triangles
+  bool diamond = false;  // the two share their hypotenuse (no gutter between them)
+  bool swapped = false;  // see FootprintTriangle
 };
 
 struct FootprintLayout {
@@ -53,8 +69,10 @@ struct FootprintLayout {
   double efficiency() const;
 };
 
-// Lays out one triangle per entry of leg_texels (each > 0; use footprint_leg_class). Returns false when a leg is not
-// positive, the gutter is negative, or the atlas would exceed max_side texels per side.
-bool make_footprint_layout(const std::vector<int>& leg_texels, int gutter_px, int max_side, FootprintLayout* out);
+// Lays out one triangle per entry (legs > 0; use footprint_leg_class). A diamond gets the larger leg of its two.
+// Returns false when a leg is not positive, a partner does not name its triangle back, the gutter is negative, or the
+// atlas would exceed max_side texels per side.
+bool make_footprint_layout(const std::vector<FootprintTriangle>& triangles, int gutter_px, int max_side,
+                           FootprintLayout* out);
 
 }  // namespace rgbdcast

@@ -145,12 +145,46 @@ Level downsample(int fw, int fh, Get get, Ok ok) {
   return l;
 }
 
+// downsample() for level 0, straight from the image's bytes (the bulk of the work: every texel is read once).
+template <int C>
+Level downsample_image(const Image& image, const std::vector<std::uint8_t>& sampled) {
+  Level l;
+  const int fw = image.width, fh = image.height;
+  l.w = (fw + 1) / 2;
+  l.h = (fh + 1) / 2;
+  l.value.assign(static_cast<size_t>(l.w) * l.h * C, 0.0f);
+  l.valid.assign(static_cast<size_t>(l.w) * l.h, 0);
+  const std::uint8_t* data = image.data.data();
+  const std::uint8_t* mask = sampled.data();
+  for (int y = 0; y < l.h; ++y) {
+    const int rows = std::min(2, fh - 2 * y);
+    float* out = &l.value[static_cast<size_t>(y) * l.w * C];
+    std::uint8_t* valid = &l.valid[static_cast<size_t>(y) * l.w];
+    for (int x = 0; x < l.w; ++x, out += C) {
+      const int cols = std::min(2, fw - 2 * x);
+      int sum[C] = {}, n = 0;
+      for (int dy = 0; dy < rows; ++dy) {
+        const size_t i = static_cast<size_t>(2 * y + dy) * fw + 2 * x;
+        for (int dx = 0; dx < cols; ++dx) {
+          if (!mask[i + dx]) continue;
+          ++n;
+          const std::uint8_t* p = data + (i + dx) * C;
+          for (int c = 0; c < C; ++c) sum[c] += p[c];
+        }
+      }
+      if (n == 0) continue;
+      valid[x] = 1;
+      const float inv = 1.0f / n;
+      for (int c = 0; c < C; ++c) out[c] = sum[c] * inv;
+    }
+  }
+  return l;
+}
+
 template <int C>
 void push_pull(Image* image, const std::vector<std::uint8_t>& sampled) {
   std::vector<Level> levels;
-  levels.push_back(downsample<C>(
-      image->width, image->height, [&](int x, int y, int c) { return float(image->pixel(x, y)[c]); },
-      [&](int x, int y) { return sampled[static_cast<size_t>(y) * image->width + x] != 0; }));
+  levels.push_back(downsample_image<C>(*image, sampled));
   while (levels.back().w > 1 || levels.back().h > 1) {
     const Level& f = levels.back();
     levels.push_back(downsample<C>(

@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <cstdio>
+#include <map>
 #include <random>
 
 #include "atlas/atlas.h"
@@ -88,24 +89,48 @@ TEST(FootprintLayout, CellsDoNotOverlapStayInsideAndPackTightly) {
   std::mt19937 rng(11);
   const auto& classes = footprint_leg_classes();
   for (int trial = 0; trial < 4; ++trial) {
-    // Legs as an RTIN of a 640x480 frame has them: mostly small, some large.
-    std::vector<int> legs;
+    // Legs as an RTIN of a 640x480 frame has them: mostly small, some large; about half the triangles in diamonds
+    // (pairs sharing their hypotenuse, here consecutive ones of the same leg).
+    std::vector<FootprintTriangle> tris;
     std::discrete_distribution<int> pick({2, 3, 6, 8, 10, 10, 9, 7, 5, 4, 2, 1});
     const int n = trial == 0 ? 1 : 3000 * trial;
-    for (int i = 0; i < n; ++i) legs.push_back(classes[pick(rng)]);
+    for (int i = 0; i < n; ++i) {
+      FootprintTriangle t;
+      t.leg = classes[pick(rng)];
+      if (i % 4 == 1) {  // a diamond with the previous one
+        t.leg = tris.back().leg;
+        t.diamond_partner = i - 1;
+        t.swapped = i % 8 == 1;
+        tris.back().diamond_partner = i;
+      }
+      tris.push_back(t);
+    }
     FootprintLayout l;
-    ASSERT_TRUE(make_footprint_layout(legs, 1, 8192, &l));
+    ASSERT_TRUE(make_footprint_layout(tris, 1, 8192, &l));
     EXPECT_EQ(l.width % 8, 0);
     EXPECT_EQ(l.height % 8, 0);
     std::vector<int> owner(static_cast<size_t>(l.width) * l.height, -1);
-    size_t cells = 0;
-    for (size_t t = 0; t < legs.size(); ++t) {
+    size_t cells = 0, diamonds = 0;
+    for (size_t t = 0; t < tris.size(); ++t) {
       const FootprintSlot& s = l.slots[t];
-      ASSERT_EQ(s.cell_px, legs[t] + 4);
+      ASSERT_EQ(s.diamond, tris[t].diamond_partner >= 0);
+      ASSERT_EQ(s.cell_px, tris[t].leg + (s.diamond ? 2 : 4));
       ASSERT_GE(s.x0, 0);
       ASSERT_GE(s.y0, 0);
       ASSERT_LE(s.x0 + s.cell_px, l.width);
       ASSERT_LE(s.y0 + s.cell_px, l.height);
+      // The corners sit inside the cell, the right angle first.
+      const auto c = l.corners(t);
+      const int leg = tris[t].leg + (s.lower && !s.diamond ? 1 : 0);
+      EXPECT_NEAR((c[1] - c[0]).norm(), leg, 1e-12);
+      EXPECT_NEAR((c[2] - c[0]).norm(), leg, 1e-12);
+      EXPECT_NEAR((c[1] - c[0]).dot(c[2] - c[0]), 0.0, 1e-12);
+      if (s.diamond && s.lower) {  // shares its hypotenuse with its partner's, vertex for vertex
+        const auto p = l.corners(tris[t].diamond_partner);
+        ++diamonds;
+        EXPECT_EQ(c[1], s.swapped ? p[1] : p[2]);
+        EXPECT_EQ(c[2], s.swapped ? p[2] : p[1]);
+      }
       if (s.lower) continue;  // the cell is painted by its upper triangle
       ++cells;
       for (int y = s.y0; y < s.y0 + s.cell_px; ++y)
@@ -114,39 +139,43 @@ TEST(FootprintLayout, CellsDoNotOverlapStayInsideAndPackTightly) {
           ASSERT_EQ(o, -1) << "cells overlap at " << x << "," << y;
           o = static_cast<int>(t);
         }
-      // The corners sit inside the cell, the right angle first.
-      const auto c = l.corners(t);
-      EXPECT_NEAR((c[1] - c[0]).norm(), legs[t], 1e-12);
-      EXPECT_NEAR((c[2] - c[0]).norm(), legs[t], 1e-12);
-      EXPECT_NEAR((c[1] - c[0]).dot(c[2] - c[0]), 0.0, 1e-12);
     }
+    EXPECT_EQ(diamonds, static_cast<size_t>(n / 4 + (n % 4 >= 2 ? 1 : 0)));
     EXPECT_EQ(cells, l.cells);
     // Pairs: every lower triangle shares its cell with an upper triangle of the same size class.
     size_t lower = 0;
     for (const auto& s : l.slots) lower += s.lower;
-    EXPECT_EQ(lower + cells, legs.size());
-    EXPECT_LE(l.cells, legs.size() / 2 + classes.size());
+    EXPECT_EQ(lower + cells, tris.size());
+    EXPECT_LE(l.cells, tris.size() / 2 + classes.size());
     // Packing: cells fill the atlas but for the shelves' ends; triangles' own area is what the gutters leave.
     const double cell_fill = l.cell_texels / (double(l.width) * l.height);
-    std::printf("%zu triangles: atlas %dx%d, cells fill %.3f, triangle texels / atlas texels %.3f\n", legs.size(),
+    std::printf("%zu triangles: atlas %dx%d, cells fill %.3f, triangle texels / atlas texels %.3f\n", tris.size(),
                 l.width, l.height, cell_fill, l.efficiency());
     if (n > 1000) {
       EXPECT_GT(cell_fill, 0.9);
     }
     FootprintLayout again;
-    ASSERT_TRUE(make_footprint_layout(legs, 1, 8192, &again));
+    ASSERT_TRUE(make_footprint_layout(tris, 1, 8192, &again));
     ASSERT_EQ(again.width, l.width);
     ASSERT_EQ(again.height, l.height);
-    for (size_t t = 0; t < legs.size(); ++t) {
+    for (size_t t = 0; t < tris.size(); ++t) {
       ASSERT_EQ(again.slots[t].x0, l.slots[t].x0);
       ASSERT_EQ(again.slots[t].y0, l.slots[t].y0);
       ASSERT_EQ(again.slots[t].lower, l.slots[t].lower);
     }
   }
   FootprintLayout bad;
-  EXPECT_FALSE(make_footprint_layout({4, 0}, 1, 8192, &bad));
-  EXPECT_FALSE(make_footprint_layout({4}, -1, 8192, &bad));
-  EXPECT_FALSE(make_footprint_layout(std::vector<int>(100000, 64), 1, 1024, &bad));
+  auto legs = [](std::vector<int> l) {
+    std::vector<FootprintTriangle> t(l.size());
+    for (size_t i = 0; i < l.size(); ++i) t[i].leg = l[i];
+    return t;
+  };
+  EXPECT_FALSE(make_footprint_layout(legs({4, 0}), 1, 8192, &bad));
+  EXPECT_FALSE(make_footprint_layout(legs({4}), -1, 8192, &bad));
+  EXPECT_FALSE(make_footprint_layout(legs(std::vector<int>(100000, 64)), 1, 1024, &bad));
+  auto one_sided = legs({4, 4, 4});
+  one_sided[0].diamond_partner = 1;  // 1 does not name 0 back
+  EXPECT_FALSE(make_footprint_layout(one_sided, 1, 8192, &bad));
 }
 
 // Every texel a triangle owns maps back (M^-1, recovered from the output UVs as a viewer would) to the pixel where the
@@ -163,6 +192,22 @@ TEST(FootprintAtlas, EveryTexelMapsBackToItsProjectionAndLookupsStayInTheirTrian
   EXPECT_EQ(r->triangles, sc.mesh.triangle_count());
   EXPECT_EQ(r->mesh.positions.size(), 3 * r->triangles);
   const Eigen::Matrix3d K = sc.k.K();
+  // Diamonds: triangles whose hypotenuse (v1, v2) sits on the same atlas corners.
+  std::map<std::pair<std::pair<long, long>, std::pair<long, long>>, std::vector<size_t>> by_hypotenuse;
+  for (size_t t = 0; t < r->triangles; ++t) {
+    const auto c = corners_of(*r, t);
+    std::pair<long, long> a(std::lround(c[1].x()), std::lround(c[1].y())), b(std::lround(c[2].x()), std::lround(c[2].y()));
+    if (b < a) std::swap(a, b);
+    by_hypotenuse[{a, b}].push_back(t);
+  }
+  std::vector<long> partner(r->triangles, -1);
+  size_t diamonds = 0;
+  for (const auto& [edge, ts] : by_hypotenuse)
+    if (ts.size() == 2) {
+      partner[ts[0]] = static_cast<long>(ts[1]);
+      partner[ts[1]] = static_cast<long>(ts[0]);
+      ++diamonds;
+    }
   // Texel ownership: which triangle's texels each is (rebuilt from the UVs: cell = bounding square of the corners).
   std::vector<int> owner(r->texels, -1);
   double worst_px = 0, min_density = 1e9, max_density = 0;
@@ -173,10 +218,11 @@ TEST(FootprintAtlas, EveryTexelMapsBackToItsProjectionAndLookupsStayInTheirTrian
     for (int i = 0; i < 3; ++i) v[i] = r->mesh.positions[r->mesh.indices[3 * t + i]].cast<double>();
     TriangleTextureMap map;
     ASSERT_TRUE(triangle_texture_map(v[0], v[1], v[2], K, c, &map));
-    // The cell: upper triangles have their right angle at the top-left corner (+1, +1), lower ones at bottom-right.
-    const bool lower = c[1].x() < c[0].x();
+    // The cell: upper triangles have their right angle at the top-left corner (+1, +1), lower ones at bottom-right;
+    // S = leg + 4 for split cells (the lower leg is one more), leg + 2 for diamonds.
+    const bool lower = c[0].x() > std::min(c[1].x(), c[2].x());
     const int leg = static_cast<int>(std::lround((c[1] - c[0]).norm()));
-    const int S = lower ? leg + 3 : leg + 4;
+    const int S = partner[t] >= 0 ? leg + 2 : (lower ? leg + 3 : leg + 4);
     const int cx = static_cast<int>(std::lround(c[0].x())), cy = static_cast<int>(std::lround(c[0].y()));
     const int x0 = lower ? cx + 1 - S : cx - 1, y0 = lower ? cy + 1 - S : cy - 1;
     for (int j = 0; j < S; ++j)
@@ -201,17 +247,19 @@ TEST(FootprintAtlas, EveryTexelMapsBackToItsProjectionAndLookupsStayInTheirTrian
       if (image_leg >= 8.0) max_density = std::max(max_density, density);
     }
   }
-  std::printf("%zu triangles, %zu texels inside them: worst texel -> image error %.2g px; texels per source pixel "
-              "along the legs %.3f-%.3f (legs >= 8 px); atlas %dx%d, packing %.3f\n",
-              r->triangles, texels_checked, worst_px, min_density, max_density, r->width, r->height,
+  std::printf("%zu triangles (%zu diamonds), %zu texels inside them: worst texel -> image error %.2g px; texels per "
+              "source pixel along the legs %.3f-%.3f (legs >= 8 px); atlas %dx%d, packing %.3f\n",
+              r->triangles, diamonds, texels_checked, worst_px, min_density, max_density, r->width, r->height,
               r->packing_efficiency);
+  EXPECT_GT(2 * diamonds, r->triangles / 4);  // a third of the triangles, on this mesh
   EXPECT_GT(texels_checked, 100000u);
   EXPECT_LT(worst_px, 0.5);
   EXPECT_LT(worst_px, 1e-6) << "exact up to rounding";
   EXPECT_GE(min_density, 1.0 - 1e-4);  // float vertices sit on pixel centres to ~1e-5 px
   EXPECT_LE(max_density, 1.2);  // RTIN legs hit a class; the lower triangle's leg is one texel more
 
-  // Bilinear lookups at points inside each triangle read only that triangle's texels.
+  // Bilinear lookups at points inside each triangle read only that triangle's texels (or its diamond partner's, which
+  // continue the same surface across their shared edge).
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> unit(0, 1);
   double foreign = 0;
@@ -227,8 +275,8 @@ TEST(FootprintAtlas, EveryTexelMapsBackToItsProjectionAndLookupsStayInTheirTrian
       const double w[4] = {(1 - wx) * (1 - wy), wx * (1 - wy), (1 - wx) * wy, wx * wy};
       for (int n = 0; n < 4; ++n) {
         const int x = xa + (n & 1), y = ya + (n >> 1);
-        const bool own = x >= 0 && y >= 0 && x < r->width && y < r->height &&
-                         owner[static_cast<size_t>(y) * r->width + x] == static_cast<int>(t);
+        const int o = x >= 0 && y >= 0 && x < r->width && y < r->height ? owner[static_cast<size_t>(y) * r->width + x] : -1;
+        const bool own = o == static_cast<int>(t) || (o >= 0 && o == partner[t]);
         if (!own) foreign = std::max(foreign, w[n]);
       }
     }
