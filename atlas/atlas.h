@@ -42,11 +42,19 @@ struct AtlasOptions {
   int jpeg_quality = 85;    // 1..100
   bool reorder_triangles = true;  // meshoptimizer vertex-cache order: neighbouring triangles in neighbouring cells
   int max_atlas_side_px = 8192;
-  // kFootprint: texels per source pixel along a triangle's legs (cells are rounded up to the next size class).
+  // kFootprint: texels per source pixel along a triangle's legs (cells are rounded up to the next size class; frame
+  // patches are always 1:1).
   double texels_per_px = 1.0;
   // kFootprint: two triangles that share their hypotenuse share one cell without a gutter between them (a "diamond",
   // footprint_layout.h): about a third fewer texels on a right-triangulated depth image, and no seam inside the cell.
   bool footprint_diamonds = true;
+  // kFootprint: triangles whose affine (frame-texture) mapping is within this many pixels of the projective one, and
+  // that fit a tile, are textured from patches of the colour frame copied 1:1 into the atlas (one patch per
+  // footprint_patch_tile_px tile, holding its triangles' pixels; no resampling, no per-triangle gutter); the others
+  // get cells. 0 = off (every triangle gets a cell). 0.25 keeps the 0.5 px contract with a margin. On a TUM frame
+  // meshed like the realtime preset this cuts the JPEG 3-4x against cells alone (bench/atlas_bench --footprint).
+  double footprint_patch_deviation_px = 0.25;
+  int footprint_patch_tile_px = 64;
   // Fill texels that no triangle samples smoothly (unsampled_fill.h). Unset: on for kFootprint, off for kAtlas and
   // kFrame (their goldens predate it). For kFrame, the texels are the frame's pixels that no triangle covers.
   std::optional<bool> fill_unsampled;
@@ -60,6 +68,7 @@ struct AtlasResult {
   size_t cells = 0;           // atlas cells used (0 in frame mode)
   double packing_efficiency = 0.0;  // kFootprint: triangles' own texels / atlas texels (footprint_layout.h)
   size_t unsampled_texels = 0;      // texels no triangle samples (counted when they are filled)
+  size_t patches = 0, patch_triangles = 0;  // kFootprint: frame patches and the triangles textured from them
   size_t triangles = 0;       // triangles textured
   size_t dropped_triangles = 0;
   double median_source_px = 0.0;  // median projected area of a triangle in the colour image (pixels)

@@ -93,6 +93,20 @@ bool texturable(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen:
   return d1.squaredNorm() > 0.0 && 0.5 * d1.cross(c - a).norm() > 1e-12;
 }
 
+// How far (pixels) the frame texture's affine mapping of the triangle (UVs at the projected vertices, interpolated
+// linearly in the 3D point's barycentric coordinates, as a renderer does) strays from the true projection: at the
+// edge midpoints (|p_a - p_b| |z_a - z_b| / (2 (z_a + z_b)), exact for a midpoint) and at the centroid.
+double affine_deviation_px(const std::array<Eigen::Vector3d, 3>& v, const std::array<Eigen::Vector2d, 3>& px,
+                           const Eigen::Matrix3d& K) {
+  double d = 0;
+  for (int i = 0; i < 3; ++i) {
+    const int j = (i + 1) % 3;
+    d = std::max(d, 0.5 * (px[i] - px[j]).norm() * std::abs(v[i].z() - v[j].z()) / (v[i].z() + v[j].z()));
+  }
+  const Eigen::Vector3d c = K * ((v[0] + v[1] + v[2]) / 3);
+  return std::max(d, ((px[0] + px[1] + px[2]) / 3 - c.head<2>() / c.z()).norm());
+}
+
 // Diamonds: pairs of triangles with the same hypotenuse (v1, v2 after the rotation) whose right angles project on
 // opposite sides of it in the image (no fold). Pairs are found by sorting the hypotenuses, so the result is
 // deterministic; an edge with more than two such triangles (non-manifold) gets no diamond.
@@ -140,15 +154,19 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
     meshopt_optimizeVertexCache(order.data(), mesh.indices.data(), mesh.indices.size(), mesh.positions.size());
 
   // Texturable triangles, each rotated (winding kept) so that v0 is the vertex with the largest image angle, which
-  // goes to the cell's right-angle corner; and the leg class of its footprint.
+  // goes to the cell's right-angle corner; and the leg class of its footprint. Those whose frame mapping is exact
+  // enough go to patches instead (patch_tile >= 0).
   AtlasResult r;
   r.mode = TextureMode::kFootprint;
+  const bool patches_on = options.footprint_patch_deviation_px > 0.0;
+  const int T = std::max(8, options.footprint_patch_tile_px);
+  const int tiles_x = (color_rgb.cols + T - 1) / T, tiles_y = (color_rgb.rows + T - 1) / T;
   std::vector<std::array<std::uint32_t, 3>> tris;
+  std::vector<std::array<Eigen::Vector2d, 3>> tri_px;
+  std::vector<int> patch_tile;  // per triangle: its tile, or -1 for a cell
   std::vector<FootprintTriangle> cells;
-  std::vector<Eigen::Vector2d> right_px;  // the right-angle vertex's pixel
   tris.reserve(order.size() / 3);
-  cells.reserve(order.size() / 3);
-  right_px.reserve(order.size() / 3);
+  tri_px.reserve(order.size() / 3);
   for (size_t t = 0; t + 2 < order.size(); t += 3) {
     std::array<Eigen::Vector3d, 3> v;
     for (int i = 0; i < 3; ++i) v[i] = mesh.positions[order[t + i]].cast<double>();
@@ -164,14 +182,56 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
     int right = 0;
     const double leg_px = footprint_leg_px(px, &right);
     tris.push_back({order[t + right], order[t + (right + 1) % 3], order[t + (right + 2) % 3]});
-    cells.push_back({footprint_leg_class(options.texels_per_px * leg_px), -1, false});
-    right_px.push_back(px[right]);
+    tri_px.push_back({px[right], px[(right + 1) % 3], px[(right + 2) % 3]});
+    int tile = -1;
+    if (patches_on) {
+      const Eigen::Vector2d lo = px[0].cwiseMin(px[1]).cwiseMin(px[2]), hi = px[0].cwiseMax(px[1]).cwiseMax(px[2]);
+      const Eigen::Vector2d centre = (px[0] + px[1] + px[2]) / 3;
+      const bool inside = lo.x() >= 0 && lo.y() >= 0 && hi.x() <= color_rgb.cols - 1 && hi.y() <= color_rgb.rows - 1;
+      if (inside && (hi - lo).maxCoeff() <= T && affine_deviation_px(v, px, K) <= options.footprint_patch_deviation_px)
+        tile = static_cast<int>(centre.y()) / T * tiles_x + static_cast<int>(centre.x()) / T;
+    }
+    patch_tile.push_back(tile);
+    if (tile < 0) cells.push_back({footprint_leg_class(options.texels_per_px * leg_px), -1, false});
   }
   if (tris.empty()) return make_error(ErrorCode::kEmpty, "footprint atlas: no triangle in front of the camera with an area");
-  if (options.footprint_diamonds) find_diamonds(tris, right_px, mesh, K, &cells);
+
+  // Cell triangles (and their pixels) in order, for the diamonds; patches: each tile's pixel rectangle.
+  std::vector<std::array<std::uint32_t, 3>> cell_tris;
+  std::vector<Eigen::Vector2d> cell_right_px;
+  std::vector<int> cell_of(tris.size(), -1);
+  struct Rect {
+    int x0 = 1 << 30, y0 = 1 << 30, x1 = -1, y1 = -1;
+  };
+  std::vector<Rect> tile_rect(patches_on ? static_cast<size_t>(tiles_x) * tiles_y : 0);
+  for (size_t k = 0; k < tris.size(); ++k) {
+    if (patch_tile[k] < 0) {
+      cell_of[k] = static_cast<int>(cell_tris.size());
+      cell_tris.push_back(tris[k]);
+      cell_right_px.push_back(tri_px[k][0]);
+      continue;
+    }
+    Rect& rc = tile_rect[patch_tile[k]];
+    for (const auto& p : tri_px[k]) {  // a bilinear lookup at p reads pixels floor(p) and floor(p) + 1
+      rc.x0 = std::min(rc.x0, static_cast<int>(std::floor(p.x())));
+      rc.y0 = std::min(rc.y0, static_cast<int>(std::floor(p.y())));
+      rc.x1 = std::max(rc.x1, std::min(color_rgb.cols - 1, static_cast<int>(std::ceil(p.x()))));
+      rc.y1 = std::max(rc.y1, std::min(color_rgb.rows - 1, static_cast<int>(std::ceil(p.y()))));
+    }
+  }
+  std::vector<int> patch_of_tile(tile_rect.size(), -1);
+  std::vector<std::pair<int, int>> patch_sizes;
+  std::vector<Rect> patch_rect;
+  for (size_t t = 0; t < tile_rect.size(); ++t)
+    if (tile_rect[t].x1 >= 0) {
+      patch_of_tile[t] = static_cast<int>(patch_sizes.size());
+      patch_sizes.emplace_back(tile_rect[t].x1 - tile_rect[t].x0 + 1, tile_rect[t].y1 - tile_rect[t].y0 + 1);
+      patch_rect.push_back(tile_rect[t]);
+    }
+  if (options.footprint_diamonds) find_diamonds(cell_tris, cell_right_px, mesh, K, &cells);
 
   FootprintLayout layout;
-  if (!make_footprint_layout(cells, options.gutter_px, options.max_atlas_side_px, &layout))
+  if (!make_footprint_layout(cells, options.gutter_px, options.max_atlas_side_px, &layout, patch_sizes))
     return make_error(ErrorCode::kInvalidArgument,
                       "footprint atlas: " + std::to_string(tris.size()) + " triangles at " +
                           std::to_string(options.texels_per_px) + " texels per pixel exceed a " +
@@ -181,18 +241,38 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
                    color_rgb.cols, color_rgb.rows};
   Image atlas = Image::make(layout.width, layout.height, 3);
   std::vector<std::uint8_t> sampled(static_cast<size_t>(layout.width) * layout.height, 0);
+  for (size_t p = 0; p < patch_rect.size(); ++p) {  // patches: the frame's pixels, 1:1
+    const Rect& rc = patch_rect[p];
+    const auto [ax, ay] = layout.patch_origins[p];
+    for (int y = rc.y0; y <= rc.y1; ++y)
+      std::copy_n(color_rgb.ptr<std::uint8_t>(y) + 3 * rc.x0, 3 * (rc.x1 - rc.x0 + 1), atlas.pixel(ax, ay + y - rc.y0));
+  }
   Mesh& out = r.mesh;
   reserve_cell_triangles(tris.size(), &out);
   const Eigen::Vector2d inv_size(1.0 / layout.width, 1.0 / layout.height);
   for (size_t k = 0; k < tris.size(); ++k) {
-    const auto corners = layout.corners(k);
+    if (cell_of[k] < 0) {
+      const int p = patch_of_tile[patch_tile[k]];
+      const Eigen::Vector2d shift = Eigen::Vector2d(layout.patch_origins[p].first - patch_rect[p].x0 + 0.5,
+                                                    layout.patch_origins[p].second - patch_rect[p].y0 + 0.5);
+      std::array<Eigen::Vector2d, 3> q;
+      for (int i = 0; i < 3; ++i) q[i] = tri_px[k][i] + shift;
+      mark_sampled_texels(q[0], q[1], q[2], layout.width, layout.height, sampled.data());
+      append_cell_triangle(mesh, tris[k], q, inv_size, &out);
+      layout.triangle_texels += 0.5 * std::abs((q[1] - q[0]).x() * (q[2] - q[0]).y() - (q[1] - q[0]).y() * (q[2] - q[0]).x());
+      ++r.patch_triangles;
+      continue;
+    }
+    const size_t c = static_cast<size_t>(cell_of[k]);
+    const auto corners = layout.corners(c);
     TriangleTextureMap map;
     if (!triangle_texture_map(mesh.positions[tris[k][0]].cast<double>(), mesh.positions[tris[k][1]].cast<double>(),
                               mesh.positions[tris[k][2]].cast<double>(), K, corners, &map))
       return make_error(ErrorCode::kInternal, "footprint atlas: triangle map failed on a texturable triangle");
-    fill_cell_part(layout.slots[k], map, src, &atlas, sampled.data());
+    fill_cell_part(layout.slots[c], map, src, &atlas, sampled.data());
     append_cell_triangle(mesh, tris[k], corners, inv_size, &out);
   }
+  r.patches = patch_rect.size();
   if (options.fill_unsampled.value_or(true)) {
     const auto f0 = Clock::now();
     r.unsampled_texels = static_cast<size_t>(std::count(sampled.begin(), sampled.end(), 0));

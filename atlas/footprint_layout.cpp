@@ -60,7 +60,7 @@ double FootprintLayout::efficiency() const {
 }
 
 bool make_footprint_layout(const std::vector<FootprintTriangle>& tris, int gutter_px, int max_side,
-                           FootprintLayout* out) {
+                           FootprintLayout* out, const std::vector<std::pair<int, int>>& patch_sizes) {
   if (gutter_px < 0 || gutter_px > 64) return false;
   FootprintLayout l;
   l.gutter_px = gutter_px;
@@ -73,6 +73,8 @@ bool make_footprint_layout(const std::vector<FootprintTriangle>& tris, int gutte
     int side, leg;
     bool diamond;
     std::uint32_t first, second;  // second == first when alone
+    int height = 0;               // patches: their size is (side = width) x height; triangle cells are square
+    std::int64_t patch = -1;
   };
   std::vector<Cell> cells;
   cells.reserve(tris.size() / 2 + 1);
@@ -99,17 +101,28 @@ bool make_footprint_layout(const std::vector<FootprintTriangle>& tris, int gutte
     cells.push_back({side(leg, false), leg, false, loose[k], pair ? loose[k + 1] : loose[k]});
     k += pair ? 2 : 1;
   }
-  std::stable_sort(cells.begin(), cells.end(), [](const Cell& a, const Cell& b) { return a.side > b.side; });
+  for (const Cell& c : cells) l.triangle_texels += 0.5 * c.leg * c.leg;
+  for (Cell& c : cells) c.height = c.side;
+  l.patch_origins.resize(patch_sizes.size());
+  for (size_t k = 0; k < patch_sizes.size(); ++k) {
+    if (patch_sizes[k].first <= 0 || patch_sizes[k].second <= 0) return false;
+    Cell c{patch_sizes[k].first, 0, false, 0, 0, patch_sizes[k].second, static_cast<std::int64_t>(k)};
+    cells.push_back(c);
+  }
+  // Tallest first, then widest (shelves), stable.
+  std::stable_sort(cells.begin(), cells.end(), [](const Cell& a, const Cell& b) {
+    return a.height != b.height ? a.height > b.height : a.side > b.side;
+  });
   double area = 0;
   for (const Cell& c : cells) {
-    if (c.side > max_side) return false;
-    area += double(c.side) * c.side;
+    if (c.side > max_side || c.height > max_side) return false;
+    area += double(c.side) * c.height;
+    if (c.patch >= 0) continue;
     const bool pair = c.second != c.first;
     // Own areas: a split cell's lower triangle has legs one texel longer (atlas_layout.h); a diamond's are equal.
-    l.triangle_texels += 0.5 * c.leg * c.leg;
     if (pair) l.triangle_texels += c.diamond ? 0.5 * c.leg * c.leg : 0.5 * (c.leg + 1) * (c.leg + 1);
   }
-  l.cells = cells.size();
+  l.cells = cells.size() - patch_sizes.size();
   l.cell_texels = area;
   if (cells.empty()) {
     l.width = l.height = 8;
@@ -117,13 +130,18 @@ bool make_footprint_layout(const std::vector<FootprintTriangle>& tris, int gutte
     return true;
   }
 
-  const int widest = cells.front().side;
+  int widest = 0;
+  for (const Cell& c : cells) widest = std::max(widest, c.side);
   int width = std::max(widest, static_cast<int>(std::ceil(std::sqrt(area))));
   width = (width + 7) / 8 * 8;
   if (width > max_side) return false;
-  int shelf_y = 0, shelf_h = 0, x = 0;     // current shelf and the next free column in it
-  int col_x = 0, col_side = 0, col_y = 0;  // current column: where the next cell of its side goes
+  int shelf_y = 0, shelf_h = 0, x = 0;  // current shelf and the next free column in it
+  int col_x = 0, col_w = 0, col_h = 0, col_y = 0;  // current column: where the next item of its size goes
   auto place = [&](const Cell& c, int cx, int cy) {
+    if (c.patch >= 0) {
+      l.patch_origins[c.patch] = {cx, cy};
+      return;
+    }
     FootprintSlot s{cx, cy, c.side, false, c.second != c.first, c.diamond, false};
     l.slots[c.first] = s;
     if (s.paired) {
@@ -133,20 +151,21 @@ bool make_footprint_layout(const std::vector<FootprintTriangle>& tris, int gutte
     }
   };
   for (const Cell& c : cells) {
-    if (shelf_h > 0 && col_side == c.side && col_y + c.side <= shelf_y + shelf_h) {
+    if (shelf_h > 0 && col_w == c.side && col_h == c.height && col_y + c.height <= shelf_y + shelf_h) {
       place(c, col_x, col_y);
-      col_y += c.side;
+      col_y += c.height;
       continue;
     }
-    if (shelf_h == 0 || x + c.side > width) {  // a new shelf, as high as this cell
+    if (shelf_h == 0 || x + c.side > width) {  // a new shelf, as high as this item
       shelf_y += shelf_h;
-      shelf_h = c.side;
+      shelf_h = c.height;
       x = 0;
     }
     col_x = x;
-    col_side = c.side;
+    col_w = c.side;
+    col_h = c.height;
     place(c, col_x, shelf_y);
-    col_y = shelf_y + c.side;
+    col_y = shelf_y + c.height;
     x += c.side;
   }
   const int height = (shelf_y + shelf_h + 7) / 8 * 8;

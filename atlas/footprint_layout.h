@@ -14,7 +14,7 @@
 // triangle gets about one texel per source pixel along each leg. The cell of class n is S = n + 3 g + 1 texels square
 // (the upper triangle's legs are n, the lower one's n + 1; atlas_layout.h).
 //
-// Packing: cells sorted by side, largest first (ties keep the triangle order, so neighbours in the mesh sit next to each
+// Packing: cells (and any patches, rectangles) sorted by height, tallest first (ties keep the triangle order, so neighbours in the mesh sit next to each
 // other in the atlas), placed left to right on shelves as high as the shelf's first cell; a smaller cell stacks in a
 // column inside the current shelf while it fits. The width is chosen for a near-square atlas; width and height are
 // multiples of 8 (JPEG blocks). Deterministic: the same input gives the same layout.
@@ -22,6 +22,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace rgbdcast {
@@ -61,7 +62,8 @@ struct FootprintLayout {
   std::vector<FootprintSlot> slots;  // one per triangle, in input order
   size_t cells = 0;
   double triangle_texels = 0;  // sum of the triangles' own areas in their cells (texels)
-  double cell_texels = 0;      // sum of the cells' areas (texels)
+  double cell_texels = 0;      // sum of the cells' (and patches') areas (texels)
+  std::vector<std::pair<int, int>> patch_origins;  // top-left texel of each patch (make_footprint_layout)
 
   // Corners (v0 at the right angle, v1, v2) of triangle t in atlas coordinates (texel (i, j) covers [i, i+1]^2).
   std::array<Eigen::Vector2d, 3> corners(size_t t) const;
@@ -72,7 +74,9 @@ struct FootprintLayout {
 // Lays out one triangle per entry (legs > 0; use footprint_leg_class). A diamond gets the larger leg of its two.
 // Returns false when a leg is not positive, a partner does not name its triangle back, the gutter is negative, or the
 // atlas would exceed max_side texels per side.
+// patch_sizes: rectangles (width, height texels) to place as well, e.g. image patches (footprint_atlas.h); their
+// triangles are the caller's (not counted in triangle_texels).
 bool make_footprint_layout(const std::vector<FootprintTriangle>& triangles, int gutter_px, int max_side,
-                           FootprintLayout* out);
+                           FootprintLayout* out, const std::vector<std::pair<int, int>>& patch_sizes = {});
 
 }  // namespace rgbdcast

@@ -228,6 +228,11 @@ void push_pull(Image* image, const std::vector<std::uint8_t>& sampled) {
 
 }  // namespace
 
+void mark_sampled_texels(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c, int width,
+                         int height, std::uint8_t* mask) {
+  TriangleMarker(a, b, c, width, height).mark(mask);
+}
+
 Result<std::vector<std::uint8_t>> texels_sampled_by_uvs(const Mesh& mesh, int width, int height) {
   if (width <= 0 || height <= 0) return make_error(ErrorCode::kInvalidArgument, "sampled texels: empty texture size");
   if (mesh.uvs.size() != mesh.positions.size())
@@ -243,7 +248,7 @@ Result<std::vector<std::uint8_t>> texels_sampled_by_uvs(const Mesh& mesh, int wi
       if (!uv.allFinite()) return make_error(ErrorCode::kInvalidArgument, "sampled texels: a UV is not finite");
       q[i] = Eigen::Vector2d(double(uv.x()) * width, double(uv.y()) * height);
     }
-    TriangleMarker(q[0], q[1], q[2], width, height).mark(mask.data());
+    mark_sampled_texels(q[0], q[1], q[2], width, height, mask.data());
   }
   return mask;
 }

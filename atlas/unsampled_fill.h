@@ -5,6 +5,7 @@
 //
 // Both functions work in texel units of the texture: texel (i, j) covers [i, i+1] x [j, j+1] (UV (0, 0) is the
 // top-left corner of the image), as glTF and this project's atlas use. They are not thread-safe on the same image.
+#include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -22,6 +23,10 @@ namespace rgbdcast {
 // frame's pixels that some triangle covers. kInvalidArgument when uvs do not match positions, an index is out of
 // range, a UV is not finite, or the size is not positive.
 Result<std::vector<std::uint8_t>> texels_sampled_by_uvs(const Mesh& mesh, int width, int height);
+
+// The same for one triangle given in texel units (a UV times the texture size); marks into mask (width x height).
+void mark_sampled_texels(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c, int width,
+                         int height, std::uint8_t* mask);
 
 // Push-pull fill: every texel with sampled == 0 gets the value of a pyramid of averages of the sampled texels
 // (each level halves the size, averaging only sampled texels), pulled back up with bilinear interpolation, coarse to

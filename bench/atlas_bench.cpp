@@ -110,10 +110,14 @@ int footprint_rows(const RgbdFrame& f) {
     for (const auto& [leg, v] : by_leg) all += v.second;
     for (const auto& [leg, v] : by_leg) std::printf(" %d: %zu / %.0f%%", leg, v.first, 100.0 * v.second / all);
     std::printf("\n");
-    for (TextureMode mode : {TextureMode::kFootprint, TextureMode::kFrame})
+    for (const char* variant : {"footprint", "fp+patch", "fp+patch64", "frame"})
       for (int q : {50, 70, 85}) {
+        const std::string name = variant;
+        const TextureMode mode = name == "frame" ? TextureMode::kFrame : TextureMode::kFootprint;
         AtlasOptions filled, raw;
         filled.mode = raw.mode = mode;
+        filled.footprint_patch_deviation_px = raw.footprint_patch_deviation_px = name.rfind("fp+patch", 0) == 0 ? 0.25 : 0;
+        filled.footprint_patch_tile_px = raw.footprint_patch_tile_px = name == "fp+patch64" ? 64 : 32;
         filled.jpeg_quality = raw.jpeg_quality = q;
         filled.fill_unsampled = true;
         raw.fill_unsampled = false;
@@ -133,13 +137,15 @@ int footprint_rows(const RgbdFrame& f) {
         std::snprintf(fastest, sizeof fastest, "%.2f", a.min_ms);
         std::snprintf(fill, sizeof fill, "%.2f", a.fill_ms);
         const double cells = 100.0 * (1.0 - double(a.last->unsampled_texels) / double(a.last->texels));
-        std::printf("%-9s %6.1f %7zu %9s %7.3f %7.1f %9s %8s %8s %3d %9zu %9zu %8.2f %8.2f\n", to_string(mode), tol,
+        std::printf("%-9s %6.1f %7zu %9s %7.3f %7.1f %9s %8s %8s %3d %9zu %9zu %8.2f %8.2f\n", variant, tol,
                     a.last->triangles, size, a.last->packing_efficiency, cells, runs > 1 ? build : "",
                     runs > 1 ? fastest : "", runs > 1 ? fill : "", q, a.last->mesh.texture_encoded.size(), b.last->mesh.texture_encoded.size(),
                     fa.psnr_db, fb.psnr_db);
       }
   }
-  std::printf("pack = triangle texels / atlas texels; cells%% = sampled texels (cells' triangles + gutters; frame: "
+  std::printf("fp+patch(64) = footprint with frame patches of 32 (64) px tiles for triangles within 0.25 px of "
+              "projective (the rest in cells); "
+              "pack = triangle texels / atlas texels; cells%% = sampled texels (cells' triangles + gutters; frame: "
               "pixels some triangle reads); build ms = median of 15 runs (wall), min ms = fastest of them (the machine is shared), fill included, JPEG excluded\n");
   return 0;
 }

@@ -13,6 +13,7 @@
 #include "atlas/atlas.h"
 #include "atlas/frame_texture.h"
 #include "atlas/triangle_homography.h"
+#include "tests/atlas/barycentric.h"
 #include "tests/atlas/checkerboard_scene.h"
 
 using namespace rgbdcast;
@@ -22,6 +23,7 @@ namespace {
 struct TextureErrors {
   double max_shift_mm = 0;
   double max_shift_px = 0;  // the image point the lookup shows vs where the surface point projects
+  size_t patch_triangles = 0;
   double wrong_square_fraction = 0;
   int samples = 0;
 };
@@ -48,7 +50,12 @@ TextureErrors measure(const test::CheckerScene& sc, const AtlasResult& r) {
     // Where the texture's texels came from in the image: the frame texture is the image itself; the atlas cell's
     // map is recovered from its corners (same function the atlas used).
     TriangleTextureMap map;
-    if (r.mode != TextureMode::kFrame) {
+    Eigen::Vector2d patch_shift;  // footprint triangles textured from a frame patch: atlas = image + shift
+    std::array<Eigen::Vector2d, 3> q_texels;
+    for (int i = 0; i < 3; ++i) q_texels[i] = uv[i].cwiseProduct(size);
+    const bool patch = r.mode == TextureMode::kFootprint && test::is_patch_triangle(q_texels, v, sc.k.K(), &patch_shift);
+    e.patch_triangles += patch;
+    if (r.mode != TextureMode::kFrame && !patch) {
       std::array<Eigen::Vector2d, 3> corners;
       for (int i = 0; i < 3; ++i) corners[i] = uv[i].cwiseProduct(size);
       EXPECT_TRUE(triangle_texture_map(v[0], v[1], v[2], sc.k.K(), corners, &map));
@@ -60,7 +67,9 @@ TextureErrors measure(const test::CheckerScene& sc, const AtlasResult& r) {
         const Eigen::Vector3d X = b0 * v[0] + b1 * v[1] + b2 * v[2];
         const Eigen::Vector2d q = b0 * uv[0] + b1 * uv[1] + b2 * uv[2];
         Eigen::Vector2d image_px;
-        if (r.mode != TextureMode::kFrame) {
+        if (patch) {
+          image_px = q.cwiseProduct(size) - patch_shift;
+        } else if (r.mode != TextureMode::kFrame) {
           const Eigen::Vector3d h = map.image_from_atlas * Eigen::Vector3d(q.x() * size.x(), q.y() * size.y(), 1);
           image_px = h.head<2>() / h.z();
         } else {
@@ -81,12 +90,13 @@ TextureErrors measure(const test::CheckerScene& sc, const AtlasResult& r) {
   return e;
 }
 
-// The scene's mesh textured in `mode` (fixed cells of cell_px for kAtlas); a failure is recorded, and then the result
-// is empty.
-AtlasResult textured(const test::CheckerScene& sc, TextureMode mode, int cell_px = 8) {
+// The scene's mesh textured in `mode` (fixed cells of cell_px for kAtlas; frame patches for kFootprint's triangles
+// within patch_px of projective); a failure is recorded, and then the result is empty.
+AtlasResult textured(const test::CheckerScene& sc, TextureMode mode, int cell_px = 8, double patch_px = 0.25) {
   AtlasOptions o;
   o.mode = mode;
   o.cell_size_px = cell_px;
+  o.footprint_patch_deviation_px = patch_px;
   auto r = build_atlas(sc.mesh, sc.image, sc.k, o);
   if (!r.ok()) {
     ADD_FAILURE() << to_string(mode) << ": " << r.error().message;
@@ -144,22 +154,29 @@ TEST(AtlasCheckerboard, FootprintAtlasOnLargeRightTrianglesIsUndistorted) {
   EXPECT_GE(min_leg, 16.0 - 1e-3);
   EXPECT_LE(max_leg, 64.0 + 1e-3);
 
-  const AtlasResult fp = textured(sc, TextureMode::kFootprint), frame = textured(sc, TextureMode::kFrame);
+  const AtlasResult fp = textured(sc, TextureMode::kFootprint, 8, 0.0), frame = textured(sc, TextureMode::kFrame),
+                    patched = textured(sc, TextureMode::kFootprint);
   ASSERT_GT(fp.triangles, 0u);
   ASSERT_GT(frame.triangles, 0u);
-  const TextureErrors ea = measure(sc, fp), ef = measure(sc, frame);
+  ASSERT_GT(patched.triangles, 0u);
+  const TextureErrors ea = measure(sc, fp), ef = measure(sc, frame), ep = measure(sc, patched);
   std::printf("60 deg checkerboard, %zu right triangles (legs %.1f-%.1f px): footprint %dx%d (packing %.3f) max shift "
-              "%.4f mm / %.2g px, wrong squares %.4f; frame max shift %.2f mm / %.2f px, wrong squares %.4f\n",
+              "%.4f mm / %.2g px, wrong squares %.4f; frame max shift %.2f mm / %.2f px, wrong squares %.4f; "
+              "footprint with frame patches (%zu triangles) %dx%d max shift %.2f mm / %.3f px, wrong squares %.4f\n",
               sc.mesh.triangle_count(), min_leg, max_leg, fp.width, fp.height, fp.packing_efficiency,
               ea.max_shift_mm, ea.max_shift_px, ea.wrong_square_fraction, ef.max_shift_mm, ef.max_shift_px,
-              ef.wrong_square_fraction);
+              ef.wrong_square_fraction, ep.patch_triangles, patched.width, patched.height, ep.max_shift_mm,
+              ep.max_shift_px, ep.wrong_square_fraction);
   EXPECT_EQ(fp.triangles, sc.mesh.triangle_count());
+  EXPECT_EQ(ea.patch_triangles, 0u);
   EXPECT_LT(ea.max_shift_px, 0.5);
   EXPECT_LT(ea.max_shift_px, 1e-3) << "the map is exact up to rounding";
   EXPECT_LT(ea.max_shift_mm, 0.01);
   EXPECT_LT(ea.wrong_square_fraction, 0.002);
   EXPECT_GT(ef.max_shift_px, 0.5);  // the affine baseline misses the 0.5 px target on these triangles
   EXPECT_GT(ef.wrong_square_fraction, 5 * std::max(ea.wrong_square_fraction, 1e-4));
+  EXPECT_LT(ep.max_shift_px, 0.5);  // patches only where the frame mapping is within 0.25 px
+  EXPECT_LT(ep.wrong_square_fraction, 0.002);
   // About one texel per source pixel: the atlas holds about as many texels as the triangles cover pixels.
   double source_px = 0;
   for (size_t t = 0; t < sc.mesh.triangle_count(); ++t)

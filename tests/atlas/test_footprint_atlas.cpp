@@ -186,6 +186,7 @@ TEST(FootprintAtlas, EveryTexelMapsBackToItsProjectionAndLookupsStayInTheirTrian
   ASSERT_GT(sc.mesh.triangle_count(), 2000u);
   AtlasOptions o;
   o.mode = TextureMode::kFootprint;
+  o.footprint_patch_deviation_px = 0;  // cells only (patches: FramePatchesKeepTheHalfPixelContractInFewerTexels)
   auto r = build_atlas(sc.mesh, sc.image, sc.k, o);
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_EQ(r->mode, TextureMode::kFootprint);
@@ -298,11 +299,12 @@ TEST(FootprintAtlas, SameInputGivesTheSameBytes) {
     ASSERT_EQ(a->mesh.uvs[i], b->mesh.uvs[i]);
     ASSERT_EQ(a->mesh.positions[i], b->mesh.positions[i]);
   }
-  // UVs sit on texel corners (KHR_mesh_quantization stores them as whole texels) and inside the atlas.
+  // UVs sit on texel corners (cells) or centres (frame patches: vertices at pixel centres), so KHR_mesh_quantization
+  // stores them exactly, and inside the atlas.
   for (const auto& uv : a->mesh.uvs) {
-    const double x = uv.x() * a->width, y = uv.y() * a->height;
-    ASSERT_NEAR(x, std::round(x), 1e-3);
-    ASSERT_NEAR(y, std::round(y), 1e-3);
+    const double x = 2 * uv.x() * a->width, y = 2 * uv.y() * a->height;
+    ASSERT_NEAR(x, std::round(x), 2e-3);
+    ASSERT_NEAR(y, std::round(y), 2e-3);
     ASSERT_GT(uv.x(), 0.0f);
     ASSERT_LT(uv.x(), 1.0f);
     ASSERT_GT(uv.y(), 0.0f);
@@ -320,6 +322,11 @@ TEST(FootprintAtlas, ModeNameAndBadOptions) {
   m.indices = {0, 1, 2};
   AtlasOptions o;
   o.mode = TextureMode::kFootprint;
+  auto patched = build_atlas(m, img, k, o);  // facing the camera: its frame mapping is exact, so a patch
+  ASSERT_TRUE(patched.ok()) << patched.error().message;
+  EXPECT_EQ(patched->patch_triangles, 1u);
+  EXPECT_EQ(patched->cells, 0u);
+  o.footprint_patch_deviation_px = 0;
   auto one = build_atlas(m, img, k, o);
   ASSERT_TRUE(one.ok()) << one.error().message;
   EXPECT_EQ(one->triangles, 1u);
@@ -330,6 +337,7 @@ TEST(FootprintAtlas, ModeNameAndBadOptions) {
   }
   o = {};
   o.mode = TextureMode::kFootprint;
+  o.footprint_patch_deviation_px = 0;
   o.gutter_px = 0;
   EXPECT_EQ(build_atlas(m, img, k, o).error().code, ErrorCode::kInvalidArgument);
   o.gutter_px = 1;
@@ -341,4 +349,57 @@ TEST(FootprintAtlas, ModeNameAndBadOptions) {
   o = {};
   o.mode = TextureMode::kFootprint;
   EXPECT_EQ(build_atlas(behind, img, k, o).error().code, ErrorCode::kEmpty);
+}
+
+// With patches: triangles whose frame mapping is within 0.25 px of the projective one are textured from 1:1 copies of
+// the frame; every triangle, patch or cell, still shows within 0.5 px of where its surface points project, where a
+// renderer looks (UVs interpolated linearly in the 3D barycentric coordinates), and the atlas gets smaller.
+TEST(FootprintAtlas, FramePatchesKeepTheHalfPixelContractInFewerTexels) {
+  const CurvedScene sc = make_curved_scene();
+  AtlasOptions cells_only, patched;
+  cells_only.mode = patched.mode = TextureMode::kFootprint;
+  cells_only.footprint_patch_deviation_px = 0;  // patched: the default, 0.25 px
+  auto a = build_atlas(sc.mesh, sc.image, sc.k, cells_only), b = build_atlas(sc.mesh, sc.image, sc.k, patched);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->patches, 0u);
+  EXPECT_GT(b->patch_triangles, b->triangles / 4);
+  EXPECT_LT(b->patch_triangles, b->triangles);  // the large oblique ones keep their cells
+  EXPECT_EQ(b->triangles, a->triangles);
+  double worst_patch = 0, worst_cell = 0;
+  for (size_t t = 0; t < b->triangles; ++t) {
+    const auto q = corners_of(*b, t);
+    std::array<Eigen::Vector3d, 3> v;
+    for (int i = 0; i < 3; ++i) v[i] = b->mesh.positions[b->mesh.indices[3 * t + i]].cast<double>();
+    Eigen::Vector2d shift;
+    const bool patch = test::is_patch_triangle(q, v, sc.k.K(), &shift);
+    TriangleTextureMap map;
+    if (!patch) {
+      ASSERT_TRUE(triangle_texture_map(v[0], v[1], v[2], sc.k.K(), q, &map));
+    }
+    const int N = 12;
+    for (int i = 0; i <= N; ++i)
+      for (int j = 0; i + j <= N; ++j) {
+        const double b1 = double(i) / N, b2 = double(j) / N, b0 = 1 - b1 - b2;
+        const Eigen::Vector2d uv = b0 * q[0] + b1 * q[1] + b2 * q[2];
+        const Eigen::Vector2d truth = sc.k.project(b0 * v[0] + b1 * v[1] + b2 * v[2]);
+        if (patch) {
+          worst_patch = std::max(worst_patch, (uv - shift - truth).norm());
+        } else {
+          const Eigen::Vector3d h = map.image_from_atlas * Eigen::Vector3d(uv.x(), uv.y(), 1);
+          worst_cell = std::max(worst_cell, (h.head<2>() / h.z() - truth).norm());
+        }
+      }
+  }
+  std::printf("%zu triangles: %zu in %zu frame patches (worst %.3f px), the rest in cells (worst %.2g px); atlas "
+              "%dx%d (packing %.3f) vs %dx%d (%.3f) with cells only; JPEG q85 %zu vs %zu B\n",
+              b->triangles, b->patch_triangles, b->patches, worst_patch, worst_cell, b->width, b->height,
+              b->packing_efficiency, a->width, a->height, a->packing_efficiency, b->mesh.texture_encoded.size(),
+              a->mesh.texture_encoded.size());
+  EXPECT_LT(worst_patch, 0.5);
+  EXPECT_LT(worst_cell, 1e-6);
+  EXPECT_LT(b->texels, a->texels);
+  // Still one texel per pixel or more, deterministic, and sampled texels untouched by the fill.
+  auto again = build_atlas(sc.mesh, sc.image, sc.k, patched);
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->mesh.texture_encoded, b->mesh.texture_encoded);
 }
