@@ -96,7 +96,7 @@ Result<AtlasResult> build_atlas(const Mesh& mesh, const cv::Mat& color_rgb, cons
   const auto t0 = std::chrono::steady_clock::now();
   const Eigen::Matrix3d K = pinhole.K();
   std::vector<std::uint32_t> order(mesh.indices);
-  if (options.reorder_triangles)
+  if (options.reorder_triangles.value_or(true))
     meshopt_optimizeVertexCache(order.data(), mesh.indices.data(), mesh.indices.size(), mesh.positions.size());
 
   // Triangles that can be textured, in output order.

@@ -150,7 +150,7 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
   const auto t0 = Clock::now();
   const Eigen::Matrix3d K = pinhole.K();
   std::vector<std::uint32_t> order(mesh.indices);
-  if (options.reorder_triangles)
+  if (options.reorder_triangles.value_or(false))
     meshopt_optimizeVertexCache(order.data(), mesh.indices.data(), mesh.indices.size(), mesh.positions.size());
 
   // Texturable triangles, each rotated (winding kept) so that v0 is the vertex with the largest image angle, which

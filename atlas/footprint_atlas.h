@@ -1,5 +1,8 @@
 #pragma once
-// Internal to atlas/: TextureMode::kFootprint (see atlas.h, footprint_layout.h, unsampled_fill.h).
+// Internal to atlas/: TextureMode::kFootprint (see atlas.h, footprint_layout.h, unsampled_fill.h). Patch triangles:
+// all three projections inside the image, a bounding box within one tile, and affine_deviation (the frame mapping's
+// distance from the projective one at the edge midpoints and the centroid) under the option; a patch is the pixel
+// rectangle its tile's triangles read bilinearly, copied as is.
 #include "atlas/atlas.h"
 
 namespace rgbdcast::atlas_detail {

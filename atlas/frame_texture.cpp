@@ -114,7 +114,7 @@ Result<AtlasResult> build_frame_texture(const Mesh& mesh, const cv::Mat& color_r
     out.indices.insert(out.indices.end(), {a, b, c});
   }
   if (out.indices.empty()) return make_error(ErrorCode::kEmpty, "frame texture: no triangle in front of the camera");
-  if (options.reorder_triangles) {
+  if (options.reorder_triangles.value_or(true)) {
     // Vertex-cache order for the triangles, then vertices in first-use order (unused ones dropped): neighbours end up
     // next to each other in every stream, which is what meshopt's delta codecs want.
     std::vector<std::uint32_t> tri(out.indices.size());

@@ -78,12 +78,17 @@ Timed timed_build(const Mesh& mesh, const RgbdFrame& f, const AtlasOptions& o, i
 // of the 22k-triangle mesh, fill included; prints the fastest.
 int footprint_repeat(const RgbdFrame& f, int runs) {
   const Mesh mesh = test::right_triangle_mesh_of_depth(f.depth_m, f.intrinsics, 16.0);
-  AtlasOptions o;
-  o.mode = TextureMode::kFootprint;
-  const Timed t = timed_build(mesh, f, o, runs);
-  if (!t.last) return std::fprintf(stderr, "%s\n", t.last.error().message.c_str()), 1;
-  std::printf("%zu triangles, %dx%d: fastest build %.2f ms, median %.2f ms (fill %.2f ms) over %d runs\n",
-              t.last->triangles, t.last->width, t.last->height, t.min_ms, t.ms, t.fill_ms, runs);
+  for (bool reorder : {true, false}) {
+    AtlasOptions o;
+    o.mode = TextureMode::kFootprint;
+    o.reorder_triangles = reorder;
+    const Timed t = timed_build(mesh, f, o, runs);
+    if (!t.last) return std::fprintf(stderr, "%s\n", t.last.error().message.c_str()), 1;
+    std::printf("%zu triangles, %dx%d, reorder %s: fastest build %.2f ms, median %.2f ms (fill %.2f ms) over %d runs; "
+                "JPEG q%d %zu B\n",
+                t.last->triangles, t.last->width, t.last->height, reorder ? "on " : "off", t.min_ms, t.ms, t.fill_ms,
+                runs, o.jpeg_quality, t.last->mesh.texture_encoded.size());
+  }
   return 0;
 }
 
@@ -110,7 +115,7 @@ int footprint_rows(const RgbdFrame& f) {
     for (const auto& [leg, v] : by_leg) all += v.second;
     for (const auto& [leg, v] : by_leg) std::printf(" %d: %zu / %.0f%%", leg, v.first, 100.0 * v.second / all);
     std::printf("\n");
-    for (const char* variant : {"footprint", "fp+patch", "fp+patch64", "frame"})
+    for (const char* variant : {"fp cells", "fp+patch", "fp+patch64", "frame"})
       for (int q : {50, 70, 85}) {
         const std::string name = variant;
         const TextureMode mode = name == "frame" ? TextureMode::kFrame : TextureMode::kFootprint;
@@ -143,8 +148,8 @@ int footprint_rows(const RgbdFrame& f) {
                     fa.psnr_db, fb.psnr_db);
       }
   }
-  std::printf("fp+patch(64) = footprint with frame patches of 32 (64) px tiles for triangles within 0.25 px of "
-              "projective (the rest in cells); "
+  std::printf("fp cells = footprint, every triangle in a cell; fp+patch(64) = footprint with frame patches of 32 (64, "
+              "the default) px tiles for triangles within 0.25 px of projective (the rest in cells); "
               "pack = triangle texels / atlas texels; cells%% = sampled texels (cells' triangles + gutters; frame: "
               "pixels some triangle reads); build ms = median of 15 runs (wall), min ms = fastest of them (the machine is shared), fill included, JPEG excluded\n");
   return 0;
