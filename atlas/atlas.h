@@ -13,8 +13,9 @@
 //    the projective one (small or facing the camera) are textured from 1:1 patches of the frame packed in the same
 //    image instead. Texels no triangle samples are filled smoothly (unsampled_fill.h) so JPEG spends almost nothing
 //    on them. Every triangle's texture is within 0.5 px of its projection (cells: exact up to rounding; patches: the
-//    deviation bound). Meant for the realtime preset's right-triangulated depth image. Output mesh as kAtlas (own
-//    vertices per triangle); UVs on texel corners (cells) or texel centres (patches).
+//    deviation bound). Meant for the realtime preset's right-triangulated depth image. Output mesh: cell triangles
+//    have their own three vertices (as kAtlas) with UVs on texel corners; the triangles of one patch share their
+//    vertices, with UVs on texel centres (vertices at pixel centres).
 // Input: mesh positions in the camera frame of color_rgb (CV_8UC3, RGB order) which is already undistorted, so
 // `pinhole` must be the pinhole intrinsics (distortion ignored) of that image. Triangles with a vertex at z <= 0 or
 // no area are dropped (counted). The texture is returned as pixels (Mesh::texture, RGB8) and JPEG-encoded

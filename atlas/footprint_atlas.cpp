@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <unordered_map>
 
 #include "atlas/footprint_layout.h"
 #include "atlas/frame_texture.h"
@@ -250,6 +251,8 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
   Mesh& out = r.mesh;
   reserve_cell_triangles(tris.size(), &out);
   const Eigen::Vector2d inv_size(1.0 / layout.width, 1.0 / layout.height);
+  std::unordered_map<std::uint64_t, std::uint32_t> patch_vertex;  // (mesh vertex, patch) -> output vertex
+  patch_vertex.reserve(r.patch_triangles + tris.size() - cell_tris.size());
   for (size_t k = 0; k < tris.size(); ++k) {
     if (cell_of[k] < 0) {
       const int p = patch_of_tile[patch_tile[k]];
@@ -258,7 +261,16 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
       std::array<Eigen::Vector2d, 3> q;
       for (int i = 0; i < 3; ++i) q[i] = tri_px[k][i] + shift;
       mark_sampled_texels(q[0], q[1], q[2], layout.width, layout.height, sampled.data());
-      append_cell_triangle(mesh, tris[k], q, inv_size, &out);
+      // Within a patch a vertex has one UV (its projection, shifted), so the patch's triangles share their vertices.
+      for (int i = 0; i < 3; ++i) {
+        const std::uint64_t key = std::uint64_t(tris[k][i]) << 32 | std::uint32_t(p);
+        auto [it, added] = patch_vertex.try_emplace(key, static_cast<std::uint32_t>(out.positions.size()));
+        if (added) {
+          out.positions.push_back(mesh.positions[tris[k][i]]);
+          out.uvs.push_back(q[i].cwiseProduct(inv_size).cast<float>());
+        }
+        out.indices.push_back(it->second);
+      }
       layout.triangle_texels += 0.5 * std::abs((q[1] - q[0]).x() * (q[2] - q[0]).y() - (q[1] - q[0]).y() * (q[2] - q[0]).x());
       ++r.patch_triangles;
       continue;

@@ -365,6 +365,9 @@ TEST(FootprintAtlas, FramePatchesKeepTheHalfPixelContractInFewerTexels) {
   EXPECT_GT(b->patch_triangles, b->triangles / 4);
   EXPECT_LT(b->patch_triangles, b->triangles);  // the large oblique ones keep their cells
   EXPECT_EQ(b->triangles, a->triangles);
+  // A patch's triangles share their vertices (one UV each there); cell triangles have their own.
+  EXPECT_EQ(a->mesh.positions.size(), 3 * a->triangles);
+  EXPECT_LT(b->mesh.positions.size(), 3 * (b->triangles - b->patch_triangles) + b->patch_triangles);
   double worst_patch = 0, worst_cell = 0;
   for (size_t t = 0; t < b->triangles; ++t) {
     const auto q = corners_of(*b, t);
