@@ -6,6 +6,7 @@
 
 #include "atlas/atlas.h"
 #include "atlas/atlas_layout.h"
+#include "atlas/footprint_atlas.h"
 #include "atlas/frame_texture.h"
 #include "atlas/texture_encode.h"
 #include "atlas/triangle_homography.h"
@@ -17,6 +18,7 @@ const char* to_string(TextureMode mode) {
     case TextureMode::kAtlas: return "atlas";
     case TextureMode::kFrame: return "frame";
     case TextureMode::kAuto: return "auto";
+    case TextureMode::kFootprint: return "footprint";
   }
   return "?";
 }
@@ -25,7 +27,9 @@ Result<TextureMode> parse_texture_mode(const std::string& name) {
   if (name == "atlas") return TextureMode::kAtlas;
   if (name == "frame") return TextureMode::kFrame;
   if (name == "auto") return TextureMode::kAuto;
-  return make_error(ErrorCode::kInvalidArgument, "texture mode must be 'atlas', 'frame' or 'auto', got '" + name + "'");
+  if (name == "footprint") return TextureMode::kFootprint;
+  return make_error(ErrorCode::kInvalidArgument,
+                    "texture mode must be 'atlas', 'frame', 'auto' or 'footprint', got '" + name + "'");
 }
 
 namespace {
@@ -86,11 +90,13 @@ Result<AtlasResult> build_atlas(const Mesh& mesh, const cv::Mat& color_rgb, cons
   }
   if (options.mode == TextureMode::kFrame)
     return atlas_detail::build_frame_texture(mesh, color_rgb, pinhole, options);
+  if (options.mode == TextureMode::kFootprint)
+    return atlas_detail::build_footprint_atlas(mesh, color_rgb, pinhole, options);
 
   const auto t0 = std::chrono::steady_clock::now();
   const Eigen::Matrix3d K = pinhole.K();
   std::vector<std::uint32_t> order(mesh.indices);
-  if (options.reorder_triangles)
+  if (options.reorder_triangles.value_or(true))
     meshopt_optimizeVertexCache(order.data(), mesh.indices.data(), mesh.indices.size(), mesh.positions.size());
 
   // Triangles that can be textured, in output order.
@@ -122,9 +128,7 @@ Result<AtlasResult> build_atlas(const Mesh& mesh, const cv::Mat& color_rgb, cons
 
   Image atlas = Image::make(layout.width, layout.height, 3);
   Mesh& out = r.mesh;
-  out.positions.reserve(tris.size() * 3);
-  out.uvs.reserve(tris.size() * 3);
-  out.indices.reserve(tris.size() * 3);
+  atlas_detail::reserve_cell_triangles(tris.size(), &out);
   const Eigen::Vector2d inv_size(1.0 / layout.width, 1.0 / layout.height);
   for (size_t k = 0; k < tris.size(); ++k) {
     Slot s;
@@ -134,18 +138,9 @@ Result<AtlasResult> build_atlas(const Mesh& mesh, const cv::Mat& color_rgb, cons
       return make_error(ErrorCode::kInternal, "atlas: triangle map failed after the probe succeeded");
     const bool has_partner = (k % 2 == 0) ? (k + 1 < tris.size()) : true;
     fill_slot(layout, k, has_partner, s, color_rgb, &atlas);
-    for (int i = 0; i < 3; ++i) {
-      out.indices.push_back(static_cast<std::uint32_t>(out.positions.size()));
-      out.positions.push_back(mesh.positions[tris[k][i]]);
-      out.uvs.push_back(corners[i].cwiseProduct(inv_size).cast<float>());
-    }
+    atlas_detail::append_cell_triangle(mesh, tris[k], corners, inv_size, &out);
   }
-  out.texture = std::move(atlas);
-  r.width = layout.width;
-  r.height = layout.height;
-  r.texels = static_cast<size_t>(layout.width) * layout.height;
-  r.cells = layout.cells;
-  r.triangles = tris.size();
+  atlas_detail::set_atlas_texture(std::move(atlas), layout.cells, tris.size(), &r);
   r.median_source_px = atlas_detail::median_projected_area_px(mesh, K);
   r.texels_per_triangle = 0.5 * layout.leg_px() * layout.leg_px();
   r.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

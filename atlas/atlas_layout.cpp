@@ -11,10 +11,8 @@ void CellLayout::cell_of(size_t slot, int* x0, int* y0, bool* lower) const {
   *y0 = static_cast<int>(cell / columns) * cell_px;
 }
 
-std::array<Eigen::Vector2d, 3> CellLayout::corners(size_t slot) const {
-  int x0, y0;
-  bool lower;
-  cell_of(slot, &x0, &y0, &lower);
+std::array<Eigen::Vector2d, 3> cell_triangle_corners(int x0, int y0, int cell_px, int gutter_px, bool two_per_cell,
+                                                     bool lower) {
   const double S = cell_px, g = gutter_px;
   const Eigen::Vector2d o(x0, y0);
   if (!two_per_cell)
@@ -22,6 +20,13 @@ std::array<Eigen::Vector2d, 3> CellLayout::corners(size_t slot) const {
   if (!lower)
     return {o + Eigen::Vector2d(g, g), o + Eigen::Vector2d(S - 2 * g - 1, g), o + Eigen::Vector2d(g, S - 2 * g - 1)};
   return {o + Eigen::Vector2d(S - g, S - g), o + Eigen::Vector2d(2 * g, S - g), o + Eigen::Vector2d(S - g, 2 * g)};
+}
+
+std::array<Eigen::Vector2d, 3> CellLayout::corners(size_t slot) const {
+  int x0, y0;
+  bool lower;
+  cell_of(slot, &x0, &y0, &lower);
+  return cell_triangle_corners(x0, y0, cell_px, gutter_px, two_per_cell, lower);
 }
 
 int CellLayout::leg_px() const { return two_per_cell ? cell_px - 3 * gutter_px - 1 : cell_px - 2 * gutter_px; }

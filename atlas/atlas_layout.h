@@ -32,6 +32,12 @@ struct CellLayout {
   int leg_px() const;
 };
 
+// The corners (v0, v1, v2) of a triangle in the square cell of side cell_px whose top-left texel is (x0, y0), in atlas
+// coordinates: the upper triangle, the lower one, or (single) one triangle alone in the cell, as described above.
+// Shared by the fixed grid and the footprint layout (footprint_layout.h).
+std::array<Eigen::Vector2d, 3> cell_triangle_corners(int x0, int y0, int cell_px, int gutter_px, bool two_per_cell,
+                                                     bool lower);
+
 // A near-square grid for `triangles` slots. Returns false when the parameters leave no room for a triangle
 // (cell_px < 3 g + 2) or the atlas would exceed max_side texels per side.
 bool make_cell_layout(size_t triangles, int cell_px, int gutter_px, bool two_per_cell, int max_side,

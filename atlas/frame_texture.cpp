@@ -8,6 +8,7 @@
 
 #include "atlas/texture_encode.h"
 #include "atlas/triangle_homography.h"
+#include "atlas/unsampled_fill.h"
 
 namespace rgbdcast::atlas_detail {
 
@@ -63,6 +64,30 @@ double median_projected_area_px(const Mesh& mesh, const Eigen::Matrix3d& K) {
   return areas[areas.size() / 2];
 }
 
+void reserve_cell_triangles(size_t triangles, Mesh* out) {
+  out->positions.reserve(triangles * 3);
+  out->uvs.reserve(triangles * 3);
+  out->indices.reserve(triangles * 3);
+}
+
+void set_atlas_texture(Image texture, size_t cells, size_t triangles, AtlasResult* r) {
+  r->width = texture.width;
+  r->height = texture.height;
+  r->texels = static_cast<size_t>(texture.width) * texture.height;
+  r->cells = cells;
+  r->triangles = triangles;
+  r->mesh.texture = std::move(texture);
+}
+
+void append_cell_triangle(const Mesh& mesh, const std::array<std::uint32_t, 3>& tri,
+                          const std::array<Eigen::Vector2d, 3>& corners, const Eigen::Vector2d& inv_size, Mesh* out) {
+  for (int i = 0; i < 3; ++i) {
+    out->indices.push_back(static_cast<std::uint32_t>(out->positions.size()));
+    out->positions.push_back(mesh.positions[tri[i]]);
+    out->uvs.push_back(corners[i].cwiseProduct(inv_size).cast<float>());
+  }
+}
+
 Result<AtlasResult> build_frame_texture(const Mesh& mesh, const cv::Mat& color_rgb, const Intrinsics& pinhole,
                                         const AtlasOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -89,7 +114,7 @@ Result<AtlasResult> build_frame_texture(const Mesh& mesh, const cv::Mat& color_r
     out.indices.insert(out.indices.end(), {a, b, c});
   }
   if (out.indices.empty()) return make_error(ErrorCode::kEmpty, "frame texture: no triangle in front of the camera");
-  if (options.reorder_triangles) {
+  if (options.reorder_triangles.value_or(true)) {
     // Vertex-cache order for the triangles, then vertices in first-use order (unused ones dropped): neighbours end up
     // next to each other in every stream, which is what meshopt's delta codecs want.
     std::vector<std::uint32_t> tri(out.indices.size());
@@ -106,6 +131,14 @@ Result<AtlasResult> build_frame_texture(const Mesh& mesh, const cv::Mat& color_r
     out.indices = std::move(tri);
   }
   out.texture = image_from_rgb_mat(color_rgb);
+  if (options.fill_unsampled.value_or(false)) {
+    const auto f0 = std::chrono::steady_clock::now();
+    auto sampled = texels_sampled_by_uvs(out, out.texture.width, out.texture.height);
+    if (!sampled) return sampled.error();
+    r.unsampled_texels = static_cast<size_t>(std::count(sampled->begin(), sampled->end(), 0));
+    if (auto st = fill_unsampled_texels(&out.texture, *sampled); !st) return st.error();
+    r.fill_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - f0).count();
+  }
   r.width = color_rgb.cols;
   r.height = color_rgb.rows;
   r.texels = static_cast<size_t>(r.width) * r.height;

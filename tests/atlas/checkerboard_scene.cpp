@@ -3,6 +3,8 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
+#include "tests/atlas/right_triangle_mesh.h"
+
 namespace rgbdcast::test {
 
 int CheckerScene::checker(double s, double t) const {
@@ -29,8 +31,10 @@ Eigen::Vector2d CheckerScene::plane_at_pixel(double u, double v) const {
   return plane_of(lambda * d);
 }
 
-CheckerScene make_checker_scene(double angle_deg, int quads_s, int quads_t) {
+CheckerScene make_checker_scene(double angle_deg, int quads_s, int quads_t, double half_s, double half_t) {
   CheckerScene c;
+  c.half_s = half_s;
+  c.half_t = half_t;
   c.k.fx = c.k.fy = 525.0;
   c.k.cx = 319.5;
   c.k.cy = 239.5;
@@ -65,6 +69,31 @@ CheckerScene make_checker_scene(double angle_deg, int quads_s, int quads_t) {
       c.mesh.indices.insert(c.mesh.indices.end(), {p, p + 1, p + row, p + 1, p + row + 1, p + row});
     }
   return c;
+}
+
+Mesh checker_right_triangle_mesh(const CheckerScene& c, int min_side_px, int max_side_px) {
+  const PointAt on_board = [&](int x, int y, Eigen::Vector3f* p) {
+    const Eigen::Vector2d st = c.plane_at_pixel(x, y);
+    if (std::abs(st.x()) > c.half_s || std::abs(st.y()) > c.half_t) return false;
+    *p = (c.origin + st.x() * c.U + st.y() * c.V).cast<float>();
+    return true;
+  };
+  // Split a block when a corner is off the board, and in a fixed pseudo-random pattern, so that sizes mix.
+  const SplitBlock split = [&](int x, int y, int s) {
+    Eigen::Vector3f p;
+    for (int j = 0; j <= 1; ++j)
+      for (int i = 0; i <= 1; ++i)
+        if (!on_board(x + i * s, y + j * s, &p)) return true;
+    const unsigned h = static_cast<unsigned>(x * 73856093) ^ static_cast<unsigned>(y * 19349663) ^
+                       static_cast<unsigned>(s * 83492791);
+    return (h >> 4) % 3 == 0;
+  };
+  RightTriangleMeshOptions o;
+  o.min_side_px = min_side_px;
+  o.max_side_px = max_side_px;
+  o.min_diagonal_side_px = 2 * min_side_px;
+  o.max_depth_ratio = 1e9;  // no depth jump on a board
+  return right_triangle_mesh(c.k.width, c.k.height, on_board, split, o);
 }
 
 }  // namespace rgbdcast::test

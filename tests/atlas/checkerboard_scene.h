@@ -26,7 +26,14 @@ struct CheckerScene {
   Eigen::Vector2d plane_of(const Eigen::Vector3d& X) const;
 };
 
-// The board's normal makes `angle_deg` with the optical axis; quads_s x quads_t quads, two triangles each.
-CheckerScene make_checker_scene(double angle_deg, int quads_s, int quads_t);
+// The board's normal makes `angle_deg` with the optical axis; quads_s x quads_t quads, two triangles each. The board
+// spans |s| <= half_s, |t| <= half_t metres (the default one fills part of the view; a larger one fills it).
+CheckerScene make_checker_scene(double angle_deg, int quads_s, int quads_t, double half_s = 0.6, double half_t = 0.3);
+
+// The board tessellated the way the realtime preset meshes a depth image: right isosceles triangles in image space
+// with vertices at pixel centres (right_triangle_mesh.h), blocks of min_side_px..max_side_px (mixed by a fixed
+// pattern), four triangles with diagonal legs (side / sqrt 2) in blocks of at least 2 min_side_px, else two with
+// axis-aligned legs: legs of min_side .. max_side px. Blocks with a corner off the board are dropped.
+Mesh checker_right_triangle_mesh(const CheckerScene& scene, int min_side_px, int max_side_px);
 
 }  // namespace rgbdcast::test

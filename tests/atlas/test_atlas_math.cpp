@@ -8,6 +8,7 @@
 #include "atlas/atlas.h"
 #include "atlas/atlas_layout.h"
 #include "atlas/triangle_homography.h"
+#include "tests/atlas/barycentric.h"
 
 using namespace rgbdcast;
 
@@ -20,13 +21,6 @@ Eigen::Matrix3d kinect_K() {
   k.cx = 318.6;
   k.cy = 255.3;
   return k.K();
-}
-
-Eigen::Vector3d barycentric(const Eigen::Vector2d& p, const std::array<Eigen::Vector2d, 3>& c) {
-  Eigen::Matrix2d T;
-  T << c[1] - c[0], c[2] - c[0];
-  const Eigen::Vector2d l = T.inverse() * (p - c[0]);
-  return {1 - l.x() - l.y(), l.x(), l.y()};
 }
 
 }  // namespace
@@ -62,7 +56,7 @@ TEST(AtlasMath, TexelMapsBackToTheProjectionOfItsPoint) {
       double a = unit(rng), b = unit(rng);
       if (a + b > 1) a = 1 - a, b = 1 - b;
       const Eigen::Vector2d q = corners[0] + a * (corners[1] - corners[0]) + b * (corners[2] - corners[0]);
-      const Eigen::Vector3d bc = barycentric(q, corners);
+      const Eigen::Vector3d bc = test::barycentric(q, corners);
       const Eigen::Vector3d X = bc[0] * v[0] + bc[1] * v[1] + bc[2] * v[2];
       const Eigen::Vector3d proj = K * X;
       const Eigen::Vector3d back = map.image_from_atlas * Eigen::Vector3d(q.x(), q.y(), 1);
