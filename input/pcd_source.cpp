@@ -5,8 +5,104 @@
 #include <pcl/point_types.h>
 
 #include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <vector>
 
 namespace rgbdcast {
+
+namespace {
+
+Error bad_pcd(const std::string& what) { return make_error(ErrorCode::kInvalidInput, "PCD: " + what); }
+
+// Whole-token unsigned integer in [lo, hi].
+bool parse_count(const std::string& tok, long lo, long hi, long* out) {
+  if (tok.empty() || tok.size() > 12 || tok.find_first_not_of("0123456789") != std::string::npos) return false;
+  *out = std::stol(tok);
+  return *out >= lo && *out <= hi;
+}
+
+std::uint32_t le32(const std::uint8_t* p) {
+  return std::uint32_t(p[0]) | (std::uint32_t(p[1]) << 8) | (std::uint32_t(p[2]) << 16) | (std::uint32_t(p[3]) << 24);
+}
+
+}  // namespace
+
+Result<PcdHeader> check_pcd_header(const std::uint8_t* data, size_t size) {
+  constexpr size_t kMaxHeader = 64 * 1024;
+  std::map<std::string, std::vector<std::string>> keys;
+  size_t pos = 0;
+  bool have_data = false;
+  while (pos < size && pos < kMaxHeader && !have_data) {
+    size_t end = pos;
+    while (end < size && data[end] != '\n') ++end;
+    std::string line(reinterpret_cast<const char*>(data + pos), end - pos);
+    pos = end < size ? end + 1 : end;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ss(line);
+    std::string key, tok;
+    ss >> key;
+    std::vector<std::string> values;
+    while (ss >> tok && values.size() <= 1024) values.push_back(tok);
+    if (values.size() > 1024) return bad_pcd("header line " + key + " has too many values");
+    if (keys.count(key)) return bad_pcd("header key " + key + " appears twice");
+    keys[key] = values;
+    have_data = key == "DATA";
+  }
+  if (!have_data) return bad_pcd("no DATA line in the first 64 KiB");
+  for (const char* k : {"FIELDS", "SIZE", "TYPE", "WIDTH", "HEIGHT"})
+    if (!keys.count(k)) return bad_pcd(std::string("header has no ") + k);
+  const auto& fields = keys["FIELDS"];
+  const size_t n = fields.size();
+  if (n == 0 || n > 64) return bad_pcd("1 to 64 FIELDS expected");
+  const auto& sizes = keys["SIZE"];
+  const auto& types = keys["TYPE"];
+  std::vector<std::string> counts = keys.count("COUNT") ? keys["COUNT"] : std::vector<std::string>(n, "1");
+  if (sizes.size() != n || types.size() != n || counts.size() != n)
+    return bad_pcd("FIELDS, SIZE, TYPE and COUNT have different lengths");
+  PcdHeader h;
+  for (size_t i = 0; i < n; ++i) {
+    long sz = 0, count = 0;
+    if (!parse_count(sizes[i], 1, 8, &sz) || (sz != 1 && sz != 2 && sz != 4 && sz != 8))
+      return bad_pcd("SIZE of " + fields[i] + " must be 1, 2, 4 or 8");
+    if (types[i] != "I" && types[i] != "U" && types[i] != "F") return bad_pcd("TYPE of " + fields[i] + " must be I, U or F");
+    if ((types[i] == "F" && sz != 4 && sz != 8)) return bad_pcd("a float field must be 4 or 8 bytes");
+    if (!parse_count(counts[i], 1, 1024, &count)) return bad_pcd("COUNT of " + fields[i] + " must be 1..1024");
+    h.point_bytes += static_cast<size_t>(sz * count);
+  }
+  if (h.point_bytes > 4096) return bad_pcd("points of more than 4 KiB");
+  long w = 0, ht = 0, points = 0;
+  if (keys["WIDTH"].size() != 1 || !parse_count(keys["WIDTH"][0], 2, 8192, &w) || keys["HEIGHT"].size() != 1 ||
+      !parse_count(keys["HEIGHT"][0], 2, 8192, &ht))
+    return bad_pcd("WIDTH and HEIGHT must be 2..8192 (an organized frame)");
+  h.width = static_cast<int>(w);
+  h.height = static_cast<int>(ht);
+  const size_t npoints = static_cast<size_t>(w) * static_cast<size_t>(ht);
+  if (keys.count("POINTS") &&
+      (keys["POINTS"].size() != 1 || !parse_count(keys["POINTS"][0], 0, 1L << 40, &points) ||
+       static_cast<size_t>(points) != npoints))
+    return bad_pcd("POINTS is not WIDTH x HEIGHT");
+  if (keys["DATA"].size() != 1) return bad_pcd("DATA must be ascii, binary or binary_compressed");
+  h.data = keys["DATA"][0];
+  const size_t body = size - pos, need = npoints * h.point_bytes;
+  if (h.data == "binary") {
+    if (body < need) return bad_pcd("binary data holds " + std::to_string(body) + " bytes, the header needs " + std::to_string(need));
+  } else if (h.data == "binary_compressed") {
+    if (body < 8) return bad_pcd("binary_compressed data without its sizes");
+    const size_t compressed = le32(data + pos), uncompressed = le32(data + pos + 4);
+    if (compressed > body - 8) return bad_pcd("compressed data is cut short");
+    if (uncompressed != need) return bad_pcd("uncompressed size is not POINTS x point size");
+  } else if (h.data == "ascii") {
+    size_t values = 0;
+    for (size_t i = 0; i < n; ++i) values += static_cast<size_t>(std::stol(counts[i]));
+    if (body / 2 < npoints * values) return bad_pcd("ascii data too short for WIDTH x HEIGHT points");
+  } else {
+    return bad_pcd("DATA must be ascii, binary or binary_compressed");
+  }
+  return h;
+}
 
 namespace {
 
@@ -23,6 +119,14 @@ class PcdSource : public FrameSource {
 
   Result<RgbdFrame> frame(size_t i) const override {
     if (i != 0) return make_error(ErrorCode::kNotFound, "frame " + std::to_string(i) + " is past the end (a PCD holds 1 frame)");
+    {
+      // rgbdcast reads the header first: PCL trusts it for its buffer sizes.
+      std::ifstream in(path_, std::ios::binary);
+      if (!in) return make_error(ErrorCode::kNotFound, "cannot open " + path_);
+      std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      auto header = check_pcd_header(bytes.data(), bytes.size());
+      if (!header) return make_error(header.error().code, path_ + ": " + header.error().message);
+    }
     pcl::PointCloud<pcl::PointXYZRGBA> cloud;
     pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // errors come back as Result, not on stderr
     int rc = -1;

@@ -10,6 +10,7 @@ DEB_PACKAGES=(
   glslang-tools glslang-dev
   libtinygltf-dev nlohmann-json3-dev libstb-dev libcpp-httplib-dev libgtest-dev libcli11-dev
   libmeshoptimizer-dev libdraco-dev libturbojpeg0-dev
+  clang-16 libfuzzer-16-dev libclang-rt-16-dev
   chromium wrk curl jq
 )
 # Node.js with npm: the machine image ships Node 20 (with npm); a bare Debian 12 gets Debian's.
