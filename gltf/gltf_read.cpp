@@ -4,6 +4,7 @@
 #include <tiny_gltf.h>
 
 #include <Eigen/Geometry>
+#include <cmath>
 #include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -308,7 +309,8 @@ CaptureCamera read_camera(const tinygltf::Model& model, const tinygltf::Node& no
   const tinygltf::Camera& c = model.cameras[node.camera];
   Intrinsics& k = cam.intrinsics;
   if (c.type == "perspective" && c.perspective.yfov > 0 && c.perspective.yfov < M_PI) {
-    const double aspect = c.perspective.aspectRatio > 0 ? c.perspective.aspectRatio : 4.0 / 3.0;
+    const double a = c.perspective.aspectRatio;
+    const double aspect = a >= 1.0 / 16 && a <= 16 ? a : 4.0 / 3.0;  // keeps the width within kMaxImageSize
     k.height = 480;
     k.width = std::max(1, static_cast<int>(std::lround(480 * aspect)));
     k.fy = 0.5 * k.height / std::tan(0.5 * c.perspective.yfov);
@@ -322,17 +324,18 @@ CaptureCamera read_camera(const tinygltf::Model& model, const tinygltf::Node& no
     auto num = [&](const char* key, double fallback) {
       return e.contains(key) && e[key].is_number() ? e[key].get<double>() : fallback;
     };
-    k.fx = num("fx", k.fx);
-    k.fy = num("fy", k.fy);
-    k.cx = num("cx", k.cx);
-    k.cy = num("cy", k.cy);
+    // An untrusted file's intrinsics are taken only when they make a camera (fx, fy > 0, all finite); otherwise the
+    // glTF camera's own (or the default) stays, so a view at pose=capture never gets a degenerate projection.
+    const double fx = num("fx", k.fx), fy = num("fy", k.fy), cx = num("cx", k.cx), cy = num("cy", k.cy);
+    if (std::isfinite(fx) && std::isfinite(fy) && std::isfinite(cx) && std::isfinite(cy) && fx > 0 && fy > 0)
+      k.fx = fx, k.fy = fy, k.cx = cx, k.cy = cy;
     const double w = num("width", k.width), h = num("height", k.height);
     if (w >= 1 && w <= kMaxImageSize && h >= 1 && h <= kMaxImageSize) k.width = int(w), k.height = int(h);
     if (e.contains("name") && e["name"].is_string()) k.name = e["name"].get<std::string>();
-    cam.timestamp = num("timestamp", 0.0);
+    if (const double t = num("timestamp", 0.0); std::isfinite(t)) cam.timestamp = t;
     if (e.contains("source") && e["source"].is_string()) cam.source = e["source"].get<std::string>();
     const double fi = num("frame_index", -1);
-    if (fi >= -1 && fi < 2147483647.0) cam.frame_index = static_cast<int>(fi);
+    if (fi >= -1 && fi <= 2147483647.0) cam.frame_index = static_cast<int>(fi);
   }
   return cam;
 }

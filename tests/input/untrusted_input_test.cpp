@@ -111,13 +111,13 @@ Result<PcdHeader> check(const std::string& bytes) {
 }
 
 TEST(UntrustedPcd, HeaderMustMatchTheBytesPresent) {
-  const std::string body(16 * 4, '\0');
+  const std::string body(16 * 16, '\0');  // 4x4 points of 16 bytes
   auto ok = check(pcd_header("4", "4", "16", "binary") + body);
   ASSERT_TRUE(ok) << ok.error().message;
   EXPECT_EQ(ok->point_bytes, 16u);
   const std::vector<std::pair<std::string, std::string>> cases = {
       {pcd_header("8192", "8192", "67108864", "ascii") + "0 0 0 0\n", "ascii data too short"},  // 64 M points claimed
-      {pcd_header("8192", "8192", "67108864", "binary") + body, "binary data holds 64 bytes, the header needs 1073741824"},
+      {pcd_header("8192", "8192", "67108864", "binary") + body, "binary data holds 256 bytes, the header needs 1073741824"},
       {pcd_header("4", "4", "17", "binary") + body, "POINTS is not WIDTH x HEIGHT"},
       {pcd_header("9000", "2", "18000", "binary"), "2..8192"},
       {pcd_header("4", "1", "4", "binary"), "2..8192"},

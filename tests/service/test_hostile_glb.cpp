@@ -111,7 +111,7 @@ TEST_F(HostileGlb, ImageUriNamingAServerFileIsRefused) {
 TEST_F(HostileGlb, DeeplyNestedExtrasAreA422NotACrash) {
   for (int depth : {15000, 20000}) {
     const Bytes glb = rgbdcast::test::glb_with_nested_extras(depth);
-    EXPECT_GT(glb.size(), 100000u);
+    EXPECT_GT(glb.size(), 6u * depth);  // {"a": and } per level: 99 kB at 15,000
     expect_refused(glb, "JSON nested deeper than 64 levels");
   }
 }
