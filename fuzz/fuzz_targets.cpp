@@ -19,6 +19,11 @@
 namespace rgbdcast::fuzz {
 namespace {
 
+// An error is one non-empty line (the service writes it into its JSON body, replacing invalid UTF-8).
+void check_error(const Error& e) {
+  if (e.message.empty() || e.message.find('\n') != std::string::npos) std::abort();
+}
+
 std::uint32_t le32(const std::uint8_t* p) {
   return std::uint32_t(p[0]) | (std::uint32_t(p[1]) << 8) | (std::uint32_t(p[2]) << 16) | (std::uint32_t(p[3]) << 24);
 }
@@ -33,8 +38,8 @@ void glb(const std::uint8_t* data, size_t size) {
     for (const auto& n : scene->nodes)
       for (auto i : n.mesh.indices)
         if (i >= n.mesh.positions.size()) std::abort();  // an accepted scene is consistent
-  } else if (scene.error().message.find('\n') != std::string::npos) {
-    std::abort();
+  } else {
+    check_error(scene.error());
   }
 }
 
@@ -42,6 +47,7 @@ void glb(const std::uint8_t* data, size_t size) {
 void intrinsics(const std::uint8_t* data, size_t size) {
   auto k = rgbdcast::parse_intrinsics_json(std::string_view(reinterpret_cast<const char*>(data), size));
   if (k.ok() && !(k->fx > 0 && k->fy > 0 && k->width >= 1 && k->height >= 1 && k->depth_scale > 0)) std::abort();
+  if (!k.ok()) check_error(k.error());
 }
 
 // PNG/JPEG bytes -> decode_color and decode_depth16 (upload limits), then make_frame with a distorted
@@ -126,7 +132,10 @@ void view_query(const std::uint8_t* data, size_t size) {
     pos = amp + 1;
   }
   auto req = rgbdcast::service::parse_view_request(params);
-  if (!req.ok()) return;
+  if (!req.ok()) {
+    check_error(req.error());
+    return;
+  }
   (void)rgbdcast::service::make_view_camera(*req, {});
   rgbdcast::CaptureCamera cam;
   cam.intrinsics.fx = cam.intrinsics.fy = 525.0;

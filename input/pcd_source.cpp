@@ -7,6 +7,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <vector>
 
@@ -47,6 +48,15 @@ Result<PcdHeader> check_pcd_header(const std::uint8_t* data, size_t size) {
     std::vector<std::string> values;
     while (ss >> tok && values.size() <= 1024) values.push_back(tok);
     if (values.size() > 1024) return bad_pcd("header line " + key + " has too many values");
+    // Only the keys of the format: PCL matches keys by prefix and crashes on some it half-recognizes ("V\xf3RSION").
+    static const std::set<std::string> kKeys = {"VERSION", "FIELDS", "SIZE",      "TYPE",   "COUNT",
+                                                "WIDTH",   "HEIGHT", "VIEWPOINT", "POINTS", "DATA"};
+    if (!kKeys.count(key)) {
+      std::string shown = key.substr(0, 16);
+      for (auto& c : shown)
+        if (c < 0x20 || c > 0x7e) c = '?';  // one printable line, whatever the bytes
+      return bad_pcd("unknown header line '" + shown + "'");
+    }
     if (keys.count(key)) return bad_pcd("header key " + key + " appears twice");
     keys[key] = values;
     have_data = key == "DATA";
