@@ -83,6 +83,21 @@ Result<PcdHeader> check_pcd_header(const std::uint8_t* data, size_t size) {
     h.point_bytes += static_cast<size_t>(sz * count);
   }
   if (h.point_bytes > 4096) return bad_pcd("points of more than 4 KiB");
+  // The layout PCL maps onto PointXYZRGBA without surprises (fuzz_pcd found a use-after-free in PCL 1.13 on a
+  // field list without x and a COUNT of 2): x, y, z as 4-byte floats, rgb or rgba as 4 bytes, each COUNT 1 and
+  // named once; other fields COUNT 1, and "_" padding of any COUNT.
+  std::set<std::string> seen;
+  for (size_t i = 0; i < n; ++i) {
+    const std::string& f = fields[i];
+    if (f == "_") continue;
+    if (!seen.insert(f).second) return bad_pcd("field " + f + " appears twice");
+    if (counts[i] != "1") return bad_pcd("field " + f + " must have COUNT 1");
+    if ((f == "x" || f == "y" || f == "z") && (types[i] != "F" || sizes[i] != "4"))
+      return bad_pcd("field " + f + " must be a 4-byte float");
+    if ((f == "rgb" || f == "rgba") && sizes[i] != "4") return bad_pcd("field " + f + " must be 4 bytes");
+  }
+  if (!seen.count("x") || !seen.count("y") || !seen.count("z")) return bad_pcd("fields x, y and z are required");
+  if (!seen.count("rgb") && !seen.count("rgba")) return bad_pcd("a field rgb or rgba is required");
   long w = 0, ht = 0, points = 0;
   if (keys["WIDTH"].size() != 1 || !parse_count(keys["WIDTH"][0], 2, 8192, &w) || keys["HEIGHT"].size() != 1 ||
       !parse_count(keys["HEIGHT"][0], 2, 8192, &ht))

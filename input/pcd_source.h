@@ -11,8 +11,9 @@ namespace rgbdcast {
 
 // The PCD header, checked by rgbdcast before PCL reads the file (PCL sizes its buffers from the header alone: an
 // ASCII file of a few bytes can claim 64 M points). Contract: the header is at most 64 KiB of "KEY values" lines up
-// to DATA; FIELDS/SIZE/TYPE/COUNT agree (at most 64 fields of 1, 2, 4 or 8 bytes, COUNT 1..1024, a point at most
-// 4 KiB); WIDTH and HEIGHT are 2..8192 (an organized frame) and POINTS, when given, is WIDTH x HEIGHT; and the bytes
+// to DATA, with the format's keys only; FIELDS/SIZE/TYPE/COUNT agree (at most 64 fields of 1, 2, 4 or 8 bytes, a
+// point at most 4 KiB), and hold x, y, z (4-byte floats) and rgb or rgba (4 bytes), every field named once with
+// COUNT 1 except "_" padding; WIDTH and HEIGHT are 2..8192 (an organized frame) and POINTS, when given, is WIDTH x HEIGHT; and the bytes
 // after the header can hold the points: binary needs POINTS x point size, binary_compressed its 8-byte sizes, the
 // compressed bytes they announce and an uncompressed size of exactly POINTS x point size, ASCII at least 2 bytes per
 // value. Errors are kInvalidInput "PCD: ...", one line.

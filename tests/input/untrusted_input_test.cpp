@@ -129,6 +129,15 @@ TEST(UntrustedPcd, HeaderMustMatchTheBytesPresent) {
       {"FIELDS x\nSIZE 4 4\nTYPE F\nWIDTH 2\nHEIGHT 2\nDATA ascii\n", "different lengths"},
       {"FIELDS x\nSIZE 3\nTYPE F\nWIDTH 2\nHEIGHT 2\nDATA ascii\n", "SIZE of x"},
       {"FIELDS x\nFIELDS y\n", "appears twice"},
+      // fuzz_pcd's first find: PCL 1.13 dereferences NULL on a header whose VERSION line is misspelt.
+      {"# .PCD v0.7\nV\xf3RSION 0.7\nFIELDS x\n", "unknown header line 'V?RSION'"},
+      // Its second: a use-after-free in PCL on fields without x and a COUNT of 2.
+      {"FIELDS JJx y z rgba\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 2 1 1 1\nWIDTH 4\nHEIGHT 3\nDATA binary\n" +
+           std::string(240, '\0'), "field JJx must have COUNT 1"},
+      {"FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 4\nHEIGHT 3\nDATA binary\n" + std::string(144, '\0'),
+       "a field rgb or rgba is required"},
+      {"FIELDS x y x rgb\nSIZE 4 4 4 4\nTYPE F F F U\nWIDTH 2\nHEIGHT 2\nDATA ascii\n", "field x appears twice"},
+      {"FIELDS x y z rgb\nSIZE 8 4 4 4\nTYPE F F F U\nWIDTH 2\nHEIGHT 2\nDATA ascii\n", "x must be a 4-byte float"},
   };
   for (const auto& [bytes, needle] : cases) {
     auto r = check(bytes);
