@@ -129,6 +129,25 @@ Result<PcdHeader> check_pcd_header(const std::uint8_t* data, size_t size) {
   }
   if (keys["DATA"].size() != 1) return bad_pcd("DATA must be ascii, binary or binary_compressed");
   h.data = keys["DATA"][0];
+  // PCL 1.13 keeps reading header lines after DATA (comments, blank lines and any line whose first token starts
+  // with a key), so data that begins like "# ...\nFIELDS x" re-defines the fields and PCL overflows its buffer
+  // (fuzz_pcd's fourth find). The same walk here: such data is refused.
+  for (size_t at = pos; at < size;) {
+    size_t end = at;
+    while (end < size && data[end] != '\n') ++end;
+    std::string line(reinterpret_cast<const char*>(data + at), std::min<size_t>(end - at, 64));
+    at = end < size ? end + 1 : end;
+    const size_t first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos) continue;
+    if (line[first] == '#') continue;
+    const std::string token = line.substr(first);
+    bool key = false;
+    for (const char* k : {"VERSION", "FIELDS", "COLUMNS", "SIZE", "TYPE", "COUNT", "WIDTH", "HEIGHT", "VIEWPOINT",
+                          "POINTS", "DATA"})
+      key = key || token.rfind(k, 0) == 0;
+    if (key) return bad_pcd("the data after DATA starts like a header line");
+    break;
+  }
   const size_t body = size - pos, need = npoints * h.point_bytes;
   if (h.data == "binary") {
     if (body < need) return bad_pcd("binary data holds " + std::to_string(body) + " bytes, the header needs " + std::to_string(need));

@@ -169,6 +169,14 @@ TEST(UntrustedPcd, FilesPclWritesPassTheCheck) {
   EXPECT_NE(check("VIEWPOINT 0 0 0 1 0\xc0 0 0\n" + head).error().message.find("VIEWPOINT must be 7 numbers"),
             std::string::npos);
   EXPECT_NE(check("\n" + head).error().message.find("blank or indented line"), std::string::npos);
+  // Its fourth: PCL reads on after DATA while lines look like header lines, and overflows when they re-define the
+  // fields. Binary data that begins "# .7\nFIELDS x" is refused.
+  const std::string bin_head = "FIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nWIDTH 2\nHEIGHT 2\nDATA binary\n";
+  std::string body = "# .7\nFIELDS x y";
+  body.resize(64, '\x01');
+  EXPECT_NE(check(bin_head + body).error().message.find("starts like a header line"), std::string::npos);
+  body[5] = 'X';  // "# .7\nXIELDS": the walk stops at a line that is no key, as PCL's does
+  EXPECT_TRUE(check(bin_head + body));
 }
 
 TEST(UntrustedPcd, RealKinectFramesPassTheCheck) {
