@@ -11,6 +11,7 @@
 #include "gltf/gltf_io.h"
 #include "input/frame_source.h"
 #include "input/intrinsics_io.h"
+#include "input/pcd_header.h"
 #include "input/pcd_source.h"
 #include "keyframes/trajectory_io.h"
 #include "scene/intrinsics.h"

@@ -8,6 +8,7 @@
 
 #include "input/frame_source.h"
 #include "input/intrinsics_io.h"
+#include "input/pcd_header.h"
 #include "input/pcd_source.h"
 #include "tests/common/test_data.h"
 
