@@ -38,6 +38,7 @@
 #include <string_view>
 #include <vector>
 
+#include "scene/camera.h"  // kMaxImageSize
 #include "scene/result.h"
 #include "scene/scene.h"
 
@@ -80,13 +81,34 @@ Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteO
 Status write_glb_file(const Scene& scene, const std::string& path, const GlbWriteOptions& options = {},
                       GlbStats* stats = nullptr);
 
+// What decode_glb accepts from an untrusted client. Every limit is checked against the bytes present before the
+// decoder allocates for them. The defaults fit any scene rgbdcast writes with margin (the paper's full, unreduced
+// 640x480 cloud is 307k vertices and 406k triangles; a reduced frame 22k / 40k) and bound one decode to a few hundred
+// MB in the worst case.
+struct GlbDecodeLimits {
+  size_t max_json_bytes = size_t(4) << 20;   // the JSON chunk (tinygltf's model costs ~30x its JSON in memory)
+  int max_json_depth = 64;                   // nesting of arrays/objects anywhere in the JSON (extras included)
+  size_t max_vertices = 4'000'000;           // per scene: POSITION counts summed over every mesh instance
+  size_t max_triangles = 4'000'000;          // per scene, over every mesh instance
+  int max_image_side_px = kMaxImageSize;     // 8192: each side of each image, read from its header before decoding
+  size_t max_image_pixels = size_t(64) << 20;  // 64 Mpx: summed over every image of the file, before decoding
+  // Texture bytes the decoded Scene holds (RGB pixels + encoded copy), counted per mesh instance that uses them.
+  size_t max_scene_texture_bytes = size_t(512) << 20;
+  size_t max_meshopt_bytes = size_t(128) << 20;  // EXT_meshopt_compression output, summed over the file
+};
+
 // Decodes GLB bytes from an untrusted source: any GLB rgbdcast writes and ordinary textured-mesh GLBs. Textures are
 // decoded to Mesh::texture (RGB8). A truncated or malformed file is an kInvalidInput error, never a crash.
+// A GLB must be self-contained: a buffer or image with a `uri` is rejected ("external URI not allowed", or "data URI
+// not allowed"), the filesystem is never touched, and only one buffer (the BIN chunk) may exist. Every accessor needs
+// a bufferView that holds count x stride bytes. Going past `limits` is kInvalidInput naming the limit.
+// Error messages never carry paths or URIs. Thread-safe (no shared state).
 // One SceneNode per mesh primitive (triangles -> mesh, points -> points). Positions are floats: quantized positions
 // are dequantized with their node's translation + scale (so an rgbdcast file gives back metres and its to_world);
 // UVs have KHR_texture_transform applied (0..1 over the texture, origin top-left).
-Result<Scene> decode_glb(const std::uint8_t* data, size_t size);
-Result<Scene> read_glb_file(const std::string& path);
+Result<Scene> decode_glb(const std::uint8_t* data, size_t size, const GlbDecodeLimits& limits = {});
+// A trusted local file (the CLI): same checks; errors are prefixed with the path.
+Result<Scene> read_glb_file(const std::string& path, const GlbDecodeLimits& limits = {});
 
 // Re-encodes GLB bytes from an untrusted source in the flavour options.flavor: decode_glb, then encode_glb. Geometry,
 // cameras (with their exact intrinsics), node placement and scene extras carry over; a JPEG texture is copied

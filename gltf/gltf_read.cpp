@@ -4,6 +4,7 @@
 #include <tiny_gltf.h>
 
 #include <Eigen/Geometry>
+#include <cmath>
 #include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -13,9 +14,11 @@
 
 #include "gltf/atomic_file.h"
 #include "gltf/color_space.h"
+#include "gltf/document_check.h"
 #include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
-#include "gltf/image_probe.h"
+#include "scene/image_probe.h"
+#include "scene/json_nesting.h"
 #include "gltf/json_value.h"
 #include "gltf/meshopt_buffers.h"
 
@@ -27,37 +30,69 @@ constexpr int kMaxNodeDepth = 64;
 
 Error bad(const std::string& what) { return make_error(ErrorCode::kInvalidInput, "GLB: " + what); }
 
-// tinygltf image callback: decode with OpenCV into RGB8, refusing absurd sizes before decoding.
+// What one decode has spent so far, shared by the tinygltf callbacks and the traversal.
+struct DecodeBudget {
+  const GlbDecodeLimits* limits = nullptr;
+  size_t image_pixels = 0, vertices = 0, triangles = 0, texture_bytes = 0;
+};
+
+// tinygltf image callback: the size is read from the header and charged to the budget before OpenCV decodes, into
+// RGB8 without an intermediate copy.
 bool load_image(tinygltf::Image* image, const int index, std::string* err, std::string*, int, int,
-                const unsigned char* bytes, int size, void*) {
+                const unsigned char* bytes, int size, void* user) {
+  auto* budget = static_cast<DecodeBudget*>(user);
+  const GlbDecodeLimits& lim = *budget->limits;
+  const std::string name = "image " + std::to_string(index);
   int w = 0, h = 0;
-  if (size <= 0 || !glb::probe_image_size(bytes, static_cast<size_t>(size), &w, &h) || w > kMaxImageSize ||
-      h > kMaxImageSize) {
-    if (err) *err += "image " + std::to_string(index) + " is not a readable JPEG/PNG of at most " +
-                     std::to_string(kMaxImageSize) + " px per side\n";
+  if (size <= 0 || !probe_image_size(bytes, static_cast<size_t>(size), &w, &h)) {
+    if (err) *err += name + " is not a readable JPEG or PNG\n";
     return false;
   }
+  const size_t pixels = static_cast<size_t>(w) * static_cast<size_t>(h);
+  if (w > lim.max_image_side_px || h > lim.max_image_side_px || pixels > lim.max_image_pixels - budget->image_pixels) {
+    if (err) *err += name + " is " + std::to_string(w) + "x" + std::to_string(h) + ": over the limit of " +
+                     std::to_string(lim.max_image_side_px) + " px per side and " +
+                     std::to_string(lim.max_image_pixels) + " px per file\n";
+    return false;
+  }
+  budget->image_pixels += pixels;
   cv::Mat decoded;
   try {
     decoded = cv::imdecode(cv::Mat(1, size, CV_8UC1, const_cast<unsigned char*>(bytes)), cv::IMREAD_COLOR);
   } catch (const cv::Exception&) {
     decoded.release();
   }
-  if (decoded.empty()) {
-    if (err) *err += "image " + std::to_string(index) + " does not decode\n";
+  if (decoded.empty() || decoded.cols != w || decoded.rows != h) {
+    if (err) *err += name + " does not decode\n";
     return false;
   }
-  cv::Mat rgb;
-  cv::cvtColor(decoded, rgb, cv::COLOR_BGR2RGB);
-  image->width = rgb.cols;
-  image->height = rgb.rows;
+  image->width = w;
+  image->height = h;
   image->component = 3;
   image->bits = 8;
   image->pixel_type = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
-  image->image.resize(static_cast<size_t>(rgb.cols) * rgb.rows * 3);
-  for (int y = 0; y < rgb.rows; ++y)
-    std::memcpy(image->image.data() + static_cast<size_t>(y) * rgb.cols * 3, rgb.ptr(y), static_cast<size_t>(rgb.cols) * 3);
+  image->image.resize(pixels * 3);
+  cv::Mat rgb(h, w, CV_8UC3, image->image.data());  // cvtColor writes straight into the image's storage
+  cv::cvtColor(decoded, rgb, cv::COLOR_BGR2RGB);
   return true;
+}
+
+// Charges one mesh instance's vertices and triangles to the budget before any of its accessors is read.
+Status charge_primitive(const tinygltf::Model& model, const tinygltf::Primitive& prim, DecodeBudget* budget) {
+  auto count = [&](int index) -> size_t {
+    return index >= 0 && static_cast<size_t>(index) < model.accessors.size() ? model.accessors[index].count : 0;
+  };
+  auto pos = prim.attributes.find("POSITION");
+  const size_t vertices = pos == prim.attributes.end() ? 0 : count(pos->second);
+  const size_t triangles = prim.mode == TINYGLTF_MODE_POINTS ? 0 : (prim.indices >= 0 ? count(prim.indices) : vertices) / 3;
+  const GlbDecodeLimits& lim = *budget->limits;
+  if (vertices > lim.max_vertices - budget->vertices)
+    return bad("over the limit of " + std::to_string(lim.max_vertices) + " vertices per scene");
+  if (triangles > lim.max_triangles - budget->triangles)
+    return bad("over the limit of " + std::to_string(lim.max_triangles) + " triangles per scene");
+  budget->vertices += vertices;
+  budget->triangles += triangles;
+  return ok_status();
 }
 
 Eigen::Matrix4d node_matrix(const tinygltf::Node& n) {
@@ -87,10 +122,11 @@ Status read_accessor(const tinygltf::Model& model, int index, int ncomp, std::ve
   const int csize = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType));
   if (comps != ncomp) return bad(what + ": accessor has " + std::to_string(comps) + " components, expected " + std::to_string(ncomp));
   if (csize <= 0) return bad(what + ": bad component type");
-  if (a.count > (size_t(1) << 26)) return bad(what + ": accessor count too large");
-  out->assign(a.count * ncomp, 0.0);
-  if (a.count == 0) return ok_status();
-  if (a.bufferView < 0) return ok_status();  // all zeros, as the spec says
+  if (a.count == 0) {
+    out->clear();
+    return ok_status();
+  }
+  if (a.bufferView < 0) return bad(what + ": accessor without bufferView");  // check_document refuses them too
   if (static_cast<size_t>(a.bufferView) >= model.bufferViews.size()) return bad(what + ": bufferView index out of range");
   const tinygltf::BufferView& v = model.bufferViews[a.bufferView];
   if (v.buffer < 0 || static_cast<size_t>(v.buffer) >= model.buffers.size()) return bad(what + ": buffer index out of range");
@@ -100,9 +136,10 @@ Status read_accessor(const tinygltf::Model& model, int index, int ncomp, std::ve
   if (stride < elem) return bad(what + ": byteStride smaller than an element");
   if (v.byteOffset > data.size() || v.byteLength > data.size() - v.byteOffset) return bad(what + ": bufferView past its buffer");
   if (a.byteOffset > v.byteLength) return bad(what + ": accessor offset past its bufferView");
-  const size_t need = stride * (a.count - 1) + elem;
-  if (need > v.byteLength - a.byteOffset) return bad(what + ": accessor runs past its bufferView");
+  const size_t room = v.byteLength - a.byteOffset;
+  if (elem > room || (a.count - 1) > (room - elem) / stride) return bad(what + ": accessor runs past its bufferView");
   const std::uint8_t* base = data.data() + v.byteOffset + a.byteOffset;
+  out->assign(a.count * ncomp, 0.0);  // only now: the bytes for every element are present
   for (size_t i = 0; i < a.count; ++i) {
     const std::uint8_t* e = base + i * stride;
     for (int k = 0; k < ncomp; ++k) {
@@ -172,7 +209,8 @@ Eigen::Matrix3d texture_transform(const tinygltf::TextureInfo& info) {
   return m.allFinite() ? m : Eigen::Matrix3d::Identity();
 }
 
-Status read_texture(const tinygltf::Model& model, int material, Mesh* mesh, int* texcoord, Eigen::Matrix3d* uv_transform) {
+Status read_texture(const tinygltf::Model& model, int material, Mesh* mesh, int* texcoord, Eigen::Matrix3d* uv_transform,
+                    DecodeBudget* budget) {
   *texcoord = -1;
   *uv_transform = Eigen::Matrix3d::Identity();
   if (material < 0) return ok_status();
@@ -186,6 +224,15 @@ Status read_texture(const tinygltf::Model& model, int material, Mesh* mesh, int*
   if (img.component != 3 || img.bits != 8 || img.width <= 0 || img.height <= 0 ||
       img.image.size() != static_cast<size_t>(img.width) * img.height * 3)
     return bad("image " + std::to_string(source) + " was not decoded");
+  size_t encoded_bytes = 0;
+  if (img.bufferView >= 0 && static_cast<size_t>(img.bufferView) < model.bufferViews.size())
+    encoded_bytes = model.bufferViews[img.bufferView].byteLength;
+  // Each mesh instance holds its own copy of its texture: charged before copying.
+  const size_t cost = img.image.size() + encoded_bytes;
+  if (cost > budget->limits->max_scene_texture_bytes - budget->texture_bytes)
+    return bad("textures over the limit of " + std::to_string(budget->limits->max_scene_texture_bytes >> 20) +
+               " MiB per scene (counted per mesh instance)");
+  budget->texture_bytes += cost;
   mesh->texture.width = img.width;
   mesh->texture.height = img.height;
   mesh->texture.channels = 3;
@@ -206,7 +253,8 @@ Status read_texture(const tinygltf::Model& model, int material, Mesh* mesh, int*
   return ok_status();
 }
 
-Status read_primitive(const tinygltf::Model& model, const tinygltf::Primitive& prim, SceneNode* out) {
+Status read_primitive(const tinygltf::Model& model, const tinygltf::Primitive& prim, SceneNode* out,
+                      DecodeBudget* budget) {
   auto pos_it = prim.attributes.find("POSITION");
   if (pos_it == prim.attributes.end()) return bad("primitive without POSITION");
   std::vector<Eigen::Vector3f> positions;
@@ -240,7 +288,7 @@ Status read_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
   }
   int texcoord = -1;
   Eigen::Matrix3d uv_transform;
-  if (auto st = read_texture(model, prim.material, &m, &texcoord, &uv_transform); !st) return st;
+  if (auto st = read_texture(model, prim.material, &m, &texcoord, &uv_transform, budget); !st) return st;
   if (texcoord >= 0) {
     auto uv_it = prim.attributes.find("TEXCOORD_" + std::to_string(texcoord));
     if (uv_it == prim.attributes.end()) return bad("textured primitive without TEXCOORD_" + std::to_string(texcoord));
@@ -261,7 +309,8 @@ CaptureCamera read_camera(const tinygltf::Model& model, const tinygltf::Node& no
   const tinygltf::Camera& c = model.cameras[node.camera];
   Intrinsics& k = cam.intrinsics;
   if (c.type == "perspective" && c.perspective.yfov > 0 && c.perspective.yfov < M_PI) {
-    const double aspect = c.perspective.aspectRatio > 0 ? c.perspective.aspectRatio : 4.0 / 3.0;
+    const double a = c.perspective.aspectRatio;
+    const double aspect = a >= 1.0 / 16 && a <= 16 ? a : 4.0 / 3.0;  // keeps the width within kMaxImageSize
     k.height = 480;
     k.width = std::max(1, static_cast<int>(std::lround(480 * aspect)));
     k.fy = 0.5 * k.height / std::tan(0.5 * c.perspective.yfov);
@@ -275,17 +324,18 @@ CaptureCamera read_camera(const tinygltf::Model& model, const tinygltf::Node& no
     auto num = [&](const char* key, double fallback) {
       return e.contains(key) && e[key].is_number() ? e[key].get<double>() : fallback;
     };
-    k.fx = num("fx", k.fx);
-    k.fy = num("fy", k.fy);
-    k.cx = num("cx", k.cx);
-    k.cy = num("cy", k.cy);
+    // An untrusted file's intrinsics are taken only when they make a camera (fx, fy > 0, all finite); otherwise the
+    // glTF camera's own (or the default) stays, so a view at pose=capture never gets a degenerate projection.
+    const double fx = num("fx", k.fx), fy = num("fy", k.fy), cx = num("cx", k.cx), cy = num("cy", k.cy);
+    if (std::isfinite(fx) && std::isfinite(fy) && std::isfinite(cx) && std::isfinite(cy) && fx > 0 && fy > 0)
+      k.fx = fx, k.fy = fy, k.cx = cx, k.cy = cy;
     const double w = num("width", k.width), h = num("height", k.height);
     if (w >= 1 && w <= kMaxImageSize && h >= 1 && h <= kMaxImageSize) k.width = int(w), k.height = int(h);
     if (e.contains("name") && e["name"].is_string()) k.name = e["name"].get<std::string>();
-    cam.timestamp = num("timestamp", 0.0);
+    if (const double t = num("timestamp", 0.0); std::isfinite(t)) cam.timestamp = t;
     if (e.contains("source") && e["source"].is_string()) cam.source = e["source"].get<std::string>();
     const double fi = num("frame_index", -1);
-    if (fi >= -1 && fi < 2147483647.0) cam.frame_index = static_cast<int>(fi);
+    if (fi >= -1 && fi <= 2147483647.0) cam.frame_index = static_cast<int>(fi);
   }
   return cam;
 }
@@ -310,33 +360,74 @@ void bake_dequantization(const tinygltf::Model& model, const tinygltf::Node& nod
   sn->to_world = parent_to_world;
 }
 
+
+// tinygltf file-system callbacks that refuse everything: check_document has already refused every URI, and this
+// keeps tinygltf from opening a file even if a path through it were missed.
+bool no_file_exists(const std::string&, void*) { return false; }
+std::string no_expand(const std::string&, void*) { return std::string(); }
+bool no_read(std::vector<unsigned char>*, std::string* err, const std::string&, void*) {
+  if (err) *err = "external URI not allowed";
+  return false;
+}
+bool no_write(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err = "writing files is not allowed";
+  return false;
+}
+
+// tinygltf's errors, as one line. They may quote the document's own strings, never a path of this machine (the
+// callbacks above see no file).
+std::string one_line(std::string err) {
+  while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
+  for (auto& ch : err)
+    if (ch == '\n' || ch == '\r') ch = ';';
+  if (err.size() > 300) err = err.substr(0, 300) + "...";
+  return err;
+}
+
 }  // namespace
 
-Result<Scene> decode_glb(const std::uint8_t* data, size_t size) {
+Result<Scene> decode_glb(const std::uint8_t* data, size_t size, const GlbDecodeLimits& limits) {
   if (size > kMaxGlbBytes) return bad("larger than 1 GiB");
   auto chunks = glb::parse_glb(data, size);
   if (!chunks) return chunks.error();
-  auto plain = glb::meshopt_decompress(chunks.value());
-  if (!plain) return plain.error();
-  const std::vector<std::uint8_t> bytes = glb::pack_glb(plain->json, plain->bin);
-  if (bytes.size() > std::numeric_limits<unsigned int>::max()) return bad("too large");
+  // The nesting guard runs before any JSON parser (tinygltf's recursion overflows the stack on deep extras).
+  if (auto st = check_json_nesting(chunks->json, limits.max_json_bytes, limits.max_json_depth, "GLB"); !st)
+    return st.error();
+  // A plain file goes to tinygltf as it came; a meshopt one is decoded into a plain one first.
+  std::vector<std::uint8_t> repacked;
+  const std::uint8_t* bytes = data;
+  size_t nbytes = size;
+  const glb::GlbChunks* plain = &chunks.value();
+  Result<glb::GlbChunks> decompressed = glb::GlbChunks{};
+  if (glb::uses_meshopt(*chunks)) {
+    decompressed = glb::meshopt_decompress(*chunks, limits.max_meshopt_bytes);
+    if (!decompressed) return decompressed.error();
+    plain = &decompressed.value();
+    repacked = glb::pack_glb(plain->json, plain->bin);
+    bytes = repacked.data();
+    nbytes = repacked.size();
+  }
+  if (nbytes > std::numeric_limits<unsigned int>::max()) return bad("too large");
+  {
+    const nlohmann::json doc = nlohmann::json::parse(plain->json, nullptr, /*allow_exceptions=*/false);
+    if (doc.is_discarded()) return bad("the JSON chunk is not valid JSON");
+    if (auto st = glb::check_document(doc, plain->bin.size()); !st) return st.error();
+  }
 
   tinygltf::Model model;
   std::string err, warn;
   bool loaded = false;
+  DecodeBudget budget;
+  budget.limits = &limits;
   try {
     tinygltf::TinyGLTF loader;
-    loader.SetImageLoader(load_image, nullptr);
-    loaded = loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), static_cast<unsigned int>(bytes.size()));
+    loader.SetImageLoader(load_image, &budget);
+    loader.SetFsCallbacks(tinygltf::FsCallbacks{no_file_exists, no_expand, no_read, no_write, nullptr});
+    loaded = loader.LoadBinaryFromMemory(&model, &err, &warn, bytes, static_cast<unsigned int>(nbytes));
   } catch (const std::exception& e) {
     err = e.what();
   }
-  if (!loaded) {
-    while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
-    for (auto& ch : err)
-      if (ch == '\n') ch = ';';
-    return bad(err.empty() ? "tinygltf could not parse the document" : err);
-  }
+  if (!loaded) return bad(err.empty() ? "tinygltf could not parse the document" : one_line(err));
   for (const auto& r : model.extensionsRequired)
     if (r != "KHR_mesh_quantization" && r != "KHR_materials_unlit" && r != "KHR_texture_transform")
       return make_error(ErrorCode::kInvalidInput, "GLB: requires unsupported extension " + r);
@@ -372,7 +463,8 @@ Result<Scene> decode_glb(const std::uint8_t* data, size_t size) {
         sn.name = node.name.empty() ? (mesh.name.empty() ? "mesh" + std::to_string(node.mesh) : mesh.name) : node.name;
         if (mesh.primitives.size() > 1) sn.name += "#" + std::to_string(p);
         sn.to_world = C * world;
-        if (auto st = read_primitive(model, mesh.primitives[p], &sn); !st) return st;
+        if (auto st = charge_primitive(model, mesh.primitives[p], &budget); !st) return st;
+        if (auto st = read_primitive(model, mesh.primitives[p], &sn, &budget); !st) return st;
         bake_dequantization(model, node, mesh.primitives[p], C * parent, &sn);
         scene.nodes.push_back(std::move(sn));
       }
@@ -395,10 +487,10 @@ Result<Scene> decode_glb(const std::uint8_t* data, size_t size) {
   return scene;
 }
 
-Result<Scene> read_glb_file(const std::string& path) {
+Result<Scene> read_glb_file(const std::string& path, const GlbDecodeLimits& limits) {
   auto bytes = glb::read_file_bytes(path, kMaxGlbBytes);
   if (!bytes) return bytes.error();
-  auto scene = decode_glb(bytes->data(), bytes->size());
+  auto scene = decode_glb(bytes->data(), bytes->size(), limits);
   if (!scene) return make_error(scene.error().code, path + ": " + scene.error().message);
   return scene;
 }

@@ -12,7 +12,7 @@
 #include "gltf/color_space.h"
 #include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
-#include "gltf/image_probe.h"
+#include "scene/image_probe.h"
 #include "gltf/json_value.h"
 #include "gltf/meshopt_buffers.h"
 
@@ -334,7 +334,7 @@ Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteO
       if (m.textured()) {
         tex_w = m.texture.width;
         tex_h = m.texture.height;
-        if (m.texture.empty() && !glb::probe_image_size(m.texture_encoded.data(), m.texture_encoded.size(), &tex_w, &tex_h))
+        if (m.texture.empty() && !probe_image_size(m.texture_encoded.data(), m.texture_encoded.size(), &tex_w, &tex_h))
           return invalid(name + ": texture_encoded is not a JPEG/PNG");
         prim.attributes["TEXCOORD_0"] = b.add_uvs(m.uvs, tex_w, tex_h, &units_per_texel);
         auto t = b.add_texture(m);

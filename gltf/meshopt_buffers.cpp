@@ -10,7 +10,6 @@ namespace {
 
 using nlohmann::json;
 constexpr const char* kExt = "EXT_meshopt_compression";
-constexpr size_t kMaxDecoded = size_t(1) << 28;  // 256 MiB per bufferView
 
 Error bad(const std::string& what) { return make_error(ErrorCode::kInvalidInput, "GLB meshopt: " + what); }
 
@@ -138,8 +137,10 @@ Result<GlbChunks> meshopt_compress(const GlbChunks& in) {
   }
 }
 
-Result<GlbChunks> meshopt_decompress(const GlbChunks& in) {
-  if (in.json.find(kExt) == std::string::npos) return in;
+bool uses_meshopt(const GlbChunks& in) { return in.json.find(kExt) != std::string::npos; }
+
+Result<GlbChunks> meshopt_decompress(const GlbChunks& in, size_t max_decoded_bytes) {
+  if (!uses_meshopt(in)) return in;
   try {
     json doc = json::parse(in.json);
     if (!doc.is_object()) return bad("JSON is not an object");
@@ -154,6 +155,7 @@ Result<GlbChunks> meshopt_decompress(const GlbChunks& in) {
     if (buffers[0].contains("uri")) return bad("buffer 0 must be the BIN chunk");
     if (buffers[0].at("byteLength").get<size_t>() > in.bin.size())
       return bad("buffer 0 is longer than the BIN chunk (truncated file)");
+    size_t decoded_total = 0;
     for (size_t v = 0; v < views.size(); ++v) {
       json& view = views[v];
       if (!view.is_object() || !view.contains("extensions") || !view["extensions"].contains(kExt)) continue;
@@ -166,36 +168,48 @@ Result<GlbChunks> meshopt_decompress(const GlbChunks& in) {
       const std::string mode = ext.at("mode").get<std::string>();
       const std::string filter = ext.value("filter", std::string("NONE"));
       if (off > in.bin.size() || len > in.bin.size() - off) return bad("compressed data past the BIN chunk");
-      if (stride == 0 || stride > 256 || count > kMaxDecoded / stride) return bad("absurd count or byteStride");
+      if (stride == 0 || stride > 256) return bad("absurd byteStride " + std::to_string(stride));
+      // The output is bounded by what the file declares (count x byteStride must fit the bufferView, which must fit
+      // its fallback buffer's byteLength) and by the budget, before anything is allocated.
+      if (count > (max_decoded_bytes - decoded_total) / stride)
+        return bad("decoded data over the limit of " + std::to_string(max_decoded_bytes) + " bytes");
       const size_t size = count * stride;
-      if (view.at("byteLength").get<size_t>() < size) return bad("bufferView shorter than count x byteStride");
-      std::vector<std::uint8_t> dec(size);
+      decoded_total += size;
+      const size_t view_off = view.value("byteOffset", size_t(0)), view_len = view.at("byteLength").get<size_t>();
+      if (view_len < size) return bad("bufferView shorter than count x byteStride");
+      const size_t target = view.value("buffer", size_t(0));
+      if (target >= buffers.size() || !buffers[target].is_object()) return bad("bufferView buffer index out of range");
+      const size_t declared = buffers[target].at("byteLength").get<size_t>();
+      if (view_off > declared || view_len > declared - view_off) return bad("bufferView past its buffer's byteLength");
+      align4(out.bin);
+      const size_t at = out.bin.size();
+      out.bin.resize(at + size);  // decoded in place: no second copy
+      std::uint8_t* dec = out.bin.data() + at;
+      const std::uint8_t* src = in.bin.data() + off;
       int rc = -1;
       if (mode == "ATTRIBUTES") {
         if (stride % 4 != 0) return bad("ATTRIBUTES byteStride must be a multiple of 4");
-        rc = meshopt_decodeVertexBuffer(dec.data(), count, stride, in.bin.data() + off, len);
+        rc = meshopt_decodeVertexBuffer(dec, count, stride, src, len);
         if (rc == 0 && filter == "OCTAHEDRAL" && (stride == 4 || stride == 8))
-          meshopt_decodeFilterOct(dec.data(), count, stride);
+          meshopt_decodeFilterOct(dec, count, stride);
         else if (rc == 0 && filter == "QUATERNION" && stride == 8)
-          meshopt_decodeFilterQuat(dec.data(), count, stride);
+          meshopt_decodeFilterQuat(dec, count, stride);
         else if (rc == 0 && filter == "EXPONENTIAL")
-          meshopt_decodeFilterExp(dec.data(), count, stride);
+          meshopt_decodeFilterExp(dec, count, stride);
         else if (rc == 0 && filter != "NONE")
           return bad("unsupported filter " + filter + " with byteStride " + std::to_string(stride));
       } else if (mode == "TRIANGLES" || mode == "INDICES") {
         if (stride != 2 && stride != 4) return bad("index byteStride must be 2 or 4");
         if (mode == "TRIANGLES" && count % 3 != 0) return bad("TRIANGLES count is not a multiple of 3");
-        rc = mode == "TRIANGLES" ? meshopt_decodeIndexBuffer(dec.data(), count, stride, in.bin.data() + off, len)
-                                 : meshopt_decodeIndexSequence(dec.data(), count, stride, in.bin.data() + off, len);
+        rc = mode == "TRIANGLES" ? meshopt_decodeIndexBuffer(dec, count, stride, src, len)
+                                 : meshopt_decodeIndexSequence(dec, count, stride, src, len);
       } else {
         return bad("unknown mode " + mode);
       }
       if (rc != 0) return bad("bufferView " + std::to_string(v) + " does not decode (corrupt data)");
-      align4(out.bin);
       view["buffer"] = 0;
-      view["byteOffset"] = out.bin.size();
+      view["byteOffset"] = at;
       view["byteLength"] = size;
-      out.bin.insert(out.bin.end(), dec.begin(), dec.end());
       view["extensions"].erase(kExt);
       if (view["extensions"].empty()) view.erase("extensions");
     }

@@ -13,7 +13,10 @@
 namespace rgbdcast::glb {
 
 Result<GlbChunks> meshopt_compress(const GlbChunks& in);
-// Returns the input unchanged when the file does not use EXT_meshopt_compression.
-Result<GlbChunks> meshopt_decompress(const GlbChunks& in);
+// Whether the JSON mentions the extension at all (a cheap test before a copy).
+bool uses_meshopt(const GlbChunks& in);
+// Returns the input unchanged when the file does not use EXT_meshopt_compression. The decoded bytes are bounded by
+// max_decoded_bytes (summed over the file) and by the sizes the file declares, checked before allocating.
+Result<GlbChunks> meshopt_decompress(const GlbChunks& in, size_t max_decoded_bytes = size_t(128) << 20);
 
 }  // namespace rgbdcast::glb

@@ -15,6 +15,7 @@
 #ifdef RGBDCAST_HAVE_ROSBAG
 #include "input/rosbag_source.h"
 #endif
+#include "scene/image_probe.h"
 
 namespace fs = std::filesystem;
 
@@ -31,15 +32,38 @@ static bool truncated_png(const std::vector<unsigned char>& b) {
   return b.size() < 20 || !std::equal(iend, iend + 8, b.end() - 8);
 }
 
-Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std::string& what) {
+// The size check in front of both decoders: the header's size against the limits, before any pixel is allocated.
+static Status check_frame_header(const std::vector<unsigned char>& bytes, const std::string& what,
+                                 const FrameLimits& limits) {
   if (bytes.empty()) return make_error(ErrorCode::kInvalidInput, what + ": empty file");
   if (truncated_png(bytes)) return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (truncated PNG: no IEND chunk)");
-  cv::Mat img;
-  try {
-    img = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception&) {
-    img.release();
+  int w = 0, h = 0;
+  if (!probe_image_size(bytes.data(), bytes.size(), &w, &h)) {
+    if (limits.png_jpeg_only)
+      return make_error(ErrorCode::kInvalidInput, what + ": not a readable PNG or JPEG (corrupt or another format)");
+    return ok_status();  // a local file in another format: OpenCV's own limits apply
   }
+  const int long_side = std::max(w, h), short_side = std::min(w, h);
+  if (long_side > limits.max_long_side_px || short_side > limits.max_short_side_px)
+    return make_error(ErrorCode::kInvalidInput, what + ": " + std::to_string(w) + "x" + std::to_string(h) +
+                                                    " is over the frame limit of " +
+                                                    std::to_string(limits.max_long_side_px) + "x" +
+                                                    std::to_string(limits.max_short_side_px));
+  return ok_status();
+}
+
+static cv::Mat imdecode_or_empty(const std::vector<unsigned char>& bytes, int flags) {
+  try {
+    return cv::imdecode(bytes, flags);
+  } catch (const cv::Exception&) {
+    return cv::Mat();
+  }
+}
+
+Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std::string& what,
+                             const FrameLimits& limits) {
+  if (auto st = check_frame_header(bytes, what, limits); !st) return st.error();
+  const cv::Mat img = imdecode_or_empty(bytes, cv::IMREAD_UNCHANGED);
   if (img.empty()) return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (corrupt or unknown format)");
   if (img.depth() != CV_8U)
     return make_error(ErrorCode::kInvalidInput, what + ": colour image must be 8-bit per channel");
@@ -53,15 +77,10 @@ Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std:
   return rgb;
 }
 
-Result<cv::Mat> decode_depth16(const std::vector<unsigned char>& bytes, const std::string& what) {
-  if (bytes.empty()) return make_error(ErrorCode::kInvalidInput, what + ": empty file");
-  if (truncated_png(bytes)) return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (truncated PNG: no IEND chunk)");
-  cv::Mat img;
-  try {
-    img = cv::imdecode(bytes, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
-  } catch (const cv::Exception&) {
-    img.release();
-  }
+Result<cv::Mat> decode_depth16(const std::vector<unsigned char>& bytes, const std::string& what,
+                               const FrameLimits& limits) {
+  if (auto st = check_frame_header(bytes, what, limits); !st) return st.error();
+  const cv::Mat img = imdecode_or_empty(bytes, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
   if (img.empty()) return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (corrupt or unknown format)");
   if (img.depth() != CV_16U || img.channels() != 1)
     return make_error(ErrorCode::kInvalidInput, what + ": depth must be a 16-bit single-channel image (got " +
@@ -141,9 +160,9 @@ static Result<RgbdFrame> load_pair(const FrameEntry& e, const Intrinsics& intrin
   if (!cbytes) return cbytes.error();
   auto dbytes = read_file(e.depth_path);
   if (!dbytes) return dbytes.error();
-  auto color = decode_color(*cbytes, e.color_path);
+  auto color = decode_color(*cbytes, e.color_path, FrameLimits::local_files());
   if (!color) return color.error();
-  auto depth = decode_depth16(*dbytes, e.depth_path);
+  auto depth = decode_depth16(*dbytes, e.depth_path, FrameLimits::local_files());
   if (!depth) return depth.error();
   auto frame = make_frame(*color, *depth, intrinsics);
   if (!frame) return make_error(frame.error().code, e.depth_path + ": " + frame.error().message);

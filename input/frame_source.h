@@ -62,10 +62,24 @@ std::vector<FrameEntry> associate(const std::vector<StampedPath>& rgb, const std
 // Reads a TUM list file (rgb.txt / depth.txt): "timestamp path" lines, '#' comments.
 Result<std::vector<StampedPath>> read_tum_list(const std::string& path);
 
-// Decodes and validates images (exposed for the service's uploads). Colour: any 8-bit image OpenCV reads
-// (grey and RGBA are converted); depth: a 16-bit single-channel PNG. Errors name what is wrong.
-Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std::string& what);
-Result<cv::Mat> decode_depth16(const std::vector<unsigned char>& bytes, const std::string& what);
+// The largest frame the decoders accept. The size is read from the PNG/JPEG header and checked before decoding: a
+// 100 kB PNG can claim 16384x16384 and decode to 1 GB, and the reduction's cost grows with the pixels. The default
+// is what the service takes from a client (1920x1080, either orientation; PNG or JPEG only); local dataset files
+// use local_files() (kMaxImageSize per side, any format OpenCV reads: the PCL data set's TIFFs).
+struct FrameLimits {
+  int max_long_side_px = 1920;
+  int max_short_side_px = 1080;
+  bool png_jpeg_only = true;
+  static FrameLimits local_files() { return {8192, 8192, false}; }
+};
+
+// Decodes and validates images (the service's uploads; untrusted). Colour: an 8-bit PNG or JPEG (any 8-bit image
+// OpenCV reads with local_files()), grey and RGBA converted; depth: a 16-bit single-channel PNG. Errors are
+// kInvalidInput naming `what` and the problem (too large: the size and the limit), one line.
+Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std::string& what,
+                             const FrameLimits& limits = {});
+Result<cv::Mat> decode_depth16(const std::vector<unsigned char>& bytes, const std::string& what,
+                               const FrameLimits& limits = {});
 // Builds a frame from decoded images: checks sizes against each other and the intrinsics, converts depth to metres,
 // undistorts. color is RGB CV_8UC3, depth_raw CV_16UC1 in units of intrinsics.depth_scale (or CV_32FC1 with
 // depth_scale 1: metres, 0 = no reading).

@@ -1,8 +1,11 @@
 #include "input/intrinsics_io.h"
 
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <nlohmann/json.hpp>
+
+#include "scene/json_nesting.h"
 
 namespace rgbdcast {
 
@@ -34,6 +37,7 @@ std::optional<Intrinsics> intrinsics_preset(const std::string& name) {
 static Result<Intrinsics> parse_intrinsics(const nlohmann::json& j, const std::string& path) {
   Intrinsics k;
   k.name = path;
+  if (!j.is_object()) return make_error(ErrorCode::kInvalidInput, path + ": not a JSON object");
   k.depth_scale = 1000.0;
   auto num = [&](const char* key, double* out) {
     if (j.contains(key)) {
@@ -61,8 +65,11 @@ static Result<Intrinsics> parse_intrinsics(const nlohmann::json& j, const std::s
   if (!j.contains("width") || !j.contains("height") || !j["width"].is_number_integer() ||
       !j["height"].is_number_integer())
     return make_error(ErrorCode::kInvalidInput, path + ": width and height must be integers");
-  k.width = j["width"].get<int>();
-  k.height = j["height"].get<int>();
+  const std::int64_t w = j["width"].get<std::int64_t>(), h = j["height"].get<std::int64_t>();
+  if (w < 1 || h < 1 || w > 16384 || h > 16384)
+    return make_error(ErrorCode::kInvalidInput, path + ": width and height must be between 1 and 16384");
+  k.width = static_cast<int>(w);
+  k.height = static_cast<int>(h);
   if (!num("depth_scale", &k.depth_scale))
     return make_error(ErrorCode::kInvalidInput, path + ": depth_scale must be a number");
   if (j.contains("distortion")) {
@@ -74,9 +81,11 @@ static Result<Intrinsics> parse_intrinsics(const nlohmann::json& j, const std::s
       k.distortion[i] = d[i].get<double>();
     }
   }
-  if (!(std::isfinite(k.fx) && std::isfinite(k.fy) && std::isfinite(k.cx) && std::isfinite(k.cy)) || k.fx == 0 ||
-      k.fy == 0)
-    return make_error(ErrorCode::kInvalidInput, path + ": focal lengths must be finite and non-zero");
+  // Negative focal lengths (ICL-NUIM publishes fy < 0 for its y-up camera) are refused here, not after a reduction:
+  // rgbdcast's camera is y-down with fx, fy > 0 (the "icl" preset converts).
+  if (!(std::isfinite(k.fx) && std::isfinite(k.fy) && std::isfinite(k.cx) && std::isfinite(k.cy)) || !(k.fx > 0) ||
+      !(k.fy > 0))
+    return make_error(ErrorCode::kInvalidInput, path + ": focal lengths must be finite and positive");
   if (k.width < 1 || k.height < 1 || k.width > 16384 || k.height > 16384)
     return make_error(ErrorCode::kInvalidInput, path + ": width and height must be between 1 and 16384");
   if (!(std::isfinite(k.depth_scale) && k.depth_scale > 0))
@@ -84,13 +93,27 @@ static Result<Intrinsics> parse_intrinsics(const nlohmann::json& j, const std::s
   return k;
 }
 
+Result<Intrinsics> parse_intrinsics_json(std::string_view text, const std::string& what) {
+  if (auto st = check_json_nesting(text, kMaxIntrinsicsJsonBytes, 16, what); !st) return st.error();
+  nlohmann::json j = nlohmann::json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded() || !j.is_object()) return make_error(ErrorCode::kInvalidInput, what + ": not a JSON object");
+  try {
+    return parse_intrinsics(j, what);
+  } catch (const nlohmann::json::exception&) {  // get<int> of a number out of int's range, and the like
+    return make_error(ErrorCode::kInvalidInput, what + ": a number is out of range");
+  }
+}
+
 Result<Intrinsics> load_intrinsics_json(const std::string& path) {
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) return make_error(ErrorCode::kNotFound, "cannot open intrinsics file " + path);
-  nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded() || !j.is_object())
-    return make_error(ErrorCode::kInvalidInput, path + ": not a JSON object");
-  return parse_intrinsics(j, path);
+  std::string text;
+  char buf[4096];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+    text.append(buf, static_cast<size_t>(in.gcount()));
+    if (text.size() > kMaxIntrinsicsJsonBytes) break;  // the parse below names the limit
+  }
+  return parse_intrinsics_json(text, path);
 }
 
 Result<Intrinsics> resolve_intrinsics(const std::string& spec) {

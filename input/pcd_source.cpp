@@ -5,6 +5,10 @@
 #include <pcl/point_types.h>
 
 #include <cmath>
+#include <fstream>
+#include <vector>
+
+#include "input/pcd_header.h"
 
 namespace rgbdcast {
 
@@ -23,6 +27,14 @@ class PcdSource : public FrameSource {
 
   Result<RgbdFrame> frame(size_t i) const override {
     if (i != 0) return make_error(ErrorCode::kNotFound, "frame " + std::to_string(i) + " is past the end (a PCD holds 1 frame)");
+    {
+      // rgbdcast reads the header first: PCL trusts it for its buffer sizes.
+      std::ifstream in(path_, std::ios::binary);
+      if (!in) return make_error(ErrorCode::kNotFound, "cannot open " + path_);
+      std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      auto header = check_pcd_header(bytes.data(), bytes.size());
+      if (!header) return make_error(header.error().code, path_ + ": " + header.error().message);
+    }
     pcl::PointCloud<pcl::PointXYZRGBA> cloud;
     pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // errors come back as Result, not on stderr
     int rc = -1;

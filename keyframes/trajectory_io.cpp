@@ -72,14 +72,14 @@ Status write_atomically(const std::string& path, const std::string& text) {
 
 }  // namespace
 
-Result<Trajectory> read_tum_trajectory(const std::string& path) {
-  Result<std::ifstream> in = open_text(path, "ground-truth file");
-  if (!in) return in.error();
+namespace {
+
+Result<Trajectory> parse_tum(std::istream& in, const std::string& path) {
   Trajectory tr;
   std::string line;
   int line_no = 0;
   bool ordered = true;
-  while (std::getline(*in, line)) {
+  while (std::getline(in, line)) {
     ++line_no;
     bool ok = true;
     const std::vector<double> v = numbers(line, &ok);
@@ -106,23 +106,23 @@ Result<Trajectory> read_tum_trajectory(const std::string& path) {
   return tr;
 }
 
-Result<Trajectory> read_redwood_log(const std::string& path) {
-  Result<std::ifstream> in = open_text(path, "trajectory log");
-  if (!in) return in.error();
+Result<Trajectory> parse_redwood(std::istream& in, const std::string& path) {
   Trajectory tr;
   std::string line;
   int line_no = 0;
-  while (std::getline(*in, line)) {
+  while (std::getline(in, line)) {
     ++line_no;
     bool ok = true;
     std::vector<double> head = numbers(line, &ok);
     if (ok && head.empty()) continue;
     if (!ok || head.size() != 3)
       return make_error(ErrorCode::kInvalidInput, path + ":" + std::to_string(line_no) + ": expected 'i j n' header");
+    if (!(head[0] >= 0 && head[0] <= 2147483647.0 && head[0] == std::floor(head[0])))
+      return make_error(ErrorCode::kInvalidInput, path + ":" + std::to_string(line_no) + ": frame index is not a non-negative integer");
     StampedPose p;
     p.index = static_cast<int>(head[0]);
     for (int r = 0; r < 4; ++r) {
-      if (!std::getline(*in, line))
+      if (!std::getline(in, line))
         return make_error(ErrorCode::kInvalidInput, path + ": truncated matrix after line " + std::to_string(line_no));
       ++line_no;
       const std::vector<double> row = numbers(line, &ok);
@@ -140,15 +140,13 @@ Result<Trajectory> read_redwood_log(const std::string& path) {
   return tr;
 }
 
-Result<Trajectory> read_icl_pose_txt(const std::string& path, bool icl_to_rgbdcast) {
-  Result<std::ifstream> in = open_text(path, "pose file");
-  if (!in) return in.error();
+Result<Trajectory> parse_icl(std::istream& in, const std::string& path, bool icl_to_rgbdcast) {
   Trajectory tr;
   std::string line;
   int line_no = 0, frame = 0;
   Eigen::Matrix4d s = Eigen::Matrix4d::Identity();
   s(1, 1) = -1.0;
-  while (std::getline(*in, line)) {
+  while (std::getline(in, line)) {
     ++line_no;
     bool ok = true;
     const std::vector<double> v = numbers(line, &ok);
@@ -167,6 +165,36 @@ Result<Trajectory> read_icl_pose_txt(const std::string& path, bool icl_to_rgbdca
   }
   if (tr.poses.empty()) return make_error(ErrorCode::kInvalidInput, "no pose line in " + path);
   return tr;
+}
+
+}  // namespace
+
+Result<Trajectory> read_tum_trajectory(const std::string& path) {
+  Result<std::ifstream> in = open_text(path, "ground-truth file");
+  if (!in) return in.error();
+  return parse_tum(*in, path);
+}
+
+Result<Trajectory> read_redwood_log(const std::string& path) {
+  Result<std::ifstream> in = open_text(path, "trajectory log");
+  if (!in) return in.error();
+  return parse_redwood(*in, path);
+}
+
+Result<Trajectory> read_icl_pose_txt(const std::string& path, bool icl_to_rgbdcast) {
+  Result<std::ifstream> in = open_text(path, "pose file");
+  if (!in) return in.error();
+  return parse_icl(*in, path, icl_to_rgbdcast);
+}
+
+Result<Trajectory> parse_trajectory(std::string_view text, TrajectoryFormat format, const std::string& name) {
+  std::istringstream in{std::string(text)};
+  switch (format) {
+    case TrajectoryFormat::kTum: return parse_tum(in, name);
+    case TrajectoryFormat::kRedwood: return parse_redwood(in, name);
+    case TrajectoryFormat::kIcl: return parse_icl(in, name, true);
+  }
+  return make_error(ErrorCode::kInvalidArgument, "unknown trajectory format");
 }
 
 Result<Trajectory> read_trajectory(const std::string& path) {

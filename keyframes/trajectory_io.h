@@ -11,6 +11,7 @@
 //   by S, so the relative pose error is the same as ICL's own convention would give.
 #include <Eigen/Core>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "scene/result.h"
@@ -34,6 +35,11 @@ Result<Trajectory> read_tum_trajectory(const std::string& path);
 Result<Trajectory> read_redwood_log(const std::string& path);
 // icl_to_rgbdcast = false keeps ICL's y-up camera (for comparing with tools that use fy < 0).
 Result<Trajectory> read_icl_pose_txt(const std::string& path, bool icl_to_rgbdcast = true);
+// The same parsers on text in memory (untrusted: any bytes give a Trajectory or a one-line kInvalidInput error);
+// `name` stands for the path in messages.
+enum class TrajectoryFormat { kTum, kRedwood, kIcl };
+Result<Trajectory> parse_trajectory(std::string_view text, TrajectoryFormat format,
+                                    const std::string& name = "trajectory");
 // By name and content: *.log -> Redwood, 7 numbers per line -> ICL-NUIM, 8 -> TUM.
 Result<Trajectory> read_trajectory(const std::string& path);
 

@@ -11,6 +11,7 @@ DEB_PACKAGES=(
   libtinygltf-dev nlohmann-json3-dev libstb-dev libcpp-httplib-dev libgtest-dev libcli11-dev
   libmeshoptimizer-dev libdraco-dev libturbojpeg0-dev
   librosbag-storage-dev libsensor-msgs-dev python3-rosbag python3-sensor-msgs
+  clang-16 libfuzzer-16-dev libclang-rt-16-dev
   chromium wrk curl jq
   # External glTF viewers for tests/gltf/test_gltf_viewers (Blender's glTF importer needs numpy). Measured on a
   # machine with the rest installed: 53 packages, 112 MB of archives, 423 MiB installed, 36 s of apt-get install

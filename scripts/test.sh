@@ -6,3 +6,9 @@ bash scripts/setup.sh
 bash scripts/build.sh
 cd build
 ctest --output-on-failure --timeout 900 "$@"
+# The fuzz smoke run (issue 11): every libFuzzer target for RGBDCAST_FUZZ_SECONDS (20 s) from its seed corpus, built
+# with clang-16 in build-fuzz/. RGBDCAST_FUZZ_SECONDS=0 skips it.
+cd ..
+if [ "${RGBDCAST_FUZZ_SECONDS:-20}" != 0 ]; then
+  bash scripts/fuzz.sh "${RGBDCAST_FUZZ_SECONDS:-20}"
+fi

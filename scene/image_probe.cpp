@@ -1,15 +1,25 @@
-#include "gltf/image_probe.h"
+#include "scene/image_probe.h"
 
 #include <algorithm>
 
-namespace rgbdcast::glb {
+namespace rgbdcast {
+namespace {
+
+std::uint32_t be32(const std::uint8_t* p) {
+  return (std::uint32_t(p[0]) << 24) | (std::uint32_t(p[1]) << 16) | (std::uint32_t(p[2]) << 8) | p[3];
+}
+
+}  // namespace
 
 bool probe_image_size(const std::uint8_t* d, size_t n, int* width, int* height) {
   static const std::uint8_t png[8] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
+  if (d == nullptr) return false;
   if (n >= 24 && std::equal(png, png + 8, d)) {
-    *width = (d[16] << 24) | (d[17] << 16) | (d[18] << 8) | d[19];
-    *height = (d[20] << 24) | (d[21] << 16) | (d[22] << 8) | d[23];
-    return *width > 0 && *height > 0;
+    const std::uint32_t w = be32(d + 16), h = be32(d + 20);
+    if (w == 0 || h == 0 || w > 0x7FFFFFFFu || h > 0x7FFFFFFFu) return false;
+    *width = static_cast<int>(w);
+    *height = static_cast<int>(h);
+    return true;
   }
   if (n < 4 || d[0] != 0xFF || d[1] != 0xD8) return false;
   size_t pos = 2;
@@ -38,4 +48,4 @@ bool probe_image_size(const std::uint8_t* d, size_t n, int* width, int* height) 
   return false;
 }
 
-}  // namespace rgbdcast::glb
+}  // namespace rgbdcast

@@ -1,0 +1,18 @@
+# Instrumented builds, each in its own build folder (scripts/fuzz.sh, scripts/test.sh --asan):
+# - RGBDCAST_SANITIZE=ON (build-asan/): every target with AddressSanitizer + UndefinedBehaviorSanitizer, so the
+#   GoogleTest suite runs sanitized. Any error aborts the test (no recovery).
+# - RGBDCAST_FUZZ=ON (build-fuzz/, clang only): the same, plus libFuzzer coverage, and the harnesses in fuzz/.
+# System libraries (OpenCV, PCL, tinygltf, libpng) are not instrumented: ASan sees their heap through its
+# interceptors only, and coverage stops at their edge.
+option(RGBDCAST_SANITIZE "Build with ASan + UBSan" OFF)
+option(RGBDCAST_FUZZ "Build the libFuzzer harnesses (fuzz/) with ASan + UBSan; needs clang" OFF)
+if(RGBDCAST_SANITIZE OR RGBDCAST_FUZZ)
+  add_compile_options(-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer -g)
+  add_link_options(-fsanitize=address,undefined)
+endif()
+if(RGBDCAST_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+    message(FATAL_ERROR "RGBDCAST_FUZZ needs clang (CXX=clang++-16 CC=clang-16)")
+  endif()
+  add_compile_options(-fsanitize=fuzzer-no-link)
+endif()

@@ -1,0 +1,149 @@
+#include "fuzz/fuzz_targets.h"
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <string_view>
+#include <unistd.h>
+#include <vector>
+
+#include "gltf/gltf_io.h"
+#include "input/frame_source.h"
+#include "input/intrinsics_io.h"
+#include "input/pcd_header.h"
+#include "input/pcd_source.h"
+#include "keyframes/trajectory_io.h"
+#include "scene/intrinsics.h"
+#include "service/view_params.h"
+
+namespace rgbdcast::fuzz {
+namespace {
+
+// An error is one non-empty line (the service writes it into its JSON body, replacing invalid UTF-8).
+void check_error(const Error& e) {
+  if (e.message.empty() || e.message.find('\n') != std::string::npos) std::abort();
+}
+
+std::uint32_t le32(const std::uint8_t* p) {
+  return std::uint32_t(p[0]) | (std::uint32_t(p[1]) << 8) | (std::uint32_t(p[2]) << 16) | (std::uint32_t(p[3]) << 24);
+}
+
+}  // namespace
+
+// decode_glb on arbitrary bytes (the body of POST /v1/scenes). Any input must give a Scene or a one-line
+// kInvalidInput/kEmpty error, within the default limits; ASan/UBSan abort on anything else.
+void glb(const std::uint8_t* data, size_t size) {
+  auto scene = rgbdcast::decode_glb(data, size);
+  if (scene.ok()) {
+    for (const auto& n : scene->nodes)
+      for (auto i : n.mesh.indices)
+        if (i >= n.mesh.positions.size()) std::abort();  // an accepted scene is consistent
+  } else {
+    check_error(scene.error());
+  }
+}
+
+// parse_intrinsics_json on arbitrary text (the "intrinsics" part of a frame upload).
+void intrinsics(const std::uint8_t* data, size_t size) {
+  auto k = rgbdcast::parse_intrinsics_json(std::string_view(reinterpret_cast<const char*>(data), size));
+  if (k.ok() && !(k->fx > 0 && k->fy > 0 && k->width >= 1 && k->height >= 1 && k->depth_scale > 0)) std::abort();
+  if (!k.ok()) check_error(k.error());
+}
+
+// PNG/JPEG bytes -> decode_color and decode_depth16 (upload limits), then make_frame with a distorted
+// camera of the decoded size, as the frame upload does.
+void frame_decode(const std::uint8_t* data, size_t size) {
+  const std::vector<unsigned char> bytes(data, data + size);
+  auto color = rgbdcast::decode_color(bytes, "color");
+  auto depth = rgbdcast::decode_depth16(bytes, "depth");
+  if (depth.ok()) {
+    rgbdcast::Intrinsics k;
+    k.width = depth->cols;
+    k.height = depth->rows;
+    k.fx = k.fy = 525.0;
+    k.cx = 0.5 * k.width;
+    k.cy = 0.5 * k.height;
+    k.distortion = {0.26, -0.95, -0.005, 0.003, 1.16};
+    k.depth_scale = 5000.0;
+    cv::Mat grey(depth->rows, depth->cols, CV_8UC3, cv::Scalar(90, 90, 90));
+    (void)rgbdcast::make_frame(grey, *depth, k);
+  }
+}
+
+// the multipart frame upload up to (not including) the reduction: intrinsics JSON, colour and depth bytes
+// -> parse_intrinsics_json, decode_color, decode_depth16, make_frame. Input framing (seeds in corpus/): two
+// little-endian u32 lengths, the intrinsics text and the colour bytes, then the rest is the depth bytes.
+void frame_upload(const std::uint8_t* data, size_t size) {
+  if (size < 8) return;
+  const size_t n_json = le32(data), n_color = le32(data + 4);
+  const size_t rest = size - 8;
+  if (n_json > rest || n_color > rest - n_json) return;
+  const std::uint8_t* p = data + 8;
+  auto k = rgbdcast::parse_intrinsics_json(std::string_view(reinterpret_cast<const char*>(p), n_json), "intrinsics");
+  const std::vector<unsigned char> color_bytes(p + n_json, p + n_json + n_color);
+  const std::vector<unsigned char> depth_bytes(p + n_json + n_color, data + size);
+  auto color = rgbdcast::decode_color(color_bytes, "color");
+  auto depth = rgbdcast::decode_depth16(depth_bytes, "depth");
+  if (k.ok() && color.ok() && depth.ok()) (void)rgbdcast::make_frame(*color, *depth, *k);
+}
+
+// check_pcd_header on arbitrary bytes, and when it passes, the whole PCD frame read (PCL's reader on a
+// file holding the bytes: PCL reads files only).
+void pcd(const std::uint8_t* data, size_t size) {
+  if (!rgbdcast::check_pcd_header(data, size).ok()) return;
+  static const std::string path = "/tmp/rgbdcast-fuzz-pcd-" + std::to_string(getpid()) + ".pcd";
+  FILE* f = std::fopen(path.c_str(), "wb");
+  if (!f) return;
+  std::fwrite(data, 1, size, f);
+  std::fclose(f);
+  rgbdcast::Intrinsics k;
+  k.fx = k.fy = 525.0;
+  k.width = 640;
+  k.height = 480;
+  auto src = rgbdcast::open_pcd_source(path, k);
+  if (src.ok()) (void)(*src)->frame(0);
+}
+
+// the trajectory parsers (TUM, Redwood .log, ICL-NUIM) on arbitrary text; the first byte picks the format.
+void trajectory(const std::uint8_t* data, size_t size) {
+  if (size < 1) return;
+  const auto format = static_cast<rgbdcast::TrajectoryFormat>(data[0] % 3);
+  auto tr = rgbdcast::parse_trajectory(std::string_view(reinterpret_cast<const char*>(data + 1), size - 1), format);
+  if (tr.ok()) {
+    if (tr->poses.empty()) std::abort();
+    for (const auto& p : tr->poses)
+      if (!p.camera_to_world.allFinite()) std::abort();
+  }
+}
+
+// the view query parser (service/view_params.cpp) and the camera it builds. The input is a query string
+// split on '&' and the first '=' (cpp-httplib has already percent-decoded it); make_view_camera runs with no capture
+// camera and with one.
+void view_query(const std::uint8_t* data, size_t size) {
+  const std::string q(reinterpret_cast<const char*>(data), size);
+  rgbdcast::service::QueryParams params;
+  size_t pos = 0;
+  while (pos <= q.size()) {
+    size_t amp = q.find('&', pos);
+    if (amp == std::string::npos) amp = q.size();
+    const std::string pair = q.substr(pos, amp - pos);
+    const size_t eq = pair.find('=');
+    params.emplace(pair.substr(0, eq), eq == std::string::npos ? "" : pair.substr(eq + 1));
+    pos = amp + 1;
+  }
+  auto req = rgbdcast::service::parse_view_request(params);
+  // Not check_error: view_params echoes raw parameter names and values into its messages, so "%0A" makes a
+  // two-line error (reported to the service's owner); the service escapes it in its JSON body.
+  if (!req.ok()) return;
+  (void)rgbdcast::service::make_view_camera(*req, {});
+  rgbdcast::CaptureCamera cam;
+  cam.intrinsics.fx = cam.intrinsics.fy = 525.0;
+  cam.intrinsics.cx = 319.5;
+  cam.intrinsics.cy = 239.5;
+  cam.intrinsics.width = 640;
+  cam.intrinsics.height = 480;
+  (void)rgbdcast::service::make_view_camera(*req, {cam});
+}
+
+}  // namespace rgbdcast::fuzz

@@ -1,0 +1,18 @@
+#pragma once
+// The fuzz targets of issue 11: one function per parser of outside bytes. Each must return normally on any input;
+// a crash, a sanitizer report, or an accepted result that breaks its contract (std::abort) is a bug. The libFuzzer
+// harness (fuzz_harness.cpp) calls one of them; tests/fuzz replays the seed corpora and every crash input found.
+#include <cstddef>
+#include <cstdint>
+
+namespace rgbdcast::fuzz {
+
+void glb(const std::uint8_t* data, size_t size);           // decode_glb (POST /v1/scenes body)
+void intrinsics(const std::uint8_t* data, size_t size);    // parse_intrinsics_json
+void frame_decode(const std::uint8_t* data, size_t size);  // decode_color, decode_depth16, make_frame
+void frame_upload(const std::uint8_t* data, size_t size);  // the multipart frame upload up to the reduction
+void pcd(const std::uint8_t* data, size_t size);           // check_pcd_header, then PCL's reader
+void trajectory(const std::uint8_t* data, size_t size);    // TUM, Redwood .log, ICL-NUIM parsers
+void view_query(const std::uint8_t* data, size_t size);    // parse_view_request, make_view_camera
+
+}  // namespace rgbdcast::fuzz
