@@ -1,6 +1,7 @@
 // The server-side reduction of an uploaded RGB-D frame (the multipart route of POST /v1/scenes): decode and validate
 // the images, read the intrinsics, reduce (reduction/pipeline.h), texture (atlas/atlas.h), encode the GLB. The
 // result is what `rgbdcast reduce` writes for the same frame, and is then checked like any uploaded GLB.
+#include <cmath>
 #include <filesystem>
 
 #include "atlas/atlas.h"
@@ -8,6 +9,7 @@
 #include "input/frame_source.h"
 #include "input/intrinsics_io.h"
 #include "reduction/pipeline.h"
+#include "service/image_header.h"
 #include "service/scene_ingest.h"
 #include "service/scene_store.h"
 
@@ -33,9 +35,25 @@ Result<Intrinsics> parse_uploaded_intrinsics(const std::string& text, const std:
   auto k = load_intrinsics_json(path);
   std::error_code ec;
   std::filesystem::remove(path, ec);
-  if (!k) return make_error(k.error().code == ErrorCode::kIo ? ErrorCode::kIo : ErrorCode::kInvalidInput,
-                            "intrinsics: " + k.error().message);
+  if (!k) {
+    // The reader names the file it read: the client only needs to know it was its intrinsics part.
+    std::string why = k.error().message;
+    for (size_t at = why.find(path); at != std::string::npos; at = why.find(path)) why.replace(at, path.size(), "part");
+    return make_error(k.error().code == ErrorCode::kIo ? ErrorCode::kIo : ErrorCode::kInvalidInput,
+                      "intrinsics: " + why);
+  }
   return k;
+}
+
+Status check_image_size(const std::vector<unsigned char>& bytes, const char* part, int max_width, int max_height) {
+  auto size = peek_image_size(bytes.data(), bytes.size());
+  if (!size) return make_error(ErrorCode::kInvalidInput, std::string(part) + ": " + size.error().message);
+  if (size->width > max_width || size->height > max_height)
+    return make_error(ErrorCode::kInvalidInput, std::string(part) + ": " + std::to_string(size->width) + "x" +
+                                                    std::to_string(size->height) + " is over the frame limit of " +
+                                                    std::to_string(max_width) + "x" + std::to_string(max_height) +
+                                                    " (--max-frame)");
+  return ok_status();
 }
 
 }  // namespace
@@ -43,8 +61,17 @@ Result<Intrinsics> parse_uploaded_intrinsics(const std::string& text, const std:
 Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   std::vector<StageReport> stages;
   auto t = Clock::now();
+  for (const auto& [bytes, part] : {std::pair{&upload.color, "color"}, std::pair{&upload.depth, "depth"}}) {
+    auto st = check_image_size(*bytes, part, upload.max_width, upload.max_height);
+    if (!st) return st.error();
+  }
   auto intrinsics = parse_uploaded_intrinsics(upload.intrinsics_json, upload.scratch_dir);
   if (!intrinsics) return intrinsics.error();
+  {
+    const Intrinsics& k = *intrinsics;
+    if (!(std::isfinite(k.fx) && std::isfinite(k.fy) && k.fx > 0 && k.fy > 0))
+      return make_error(ErrorCode::kInvalidInput, "intrinsics: focal lengths fx and fy must be positive numbers");
+  }
   auto color = decode_color(upload.color, "color");
   if (!color) return make_error(ErrorCode::kInvalidInput, color.error().message);
   auto depth = decode_depth16(upload.depth, "depth");

@@ -29,7 +29,11 @@ struct FrameUpload {
   std::vector<unsigned char> depth;  // 16-bit single-channel PNG bytes
   std::string intrinsics_json;       // as load_intrinsics_json reads
   std::string scratch_dir;           // a folder for a short-lived temporary file (the store's folder)
+  int max_width = 1920, max_height = 1080;  // images larger than this are refused from their header, undecoded
 };
+// Checks first, before anything is decoded or reduced: both images are PNG/JPEG no larger than max_width x
+// max_height (kInvalidInput, HTTP 422), the intrinsics parse and have finite positive focal lengths. Error texts
+// carry no server path. Seconds of CPU: call it from a worker (service/job_queue.h), not from an HTTP thread.
 Result<IngestedScene> ingest_frame(const FrameUpload& upload);
 
 // Stats of a decoded scene, and the stages of its capture (from the GLB's extras) when present.
