@@ -75,6 +75,7 @@ struct Connection {
   std::string pending;   // bytes received and not yet consumed by a request
   Clock::time_point deadline;
   int served = 0;
+  bool lingering = false;  // answered and half-closed: what the client still sends is read and dropped
   ~Connection() {
     if (fd >= 0) {
       ::shutdown(fd, SHUT_RDWR);
@@ -213,6 +214,15 @@ struct GatedServer::Impl {
     if (it == waiting.end()) return;
     Connection& c = *it->second;
     char buf[8192];
+    if (c.lingering) {
+      for (;;) {
+        const ssize_t n = ::recv(fd, buf, sizeof buf, MSG_DONTWAIT);
+        if (n > 0) continue;
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return;
+        return drop(fd);
+      }
+    }
     for (;;) {
       const ssize_t n = ::recv(fd, buf, sizeof buf, MSG_DONTWAIT);
       if (n > 0) {
@@ -237,6 +247,10 @@ struct GatedServer::Impl {
     for (const auto& [fd, c] : waiting)
       if (c->deadline <= now) late.push_back(fd);
     for (int fd : late) {
+      if (waiting[fd]->lingering) {
+        drop(fd);
+        continue;
+      }
       if (!waiting[fd]->pending.empty())
         send_and_forget(fd, 408, "request_timeout", "request headers not received in time");
       ++timed_out;
@@ -267,10 +281,21 @@ struct GatedServer::Impl {
         c = std::move(ready.front());
         ready.pop_front();
       }
-      bool keep = serve(*c);
-      if (!keep) {
+      const After after = serve(*c);
+      if (after == After::kClose) {
         c.reset();
         --open;
+        continue;
+      }
+      if (after == After::kLinger) {
+        // The response is out; the client may still be sending the body it was refused. Closing now, with unread
+        // bytes, would reset the connection and could destroy the response before the client reads it. So: FIN,
+        // then drop what arrives for a short while, in the gate (no worker).
+        ::shutdown(c->fd, SHUT_WR);
+        c->lingering = true;
+        c->pending.clear();
+        c->deadline = Clock::now() + seconds(kLingerS);
+        wait_in_gate(std::move(c));
         continue;
       }
       c->deadline = Clock::now() + seconds(options.idle_timeout_s);
@@ -284,8 +309,10 @@ struct GatedServer::Impl {
     }
   }
 
-  // One request; true when the connection stays open for the next.
-  bool serve(Connection& c) {
+  enum class After { kKeep, kClose, kLinger };
+  static constexpr double kLingerS = 2.0;
+  // One request, and what becomes of the connection.
+  After serve(Connection& c) {
     const bool last = ++c.served >= options.max_requests_per_connection;
     bool closed = false, ok = false, failed = false;
     t_close_after = false;
@@ -294,7 +321,9 @@ struct GatedServer::Impl {
       ok = server->serve_request(stream, last, closed);
       failed = stream.failed();
     }
-    return ok && !closed && !last && !failed && !t_close_after && !stopping;
+    if (failed || stopping) return After::kClose;
+    if (t_close_after) return After::kLinger;
+    return ok && !closed && !last ? After::kKeep : After::kClose;
   }
 };
 
