@@ -227,8 +227,9 @@ struct GatedServer::Impl {
       const ssize_t n = ::recv(fd, buf, sizeof buf, MSG_DONTWAIT);
       if (n > 0) {
         c.pending.append(buf, static_cast<size_t>(n));
-        if (c.has_header_block()) return make_ready(fd);
-        if (c.pending.size() > options.max_header_bytes) {
+        const size_t end = c.pending.find("\r\n\r\n");
+        if (end != std::string::npos && end + 4 <= options.max_header_bytes) return make_ready(fd);
+        if (end != std::string::npos || c.pending.size() > options.max_header_bytes) {
           send_and_forget(fd, 431, "request_header_fields_too_large", "request line and headers over the limit");
           return drop(fd);
         }

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <future>
+#include <set>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -356,7 +357,9 @@ void ViewService::Impl::routes() {
     // An error of the HTTP layer may leave unread bytes (a request line it refused leaves its headers): close.
     GatedServer::close_after_response();
     res.set_header("Connection", "close");
-    if (res.status == 400 && req.path.empty() && !req.method.empty()) {
+    static const std::set<std::string> kParsed = {"GET",     "HEAD",    "POST",  "PUT",   "DELETE",
+                                                  "CONNECT", "OPTIONS", "TRACE", "PATCH", "PRI"};
+    if (res.status == 400 && req.path.empty() && !req.method.empty() && !kParsed.count(req.method)) {
       // httplib refuses methods it does not know before routing; on a known route that is a 405.
       const RouteMatch route = match_route(req.target.substr(0, req.target.find('?')));
       if (route.known) {
