@@ -30,7 +30,7 @@ struct ServeOptions {
   int render_queue = 16;           // views waiting beyond those rendering; more get 503
   int reducers = 1;                // frame reductions at once (each uses OpenMP inside PCL)
   int reduce_queue = 2;            // frame uploads waiting for a reducer; more get 503
-  int max_uploads = 4;             // request bodies being received at once; more get 503
+  int max_uploads = 8;             // request bodies being received at once; more get 503
   int max_frame_width = 1920, max_frame_height = 1080;  // multipart frames, checked from the image headers
   // Access control: a token makes POST and DELETE need "Authorization: Bearer <token>". Binding to a non-loopback
   // address without a token is refused unless insecure_no_auth.
