@@ -8,30 +8,11 @@ set -euo pipefail
 ROUNDS=${1:-50}
 BUILD=${2:-build}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
-BIN=${RGBDCAST_BIN:-$ROOT/$BUILD/app/rgbdcast}
-DATA=${RGBDCAST_DATA:-$ROOT/../shared/data}
-TUM=$DATA/tum/rgbd_dataset_freiburg1_xyz
 WORK=$(mktemp -d /tmp/rgbdcast-durability.XXXXXX)
 STORE=$WORK/store
-PORT=${PORT:-$((20000 + RANDOM % 20000))}
-BASE=http://127.0.0.1:$PORT
-SERVER=
+source "$ROOT/bench/serve_common.sh"
 trap '[ -n "$SERVER" ] && kill -9 "$SERVER" 2>/dev/null; wait 2>/dev/null || true; rm -rf "$WORK"' EXIT
-cat > "$WORK/k.json" <<'K'
-{"fx": 517.3, "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480,
- "distortion": [0.2624, -0.9531, -0.0054, 0.0026, 1.1633], "depth_scale": 5000}
-K
 
-start_server() {
-  "$BIN" serve --data-dir "$STORE" --bind 127.0.0.1 --port "$PORT" > "$WORK/server.log" 2>&1 &
-  SERVER=$!
-  for _ in $(seq 200); do curl -sf "$BASE/healthz" > /dev/null && return 0; sleep 0.05; done
-  echo "durability: server did not start"; cat "$WORK/server.log"; exit 1
-}
-frame_upload() {
-  curl -s -o "$1" -w '%{http_code}' -F "color=@$TUM/rgb/1305031102.175304.png;type=image/png" \
-    -F "depth=@$TUM/depth/1305031102.160407.png;type=image/png" -F "intrinsics=@$WORK/k.json" "$BASE/v1/scenes"
-}
 # Checks the store folder; prints "scenes partial temps".
 check_store() {
   local scenes=0 partial=0 temps=0 f id
@@ -53,16 +34,16 @@ check_store() {
   echo "$scenes $partial $temps"
 }
 
-start_server
+start_server "$STORE"
 [ "$(frame_upload "$WORK/first.json")" = 201 ] || { echo "durability: first upload failed"; exit 1; }
-ID=$(sed -n 's/.*"id":"\([0-9a-f]*\)".*/\1/p' "$WORK/first.json")
+ID=$(scene_id "$WORK/first.json")
 curl -sf -o "$WORK/scene.glb" "$BASE/v1/scenes/$ID/model.glb"
 # The GLB clients send the real scene at 0.4-1.2 MB/s, so a kill often falls in the middle of a body.
 kill -9 "$SERVER"; wait "$SERVER" 2>/dev/null || true
 
 BAD_AFTER=0; PARTIAL_AFTER=0; TEMPS_AFTER=0; LEFT_BY_CRASH=0
 for round in $(seq "$ROUNDS"); do
-  start_server
+  start_server "$STORE"
   for c in 1 2 3; do
     ( while true; do curl -s -o /dev/null --limit-rate $(( (c * 400) ))k -H 'Content-Type: model/gltf-binary' \
         --data-binary "@$WORK/scene.glb" "$BASE/v1/scenes" || true; done ) &
@@ -73,7 +54,7 @@ for round in $(seq "$ROUNDS"); do
   kill $(jobs -p) 2>/dev/null || true; wait 2>/dev/null || true
   read -r _ _ temps_crash <<< "$(check_store)"
   LEFT_BY_CRASH=$((LEFT_BY_CRASH + temps_crash))
-  start_server
+  start_server "$STORE"
   read -r scenes partial temps <<< "$(check_store)"
   listed=$(curl -sf "$BASE/v1/scenes" | sed -n 's/.*"count":\([0-9]*\).*/\1/p')
   [ "$listed" = "$scenes" ] || BAD_AFTER=$((BAD_AFTER + 1))
