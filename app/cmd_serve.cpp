@@ -3,7 +3,9 @@
 #include <pthread.h>
 #include <signal.h>
 
+#include <cctype>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 #include <thread>
 
@@ -37,11 +39,55 @@ void register_serve(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0, 100000));
 
+  cmd->add_option("--reducers", opts->reducers, "Frame uploads reduced at once")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 16));
+  cmd->add_option("--reduce-queue", opts->reduce_queue, "Frame uploads waiting for a reducer before 503")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000));
+  cmd->add_option("--max-uploads", opts->max_uploads, "Request bodies received at once before 503")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 256));
+  auto max_frame = std::make_shared<std::string>("1920x1080");
+  cmd->add_option("--max-frame", *max_frame, "Largest uploaded frame WIDTHxHEIGHT (checked before decoding)")
+      ->capture_default_str();
+  auto token_file = std::make_shared<std::string>();
+  cmd->add_option("--token-file", *token_file,
+                  "File holding the bearer token that POST and DELETE must carry (Authorization: Bearer <token>)")
+      ->check(CLI::ExistingFile);
+  cmd->add_flag("--insecure-no-auth", opts->insecure_no_auth,
+                "Allow a non-loopback --bind without --token-file (anyone who reaches the port may write)");
+  cmd->add_option("--allow-origin", opts->allow_origins,
+                  "Origins (http://host:port) allowed besides the server's own; their host:port is accepted as Host");
+  cmd->add_option("--header-timeout", opts->header_timeout_s, "Seconds a connection has to send its request headers")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 300.0));
+  cmd->add_option("--idle-timeout", opts->idle_timeout_s, "Seconds a keep-alive connection may stay idle")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 3600.0));
+  cmd->add_option("--max-connections", opts->max_connections, "Open connections before new ones get 503")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 900));
+
   cmd->add_option("--import", *imports, "GLB files to store at start (skipped when already stored)")
       ->check(CLI::ExistingFile);
 
-  cmd->callback([opts, max_body_mib, backend, imports] {
+  cmd->callback([opts, max_body_mib, backend, imports, max_frame, token_file] {
     opts->max_body_bytes = static_cast<size_t>(*max_body_mib * 1024.0 * 1024.0);
+    if (std::sscanf(max_frame->c_str(), "%dx%d", &opts->max_frame_width, &opts->max_frame_height) != 2 ||
+        opts->max_frame_width < 1 || opts->max_frame_height < 1 || opts->max_frame_width > 16384 ||
+        opts->max_frame_height > 16384)
+      fail("serve", make_error(ErrorCode::kInvalidArgument, "--max-frame must be WIDTHxHEIGHT, each 1..16384"));
+    if (!token_file->empty()) {
+      std::ifstream in(*token_file);
+      std::string token((std::istreambuf_iterator<char>(in)), {});
+      while (!token.empty() && std::isspace(static_cast<unsigned char>(token.back()))) token.pop_back();
+      while (!token.empty() && std::isspace(static_cast<unsigned char>(token.front()))) token.erase(0, 1);
+      if (token.size() < 16 || token.find_first_of(" \t\r\n") != std::string::npos)
+        fail("serve", make_error(ErrorCode::kInvalidArgument,
+                                 "--token-file must hold one token of at least 16 characters, without spaces"));
+      opts->token = token;
+    }
     opts->backend = *backend == "vulkan"   ? BackendChoice::kVulkan
                     : *backend == "osmesa" ? BackendChoice::kOsmesa
                                            : BackendChoice::kAuto;
@@ -55,10 +101,9 @@ void register_serve(CLI::App& app) {
     auto created = service::ViewService::create(*opts);
     if (!created) fail("serve", created.error());
     auto& svc = *created;
-    const std::string host = opts->bind == "0.0.0.0" ? "127.0.0.1" : opts->bind;
     std::printf("rgbdcast serve: renderer %s (%s; %s)\n", svc->backend().c_str(), svc->device().c_str(),
                 svc->backend_reason().c_str());
-    const std::string base = "http://" + host + ":" + std::to_string(svc->port());
+    const std::string base = svc->url();  // the address it is bound to, as given
     for (const auto& path : *imports) {
       auto imported = svc->import_glb_file(path);
       if (!imported) fail("serve", imported.error());

@@ -1,14 +1,14 @@
 // The server-side reduction of an uploaded RGB-D frame (the multipart route of POST /v1/scenes): decode and validate
 // the images, read the intrinsics, reduce and texture (pipeline/frame_scene.h, as `rgbdcast reduce`), encode the GLB. The
 // result is what `rgbdcast reduce` writes for the same frame, and is then checked like any uploaded GLB.
-#include <filesystem>
+#include <cmath>
 
 #include "gltf/gltf_io.h"
 #include "input/frame_source.h"
 #include "input/intrinsics_io.h"
 #include "pipeline/frame_scene.h"
+#include "service/image_header.h"
 #include "service/scene_ingest.h"
-#include "service/scene_store.h"
 
 namespace rgbdcast::service {
 namespace {
@@ -20,21 +20,15 @@ double ms_since(Clock::time_point t0) {
 
 nlohmann::json stage_json(const StageReport& s) { return {{"name", s.name}, {s.unit, s.count}, {"ms", s.ms}}; }
 
-// load_intrinsics_json reads a file: the uploaded text goes to a short-lived temporary file in the store's folder
-// (its name starts with the store's temporary prefix, so a crash leaves nothing that survives a restart).
-Result<Intrinsics> parse_uploaded_intrinsics(const std::string& text, const std::string& scratch_dir) {
-  if (text.empty()) return make_error(ErrorCode::kInvalidInput, "intrinsics: empty part");
-  if (text.size() > (1u << 20)) return make_error(ErrorCode::kInvalidInput, "intrinsics: over 1 MiB of JSON");
-  const std::string name = ".tmp-intrinsics-" + new_scene_id() + ".json";
-  auto st = write_file_atomic(scratch_dir, name, text.data(), text.size());
-  if (!st) return st.error();
-  const std::string path = scratch_dir + "/" + name;
-  auto k = load_intrinsics_json(path);
-  std::error_code ec;
-  std::filesystem::remove(path, ec);
-  if (!k) return make_error(k.error().code == ErrorCode::kIo ? ErrorCode::kIo : ErrorCode::kInvalidInput,
-                            "intrinsics: " + k.error().message);
-  return k;
+Status check_image_size(const std::vector<unsigned char>& bytes, const char* part, int max_width, int max_height) {
+  auto size = peek_image_size(bytes.data(), bytes.size());
+  if (!size) return make_error(ErrorCode::kInvalidInput, std::string(part) + ": " + size.error().message);
+  if (size->width > max_width || size->height > max_height)
+    return make_error(ErrorCode::kInvalidInput, std::string(part) + ": " + std::to_string(size->width) + "x" +
+                                                    std::to_string(size->height) + " is over the frame limit of " +
+                                                    std::to_string(max_width) + "x" + std::to_string(max_height) +
+                                                    " (--max-frame)");
+  return ok_status();
 }
 
 }  // namespace
@@ -42,8 +36,17 @@ Result<Intrinsics> parse_uploaded_intrinsics(const std::string& text, const std:
 Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   std::vector<StageReport> stages;
   auto t = Clock::now();
-  auto intrinsics = parse_uploaded_intrinsics(upload.intrinsics_json, upload.scratch_dir);
+  for (const auto& [bytes, part] : {std::pair{&upload.color, "color"}, std::pair{&upload.depth, "depth"}}) {
+    auto st = check_image_size(*bytes, part, upload.max_width, upload.max_height);
+    if (!st) return st.error();
+  }
+  auto intrinsics = parse_intrinsics_json(upload.intrinsics_json, "intrinsics");  // from memory, no paths
   if (!intrinsics) return intrinsics.error();
+  {
+    const Intrinsics& k = *intrinsics;
+    if (!(std::isfinite(k.fx) && std::isfinite(k.fy) && k.fx > 0 && k.fy > 0))
+      return make_error(ErrorCode::kInvalidInput, "intrinsics: focal lengths fx and fy must be positive numbers");
+  }
   auto color = decode_color(upload.color, "color");
   if (!color) return make_error(ErrorCode::kInvalidInput, color.error().message);
   auto depth = decode_depth16(upload.depth, "depth");

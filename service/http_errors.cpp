@@ -20,6 +20,8 @@ int http_status_for(ErrorCode code) {
 const char* error_name_for(int status) {
   switch (status) {
     case 400: return "bad_request";
+    case 401: return "unauthorized";
+    case 403: return "forbidden";
     case 404: return "not_found";
     case 405: return "method_not_allowed";
     case 408: return "request_timeout";
@@ -29,6 +31,8 @@ const char* error_name_for(int status) {
     case 415: return "unsupported_media_type";
     case 416: return "range_not_satisfiable";
     case 422: return "unprocessable_entity";
+    case 431: return "request_header_fields_too_large";
+    case 501: return "not_implemented";
     case 500: return "internal_error";
     case 503: return "unavailable";
     default: return status >= 500 ? "server_error" : "client_error";
@@ -43,6 +47,34 @@ std::string error_body(int status, const std::string& detail) {
   return body.dump(
              -1, ' ', false, nlohmann::json::error_handler_t::replace) +
          "\n";
+}
+
+}  // namespace rgbdcast::service
+
+namespace rgbdcast::service {
+
+std::string redact_paths(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  size_t i = 0;
+  while (i < text.size()) {
+    const bool word_start = i == 0 || text[i - 1] == ' ' || text[i - 1] == '\'' || text[i - 1] == '"' ||
+                            text[i - 1] == '(' || text[i - 1] == '=' || text[i - 1] == '\t';
+    if (text[i] == '/' && word_start) {
+      size_t end = i;
+      while (end < text.size() && text[end] != ' ' && text[end] != '\'' && text[end] != '"' && text[end] != ')' &&
+             text[end] != ',' && text[end] != ':' && text[end] != '\t' && text[end] != '\n')
+        ++end;
+      const std::string word = text.substr(i, end - i);
+      if (word.find('/', 1) != std::string::npos) {
+        out += "<path>";
+        i = end;
+        continue;
+      }
+    }
+    out.push_back(text[i++]);
+  }
+  return out;
 }
 
 }  // namespace rgbdcast::service

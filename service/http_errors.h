@@ -15,3 +15,9 @@ const char* error_name_for(int status);
 std::string error_body(int status, const std::string& detail);
 
 }  // namespace rgbdcast::service
+
+namespace rgbdcast::service {
+// An error text with server paths taken out: every word that starts with '/' and holds a second '/' (an absolute
+// path, "/home/x/store/scenes/.tmp-1.json") becomes "<path>". For details that quote library errors.
+std::string redact_paths(const std::string& text);
+}  // namespace rgbdcast::service

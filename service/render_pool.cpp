@@ -1,5 +1,7 @@
 #include "service/render_pool.h"
 
+#include <malloc.h>
+
 #include <chrono>
 #include <list>
 #include <utility>
@@ -21,6 +23,8 @@ struct RenderPool::Worker {
   std::unique_ptr<Renderer> renderer;
   std::list<Resident> resident;       // most recently used first
   std::vector<std::string> forgotten;  // guarded by the pool's mutex
+  bool rendered_large = false;         // since the renderer was made
+  bool heap_dirty = false;             // rendered since the last malloc_trim
 };
 
 RenderPool::RenderPool(const RenderPoolOptions& options, SceneLoader loader)
@@ -95,6 +99,33 @@ size_t RenderPool::rejected() const {
   return rejected_;
 }
 
+size_t RenderPool::renderer_resets() const {
+  std::lock_guard lock(mutex_);
+  return resets_;
+}
+
+void RenderPool::release_when_idle(Worker* w, const RendererFactory& factory) {
+  if (w->rendered_large) {
+    Result<std::unique_ptr<Renderer>> fresh = make_error(ErrorCode::kInternal, "renderer factory threw");
+    try {
+      fresh = factory();
+    } catch (const std::exception&) {
+    }
+    if (fresh) {  // else the old renderer stays: a view is better served with extra memory than not at all
+      for (auto& r : w->resident) w->renderer->release(r.device_id);
+      w->resident.clear();
+      w->renderer = std::move(*fresh);
+      w->rendered_large = false;
+      std::lock_guard lock(mutex_);
+      ++resets_;
+    }
+  }
+  if (w->heap_dirty) {
+    ::malloc_trim(0);
+    w->heap_dirty = false;
+  }
+}
+
 void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> started) {
   {
     Result<std::unique_ptr<Renderer>> made = make_error(ErrorCode::kInternal, "renderer factory threw");
@@ -115,7 +146,12 @@ void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> st
     std::vector<std::string> forgotten;
     {
       std::unique_lock lock(mutex_);
-      cv_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+      const auto idle = std::chrono::duration<double>(options_.idle_release_s);
+      if (!cv_.wait_for(lock, idle, [&] { return stopping_ || !queue_.empty(); })) {
+        lock.unlock();
+        release_when_idle(w, factory);
+        continue;
+      }
       if (stopping_) break;
       job = std::move(queue_.front());
       queue_.pop_front();
@@ -161,6 +197,9 @@ void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> st
       options.point_size_px = job->request.point_size_px;
       auto rendered = w->renderer->render(r.device_id, *camera, options);
       if (!rendered) return rendered.error();
+      w->heap_dirty = true;
+      if (static_cast<long long>(job->request.width) * job->request.height > options_.large_view_px)
+        w->rendered_large = true;
       out.color = std::move(rendered->color);
       out.render_ms = rendered->timings.render_ms;
       out.readback_ms = rendered->timings.readback_ms;

@@ -28,6 +28,11 @@ struct RenderPoolOptions {
   int workers = 1;          // renderer instances (lavapipe and llvmpipe already use every core for one frame)
   int queue_capacity = 32;  // jobs waiting beyond those being rendered
   int resident_scenes = 8;  // per worker
+  // Memory: a worker that rendered a view larger than large_view_px and then sat idle for idle_release_s drops its
+  // renderer (and with it the render targets it caches by size) for a fresh one, and every idle worker returns
+  // freed heap to the system (malloc_trim): after a burst of large views RSS goes back near its base.
+  double idle_release_s = 5.0;
+  int large_view_px = 1920 * 1080;
 };
 
 struct RenderOutput {
@@ -59,6 +64,7 @@ class RenderPool {
   const std::string& device() const { return device_; }
   size_t queue_depth() const;
   size_t rejected() const;
+  size_t renderer_resets() const;  // renderers replaced after idle (see idle_release_s)
 
  private:
   struct Job {
@@ -71,6 +77,7 @@ class RenderPool {
 
   explicit RenderPool(const RenderPoolOptions& options, SceneLoader loader);
   void run(Worker* worker, RendererFactory factory, std::promise<Status> started);
+  void release_when_idle(Worker* worker, const RendererFactory& factory);
 
   RenderPoolOptions options_;
   SceneLoader loader_;
@@ -80,6 +87,7 @@ class RenderPool {
   std::deque<std::unique_ptr<Job>> queue_;
   bool stopping_ = false;
   size_t rejected_ = 0;
+  size_t resets_ = 0;
   size_t busy_ = 0;  // jobs being rendered
   std::vector<std::unique_ptr<Worker>> workers_;
 };

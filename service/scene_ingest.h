@@ -33,7 +33,11 @@ struct FrameUpload {
   std::string scratch_dir;           // a folder for a short-lived temporary file (the store's folder)
   Preset preset = Preset::kPaper;    // the reduction's preset (its defaults)
   double budget_kb = 40;             // realtime preset: the GLB's byte budget (0 = none)
+  int max_width = 1920, max_height = 1080;  // images larger than this are refused from their header, undecoded
 };
+// Checks first, before anything is decoded or reduced: both images are PNG/JPEG no larger than max_width x
+// max_height (kInvalidInput, HTTP 422), the intrinsics parse and have finite positive focal lengths. Error texts
+// carry no server path. Seconds of CPU: call it from a worker (service/job_queue.h), not from an HTTP thread.
 Result<IngestedScene> ingest_frame(const FrameUpload& upload);
 
 // Stats of a decoded scene, and the stages of its capture (from the GLB's extras) when present.

@@ -49,6 +49,41 @@ Result<std::string> read_text(const std::string& path) {
   return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
+// The metadata of one stored scene: a JSON object whose bookkeeping fields have their types. Anything else is
+// kInvalidInput with the reason (nlohmann's type errors are caught here, never thrown further).
+Result<StoredScene> parse_metadata(const std::string& id, const std::string& text) {
+  nlohmann::json meta = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (meta.is_discarded() || !meta.is_object())
+    return make_error(ErrorCode::kInvalidInput, "metadata is not a JSON object");
+  try {
+    if (meta.contains("id") && meta["id"] != id) return make_error(ErrorCode::kInvalidInput, "metadata names another id");
+    StoredScene s;
+    s.id = id;
+    s.bytes = meta.value("bytes", std::uint64_t{0});
+    s.etag = meta.value("etag", std::string());
+    s.created_unix_s = meta.value("created_unix_s", 0.0);
+    s.metadata = std::move(meta);
+    return s;
+  } catch (const nlohmann::json::exception& e) {
+    return make_error(ErrorCode::kInvalidInput, std::string("metadata field of the wrong type (") + e.what() + ")");
+  }
+}
+
+// Moves <id>.json and <id>.glb (when there) into <data_dir>/quarantine/.
+Status quarantine(const std::string& data_dir, const std::string& scenes_dir, const std::string& id) {
+  const fs::path q = fs::path(data_dir) / "quarantine";
+  std::error_code ec;
+  fs::create_directories(q, ec);
+  if (ec) return make_error(ErrorCode::kIo, "cannot create the quarantine folder: " + ec.message());
+  for (const char* ext : {".json", ".glb"}) {
+    const fs::path from = fs::path(scenes_dir) / (id + ext);
+    if (!fs::exists(from, ec)) continue;
+    fs::rename(from, q / (id + ext), ec);
+    if (ec) return make_error(ErrorCode::kIo, "cannot move " + id + ext + " to quarantine: " + ec.message());
+  }
+  return fsync_dir(scenes_dir);
+}
+
 }  // namespace
 
 bool is_valid_scene_id(std::string_view id) {
@@ -111,6 +146,7 @@ Result<std::unique_ptr<SceneStore>> SceneStore::open(const std::string& data_dir
 
   // First pass: temporary files of interrupted writes go; committed metadata is loaded.
   std::vector<fs::path> glbs;
+  std::vector<std::pair<std::string, std::string>> bad;  // id, why
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
     const std::string name = entry.path().filename().string();
     if (name.rfind(kTempPrefix, 0) == 0) {
@@ -125,23 +161,24 @@ Result<std::unique_ptr<SceneStore>> SceneStore::open(const std::string& data_dir
     } else if (ext == ".json") {
       auto text = read_text(entry.path().string());
       if (!text) return text.error();
-      nlohmann::json meta = nlohmann::json::parse(*text, nullptr, /*allow_exceptions=*/false);
-      if (meta.is_discarded() || !meta.is_object())
-        return make_error(ErrorCode::kInvalidInput, "scene metadata is not a JSON object: " + entry.path().string());
-      StoredScene s;
-      s.id = stem;
-      s.bytes = meta.value("bytes", std::uint64_t{0});
-      s.etag = meta.value("etag", std::string());
-      s.created_unix_s = meta.value("created_unix_s", 0.0);
-      s.metadata = std::move(meta);
-      store->scenes_.emplace(stem, std::move(s));
+      auto scene = parse_metadata(stem, *text);
+      if (!scene) {
+        bad.emplace_back(stem, scene.error().message);
+        continue;
+      }
+      store->scenes_.emplace(stem, std::move(*scene));
     }
+  }
+  for (const auto& [id, why] : bad) {
+    auto st = quarantine(data_dir, dir, id);
+    if (!st) return st.error();
+    store->quarantined_.push_back(id + ": " + why + " (moved to quarantine/)");
   }
   if (ec) return make_error(ErrorCode::kIo, "cannot list " + dir + ": " + ec.message());
   // Second pass: a GLB without metadata was never committed (or was being deleted); metadata without its GLB is
   // not a scene either.
   for (const auto& glb : glbs) {
-    if (!store->scenes_.count(glb.stem().string())) {
+    if (!store->scenes_.count(glb.stem().string()) && fs::exists(glb, ec)) {
       fs::remove(glb, ec);
       store->cleaned_.push_back(glb.filename().string());
     }

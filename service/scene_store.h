@@ -3,7 +3,9 @@
 // - put() writes the GLB, then the metadata, each to a temporary name, fsync, rename, fsync of the folder; the
 //   metadata file is the commit marker, so a crash at any point leaves either a whole scene or none.
 // - open() lists the committed scenes again and deletes what an interrupted put() or remove() left (temporary files,
-//   a GLB without metadata).
+//   a GLB without metadata). A metadata file that does not parse, or whose id, bytes, etag or created_unix_s has
+//   the wrong type, is moved with its GLB to <data_dir>/quarantine/ (one line each in quarantined()), and the rest
+//   is served: one bad file never stops the server.
 // - Ids are 32 lowercase hex digits from std::random_device; anything else is rejected before it reaches a path, so
 //   an id can never name a file outside the scenes folder.
 // Thread-safe: every method may be called from any thread.
@@ -50,6 +52,8 @@ class SceneStore {
   std::uint64_t total_bytes() const;
   // Files open() removed: temporary files and orphan GLBs (for the log and the tests).
   const std::vector<std::string>& cleaned_on_open() const { return cleaned_; }
+  // One line per scene open() moved to quarantine/: "<id>: <reason> (moved to quarantine/)".
+  const std::vector<std::string>& quarantined() const { return quarantined_; }
 
  private:
   explicit SceneStore(std::string scenes_dir) : dir_(std::move(scenes_dir)) {}
@@ -57,6 +61,7 @@ class SceneStore {
   mutable std::mutex mutex_;
   std::map<std::string, StoredScene> scenes_;
   std::vector<std::string> cleaned_;
+  std::vector<std::string> quarantined_;
 };
 
 // Writes bytes to dir/name atomically: dir/.tmp-<name>-<random>, fsync, rename, fsync(dir).

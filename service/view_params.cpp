@@ -102,7 +102,7 @@ Result<ViewRequest> parse_view_request(const QueryParams& params) {
     if (has("fov")) {
       auto fov = parse_finite_double("fov", one["fov"]);
       if (!fov) return fov.error();
-      if (!(*fov >= 1.0 && *fov <= 179.0)) return bad("fov", "must be between 1 and 179 degrees");
+      if (!(*fov >= 1.0 && *fov <= kMaxFovDeg)) return bad("fov", "must be between 1 and 178 degrees");
       r.fov_deg = *fov;
     }
     if ((r.target - r.eye).norm() < 1e-9) return bad("target", "equals eye");

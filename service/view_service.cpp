@@ -1,21 +1,28 @@
 #include "service/view_service.h"
 
-#include <httplib.h>
+#include <malloc.h>
 
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
-#include <regex>
+#include <future>
+#include <set>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
 #include "gltf/gltf_io.h"
+#include "service/connection_gate.h"
 #include "service/http_errors.h"
 #include "service/image_encode.h"
+#include "service/job_queue.h"
 #include "service/metrics.h"
 #include "service/model_flavors.h"
 #include "service/render_pool.h"
+#include "service/request_guard.h"
+#include "service/routes.h"
 #include "service/scene_ingest.h"
 #include "service/scene_store.h"
 #include "service/view_params.h"
@@ -27,6 +34,7 @@ using Clock = std::chrono::steady_clock;
 
 // Set by the pre-routing handler, read by the logger: both run on the thread that serves the request.
 thread_local Clock::time_point t_request_start{};
+thread_local const char* t_route = "other";
 
 std::string fmt_ms(double ms) {
   char buf[32];
@@ -39,10 +47,11 @@ void send_error(httplib::Response& res, int status, const std::string& detail) {
   res.set_content(error_body(status, detail), "application/json");
 }
 
+// Errors from the library may quote server paths: they are taken out.
 void send_error(httplib::Response& res, const Error& e) {
   const int status = http_status_for(e.code);
   if (status == 503) res.set_header("Retry-After", "1");
-  send_error(res, status, e.message);
+  send_error(res, status, redact_paths(e.message));
 }
 
 void send_json(httplib::Response& res, int status, const nlohmann::json& body) {
@@ -50,15 +59,10 @@ void send_json(httplib::Response& res, int status, const nlohmann::json& body) {
   res.set_content(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "application/json");
 }
 
-// The route pattern a request belongs to: the label of its metrics.
-std::string route_of(const std::string& path) {
-  static const std::regex kScene("^/v1/scenes/[^/]+$"), kGlb("^/v1/scenes/[^/]+/model\\.glb$"),
-      kView("^/v1/scenes/[^/]+/view$");
-  if (path == "/" || path == "/healthz" || path == "/metrics" || path == "/v1/scenes") return path;
-  if (std::regex_match(path, kScene)) return "/v1/scenes/{id}";
-  if (std::regex_match(path, kGlb)) return "/v1/scenes/{id}/model.glb";
-  if (std::regex_match(path, kView)) return "/v1/scenes/{id}/view";
-  return "other";
+// 503 for a full queue; the connection closes when the request body was not read.
+void send_busy(httplib::Response& res, const std::string& detail, int retry_after_s) {
+  res.set_header("Retry-After", std::to_string(retry_after_s));
+  send_error(res, 503, detail);
 }
 
 // The media type without parameters, lower case.
@@ -79,30 +83,77 @@ nlohmann::json scene_summary(const StoredScene& s) {
   return j;
 }
 
+// A request body as it arrives, whatever its framing (Content-Length, chunked) and coding (gzip, br: httplib
+// inflates it): at most `limit` bytes are kept; past it the reading stops and `over` is set.
+struct BodyBudget {
+  size_t limit = 0, received = 0;
+  bool over = false;
+  bool take(size_t n) {
+    received += n;
+    over = over || received > limit;
+    return !over;
+  }
+};
+
+// Counts requests holding a slot; try_acquire fails when `limit` already do.
+class Slots {
+ public:
+  explicit Slots(int limit) : limit_(limit) {}
+  bool try_acquire() {
+    int n = used_.load();
+    do {
+      if (n >= limit_) return false;
+    } while (!used_.compare_exchange_weak(n, n + 1));
+    return true;
+  }
+  void release() { --used_; }
+
+ private:
+  const int limit_;
+  std::atomic<int> used_{0};
+};
+
+// Returns freed heap to the system once no reduction is running: a frame reduction peaks at hundreds of MB.
+void trim_heap() { ::malloc_trim(0); }
+
 }  // namespace
 
 struct ViewService::Impl {
   ServeOptions options;
   std::unique_ptr<SceneStore> store;
   std::unique_ptr<RenderPool> pool;
+  std::unique_ptr<JobQueue> reducers;
   std::string backend_reason;
   std::mutex reason_mutex;
   Metrics metrics;
   ModelFlavors flavors;
-  httplib::Server server;
+  GuardConfig guard;
+  std::unique_ptr<Slots> uploads;
+  std::unique_ptr<GatedServer> server;  // last: destroyed first, its workers may still wait on the pools
   int port = 0;
 
   void routes();
-  // Wraps a handler: nothing escapes it, whatever it throws.
-  httplib::Server::Handler guarded(std::function<void(const httplib::Request&, httplib::Response&)> f) {
+  // Runs a handler: nothing escapes it, whatever it throws.
+  template <class F>
+  static void run_guarded(httplib::Response& res, F&& call) {
+    try {
+      call();
+    } catch (const std::exception& e) {
+      send_error(res, 500, redact_paths(std::string("unexpected failure: ") + e.what()));
+    } catch (...) {
+      send_error(res, 500, "unexpected failure");
+    }
+  }
+  static httplib::Server::Handler guarded(std::function<void(const httplib::Request&, httplib::Response&)> f) {
     return [f = std::move(f)](const httplib::Request& req, httplib::Response& res) {
-      try {
-        f(req, res);
-      } catch (const std::exception& e) {
-        send_error(res, 500, std::string("unexpected failure: ") + e.what());
-      } catch (...) {
-        send_error(res, 500, "unexpected failure");
-      }
+      run_guarded(res, [&] { f(req, res); });
+    };
+  }
+  using ReaderHandler =
+      std::function<void(const httplib::Request&, httplib::Response&, const httplib::ContentReader&)>;
+  static httplib::Server::HandlerWithContentReader guarded_reader(ReaderHandler f) {
+    return [f = std::move(f)](const httplib::Request& req, httplib::Response& res, const httplib::ContentReader& r) {
+      run_guarded(res, [&] { f(req, res, r); });
     };
   }
   // The scene named by the first capture of the route, or an error response (400 malformed id, 404 unknown).
@@ -116,35 +167,130 @@ struct ViewService::Impl {
     if (!s) send_error(res, 404, "no scene " + id);
     return s;
   }
-  void post_scene(const httplib::Request& req, httplib::Response& res);
+  httplib::Server::HandlerResponse pre_route(const httplib::Request& req, httplib::Response& res);
+  void post_scene(const httplib::Request& req, httplib::Response& res, const httplib::ContentReader& reader);
+  Result<IngestedScene> reduce_frame_upload(FrameUpload upload, httplib::Response& res, bool* busy);
   void get_view(const httplib::Request& req, httplib::Response& res);
   void get_glb(const httplib::Request& req, httplib::Response& res);
 };
 
-void ViewService::Impl::post_scene(const httplib::Request& req, httplib::Response& res) {
-  const std::string type = media_type(req.get_header_value("Content-Type"));
-  Result<IngestedScene> ingested = make_error(ErrorCode::kInternal, "unreachable");
-  if (type == "model/gltf-binary") {
-    ingested = ingest_glb(std::vector<std::uint8_t>(req.body.begin(), req.body.end()));
-  } else if (req.is_multipart_form_data()) {
-    FrameUpload up;
-    for (const char* part : {"color", "depth", "intrinsics"}) {
-      if (!req.has_file(part)) {
-        send_error(res, 400, std::string("multipart upload lacks the part '") + part +
-                                 "' (parts: color, depth, intrinsics)");
-        return;
-      }
+httplib::Server::HandlerResponse ViewService::Impl::pre_route(const httplib::Request& req, httplib::Response& res) {
+  t_request_start = Clock::now();
+  t_route = match_route(req.path).label;
+  RequestHead head;
+  head.method = req.method;
+  head.path = req.path;
+  head.headers.assign(req.headers.begin(), req.headers.end());
+  auto refusal = check_request(head, guard);
+  if (!refusal) return httplib::Server::HandlerResponse::Unhandled;
+  if (!refusal->allow.empty()) res.set_header("Allow", refusal->allow);
+  if (refusal->www_authenticate) res.set_header("WWW-Authenticate", "Bearer");
+  res.set_header("Connection", "close");  // whatever body was sent is not read
+  send_error(res, refusal->status, refusal->detail);
+  GatedServer::close_after_response();
+  return httplib::Server::HandlerResponse::Handled;
+}
+
+Result<IngestedScene> ViewService::Impl::reduce_frame_upload(FrameUpload upload, httplib::Response& res, bool* busy) {
+  auto promise = std::make_shared<std::promise<Result<IngestedScene>>>();
+  auto done = promise->get_future();
+  const bool queued = reducers->try_submit([this, promise, up = std::move(upload)] {
+    Result<IngestedScene> r = make_error(ErrorCode::kInternal, "reduction failed");
+    try {
+      r = ingest_frame(up);
+    } catch (const std::exception& e) {
+      r = make_error(ErrorCode::kInternal, std::string("reduction threw: ") + e.what());
     }
-    const auto color = req.get_file_value("color"), depth = req.get_file_value("depth");
-    up.color.assign(color.content.begin(), color.content.end());
-    up.depth.assign(depth.content.begin(), depth.content.end());
-    up.intrinsics_json = req.get_file_value("intrinsics").content;
-    up.scratch_dir = options.data_dir + "/scenes";
-    ingested = ingest_frame(up);
+    promise->set_value(std::move(r));
+    if (reducers->waiting() == 0) trim_heap();
+  });
+  if (!queued) {
+    *busy = true;
+    send_busy(res, "reduction queue full (" + std::to_string(options.reducers + options.reduce_queue) +
+                       " frames in progress); retry later", 5);
+    return make_error(ErrorCode::kUnavailable, "busy");
+  }
+  try {
+    return done.get();
+  } catch (const std::future_error&) {
+    return make_error(ErrorCode::kUnavailable, "server is stopping");
+  }
+}
+
+void ViewService::Impl::post_scene(const httplib::Request& req, httplib::Response& res,
+                                   const httplib::ContentReader& reader) {
+  if (!uploads->try_acquire()) {
+    GatedServer::close_after_response();
+    return send_busy(res, "too many uploads at once (" + std::to_string(options.max_uploads) + "); retry later", 1);
+  }
+  struct Release {
+    Slots* s;
+    ~Release() { s->release(); }
+  } release{uploads.get()};
+
+  const std::string type = media_type(req.get_header_value("Content-Type"));
+  const bool multipart = req.is_multipart_form_data();
+  if (type != "model/gltf-binary" && !multipart) {
+    GatedServer::close_after_response();
+    return send_error(res, 415, "Content-Type must be model/gltf-binary (a GLB) or multipart/form-data (color, "
+                                "depth, intrinsics); got '" + type.substr(0, 60) + "'");
+  }
+  BodyBudget budget{options.max_body_bytes};
+  std::vector<std::uint8_t> glb;
+  std::map<std::string, std::string> parts;
+  std::string* part = nullptr;
+  bool duplicate = false;
+  bool read = false;
+  if (multipart) {
+    read = reader(
+        [&](const httplib::MultipartFormData& file) {
+          auto [it, fresh] = parts.emplace(file.name, std::string());
+          duplicate = duplicate || !fresh || parts.size() > 8;
+          part = &it->second;
+          return !duplicate;
+        },
+        [&](const char* data, size_t n) {
+          if (!budget.take(n)) return false;
+          part->append(data, n);
+          return true;
+        });
   } else {
-    send_error(res, 415, "Content-Type must be model/gltf-binary (a GLB) or multipart/form-data (color, depth, "
-                         "intrinsics); got '" + type + "'");
-    return;
+    read = reader([&](const char* data, size_t n) {
+      if (!budget.take(n)) return false;
+      glb.insert(glb.end(), data, data + n);
+      return true;
+    });
+  }
+  if (!read) {
+    GatedServer::close_after_response();
+    if (budget.over)
+      return send_error(res, 413, "request body over the limit of " + std::to_string(options.max_body_bytes) +
+                                      " bytes (--max-body-mib), counted after decoding");
+    if (duplicate) return send_error(res, 400, "multipart upload with a repeated part or more than 8 parts");
+    return send_error(res, 400, "request body could not be read (cut short, bad chunked framing, bad compressed "
+                                "data or malformed multipart)");
+  }
+
+  Result<IngestedScene> ingested = make_error(ErrorCode::kInternal, "unreachable");
+  if (!multipart) {
+    ingested = ingest_glb(std::move(glb));
+  } else {
+    for (const char* name : {"color", "depth", "intrinsics"}) {
+      if (!parts.count(name))
+        return send_error(res, 400, std::string("multipart upload lacks the part '") + name +
+                                        "' (parts: color, depth, intrinsics)");
+    }
+    FrameUpload up;
+    up.color.assign(parts["color"].begin(), parts["color"].end());
+    up.depth.assign(parts["depth"].begin(), parts["depth"].end());
+    up.intrinsics_json = std::move(parts["intrinsics"]);
+    parts.clear();
+    up.scratch_dir = options.data_dir + "/scenes";
+    up.max_width = options.max_frame_width;
+    up.max_height = options.max_frame_height;
+    bool busy = false;
+    ingested = reduce_frame_upload(std::move(up), res, &busy);
+    if (busy) return;
   }
   if (!ingested) return send_error(res, ingested.error());
   auto stored = store->put(ingested->glb, ingested->stats);
@@ -160,6 +306,12 @@ void ViewService::Impl::get_view(const httplib::Request& req, httplib::Response&
   if (req.method == "POST") params.emplace("camera", req.body);  // the camera JSON as the body (camera_json.h)
   auto request = parse_view_request(params);
   if (!request) return send_error(res, request.error());
+  if (req.method == "HEAD") {  // what a GET would answer, without rendering
+    res.status = 200;
+    res.set_header("Cache-Control", "no-store");
+    res.set_header("Content-Type", mime_type(request->format));
+    return;
+  }
   auto out = pool->render(scene->id, *request);
   if (!out) return send_error(res, out.error());
   const auto t0 = Clock::now();
@@ -198,25 +350,40 @@ void ViewService::Impl::get_glb(const httplib::Request& req, httplib::Response& 
 }
 
 void ViewService::Impl::routes() {
-  server.set_payload_max_length(options.max_body_bytes);
-  server.set_pre_routing_handler([](const httplib::Request&, httplib::Response&) {
-    t_request_start = Clock::now();
-    return httplib::Server::HandlerResponse::Unhandled;
-  });
+  server->set_payload_max_length(options.max_body_bytes);
+  server->set_pre_routing_handler(
+      [this](const httplib::Request& req, httplib::Response& res) { return pre_route(req, res); });
   // Called for every response >= 400, ours included: only fills a body when there is none (404 of an unknown
-  // route, 413 from the payload limit, 400 of a request the library could not parse).
+  // route, 400 of a request the library could not parse).
   const size_t limit_bytes = options.max_body_bytes;
-  server.set_error_handler([limit_bytes](const httplib::Request& req, httplib::Response& res) {
+  server->set_error_handler([limit_bytes](const httplib::Request& req, httplib::Response& res) {
     if (!res.body.empty()) return;
+    // An error of the HTTP layer may leave unread bytes (a request line it refused leaves its headers): close.
+    GatedServer::close_after_response();
+    res.set_header("Connection", "close");
+    static const std::set<std::string> kParsed = {"GET",     "HEAD",    "POST",  "PUT",   "DELETE",
+                                                  "CONNECT", "OPTIONS", "TRACE", "PATCH", "PRI"};
+    if (res.status == 400 && req.path.empty() && !req.method.empty() && !kParsed.count(req.method)) {
+      // httplib refuses methods it does not know before routing; on a known route that is a 405.
+      const RouteMatch route = match_route(req.target.substr(0, req.target.find('?')));
+      if (route.known) {
+        res.status = 405;
+        res.set_header("Allow", route.allow);
+        res.set_content(error_body(405, "method " + req.method.substr(0, 20) + " not allowed on " + route.label),
+                        "application/json");
+        return;
+      }
+    }
     std::string detail;
     switch (res.status) {
-      case 404: detail = "no route " + req.method + " " + req.path; break;
+      case 404: detail = "no route " + req.method.substr(0, 20) + " " + req.path.substr(0, 200); break;
       case 413: detail = "request body over the limit of " + std::to_string(limit_bytes) + " bytes (--max-body-mib)"; break;
+      case 414: detail = "request line over the limit of 8192 bytes"; break;
       default: detail = "request rejected by the HTTP layer"; break;
     }
     res.set_content(error_body(res.status, detail), "application/json");
   });
-  server.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+  server->set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
     std::string what = "unexpected failure";
     try {
       if (ep) std::rethrow_exception(ep);
@@ -224,24 +391,25 @@ void ViewService::Impl::routes() {
       what += std::string(": ") + e.what();
     } catch (...) {
     }
-    send_error(res, 500, what);
+    send_error(res, 500, redact_paths(what));
   });
-  server.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+  server->set_logger([this](const httplib::Request& req, const httplib::Response& res) {
     double seconds = 0.0;
     if (t_request_start != Clock::time_point{})
       seconds = std::chrono::duration<double>(Clock::now() - t_request_start).count();
     t_request_start = Clock::time_point{};
-    metrics.observe_request(req.method, route_of(req.path), res.status, seconds);
+    metrics.observe_request(req.method, t_route, res.status, seconds);
+    t_route = "other";
   });
 
-  server.Get("/", guarded([](const httplib::Request&, httplib::Response& res) {
-    res.set_content(operator_page_html(), "text/html; charset=utf-8");
-  }));
-  server.Get("/healthz", guarded([this](const httplib::Request&, httplib::Response& res) {
+  using Req = const httplib::Request&;
+  using Res = httplib::Response&;
+  server->Get("/", guarded([](Req, Res res) { res.set_content(operator_page_html(), "text/html; charset=utf-8"); }));
+  server->Get("/healthz", guarded([this](Req, Res res) {
     send_json(res, 200, {{"status", "ok"}, {"backend", pool->backend()}, {"device", pool->device()},
                          {"scenes", store->count()}});
   }));
-  server.Get("/metrics", guarded([this](const httplib::Request&, httplib::Response& res) {
+  server->Get("/metrics", guarded([this](Req, Res res) {
     MetricsGauges g;
     g.scenes_stored = store->count();
     g.bytes_stored = store->total_bytes();
@@ -249,22 +417,22 @@ void ViewService::Impl::routes() {
     g.render_rejected = pool->rejected();
     res.set_content(metrics.prometheus_text(g), "text/plain; version=0.0.4; charset=utf-8");
   }));
-  server.Post("/v1/scenes", guarded([this](const httplib::Request& req, httplib::Response& res) {
-    post_scene(req, res);
+  server->Post("/v1/scenes", guarded_reader([this](Req req, Res res, const httplib::ContentReader& reader) {
+    post_scene(req, res, reader);
   }));
-  server.Get("/v1/scenes", guarded([this](const httplib::Request&, httplib::Response& res) {
+  server->Get("/v1/scenes", guarded([this](Req, Res res) {
     nlohmann::json list = nlohmann::json::array();
     for (const auto& s : store->list()) list.push_back(scene_summary(s));
     send_json(res, 200, {{"scenes", list}, {"count", list.size()}});
   }));
-  server.Get(R"(/v1/scenes/([^/]+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+  server->Get(R"(/v1/scenes/([^/]+))", guarded([this](Req req, Res res) {
     auto s = scene_or_error(req, res);
     if (!s) return;
     nlohmann::json body = s->metadata;
     body["links"] = scene_summary(*s)["links"];
     send_json(res, 200, body);
   }));
-  server.Delete(R"(/v1/scenes/([^/]+))", guarded([this](const httplib::Request& req, httplib::Response& res) {
+  server->Delete(R"(/v1/scenes/([^/]+))", guarded([this](Req req, Res res) {
     auto s = scene_or_error(req, res);
     if (!s) return;
     auto st = store->remove(s->id);
@@ -273,34 +441,67 @@ void ViewService::Impl::routes() {
     flavors.forget(s->id);
     res.status = 204;
   }));
-  server.Get(R"(/v1/scenes/([^/]+)/model\.glb)", guarded([this](const httplib::Request& req, httplib::Response& res) {
-    get_glb(req, res);
-  }));
-  server.Get(R"(/v1/scenes/([^/]+)/view)", guarded([this](const httplib::Request& req, httplib::Response& res) {
-    get_view(req, res);
-  }));
-  server.Post(R"(/v1/scenes/([^/]+)/view)", guarded([this](const httplib::Request& req, httplib::Response& res) {
-    get_view(req, res);
-  }));
+  server->Get(R"(/v1/scenes/([^/]+)/model\.glb)", guarded([this](Req req, Res res) { get_glb(req, res); }));
+  server->Get(R"(/v1/scenes/([^/]+)/view)", guarded([this](Req req, Res res) { get_view(req, res); }));
+  server->Post(R"(/v1/scenes/([^/]+)/view)", guarded([this](Req req, Res res) { get_view(req, res); }));
 }
 
 ViewService::ViewService(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 ViewService::~ViewService() {
-  if (impl_) impl_->server.stop();
+  if (impl_ && impl_->server) {
+    impl_->server->stop();
+    impl_->server->shut_down();
+  }
 }
 
+namespace {
+
+Status check_options(const ServeOptions& o) {
+  auto bad = [](const std::string& m) { return make_error(ErrorCode::kInvalidArgument, m); };
+  if (o.port < 0 || o.port > 65535) return bad("port must be 0..65535");
+  if (o.threads < 1 || o.threads > 1024) return bad("threads must be 1..1024");
+  if (o.max_body_bytes < 1024) return bad("body limit under 1 KiB");
+  if (o.renderers < 1 || o.render_queue < 0 || o.reducers < 1 || o.reduce_queue < 0 || o.max_uploads < 1)
+    return bad("renderers, reducers and max uploads must be at least 1, queues at least 0");
+  // Views waiting for a renderer and bodies being received each hold an HTTP thread: with fewer threads than
+  // they need, every thread blocks first and the queue's 503 never comes (issue 11). Two stay for /healthz.
+  const int needed = o.renderers + o.render_queue + o.max_uploads + 2;
+  if (o.threads < needed)
+    return bad("--threads " + std::to_string(o.threads) + " is too few for --renderers + --render-queue + " +
+               "--max-uploads + 2 = " + std::to_string(needed) + ": the queues could never answer 503");
+  if (o.max_frame_width < 1 || o.max_frame_height < 1) return bad("frame limit must be positive");
+  if (!is_loopback_address(o.bind) && o.token.empty() && !o.insecure_no_auth)
+    return bad("binding to " + o.bind + " (not loopback) without --token-file would let anyone on the network "
+               "upload and delete; give --token-file, or --insecure-no-auth to accept that");
+  return ok_status();
+}
+
+// Each renderer gets its share of the cores (llvmpipe and lavapipe otherwise start a thread per core each).
+void cap_renderer_threads(int renderers) {
+  if (std::getenv("LP_NUM_THREADS")) return;  // the operator's choice wins
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  const unsigned each = std::max(1u, cores / static_cast<unsigned>(std::max(1, renderers)));
+  ::setenv("LP_NUM_THREADS", std::to_string(each).c_str(), 0);
+}
+
+}  // namespace
+
 Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& options) {
-  if (options.port < 0 || options.port > 65535)
-    return make_error(ErrorCode::kInvalidArgument, "port must be 0..65535");
-  if (options.threads < 1 || options.threads > 1024)
-    return make_error(ErrorCode::kInvalidArgument, "threads must be 1..1024");
-  if (options.max_body_bytes < 1024) return make_error(ErrorCode::kInvalidArgument, "body limit under 1 KiB");
+  auto st = check_options(options);
+  if (!st) return st.error();
   auto impl = std::make_unique<Impl>();
   impl->options = options;
   auto store = SceneStore::open(options.data_dir);
   if (!store) return store.error();
   impl->store = std::move(*store);
+  for (const auto& q : impl->store->quarantined())
+    std::fprintf(stderr, "rgbdcast serve: warning: %s\n", q.c_str());
 
+  cap_renderer_threads(options.renderers);
+  // With one malloc arena per thread (up to 16 on 2 cores) a burst of large views leaves hundreds of MB spread over
+  // arenas that malloc_trim does not give back; two arenas give it back (bench/memory_burst.sh: 1405 MiB after 8 s
+  // idle before, 235 MiB with this and the idle reset, base 221 MiB). MALLOC_ARENA_MAX, when set, wins.
+  if (!std::getenv("MALLOC_ARENA_MAX")) ::mallopt(M_ARENA_MAX, 2);
   SceneStore* store_ptr = impl->store.get();
   std::string* reason = &impl->backend_reason;
   std::mutex* reason_mutex = &impl->reason_mutex;
@@ -327,23 +528,29 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
       });
   if (!pool) return pool.error();
   impl->pool = std::move(*pool);
+  impl->reducers = std::make_unique<JobQueue>(options.reducers, options.reduce_queue);
+  impl->uploads = std::make_unique<Slots>(options.max_uploads);
 
-  const int threads = options.threads;
-  impl->server.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
-  impl->server.set_keep_alive_max_count(1000);
-  impl->server.set_read_timeout(30, 0);
-  impl->server.set_write_timeout(30, 0);
-  impl->routes();
+  GateOptions gate;
+  gate.workers = options.threads;
+  gate.header_timeout_s = options.header_timeout_s;
+  gate.idle_timeout_s = options.idle_timeout_s;
+  gate.max_connections = options.max_connections;
+  impl->server = std::make_unique<GatedServer>(gate);
   if (options.port == 0) {
-    const int p = impl->server.bind_to_any_port(options.bind);
+    const int p = impl->server->bind_to_any_port(options.bind);
     if (p <= 0) return make_error(ErrorCode::kIo, "cannot bind " + options.bind + " (any port)");
     impl->port = p;
   } else {
-    if (!impl->server.bind_to_port(options.bind, options.port))
+    if (!impl->server->bind_to_port(options.bind, options.port))
       return make_error(ErrorCode::kIo, "cannot bind " + options.bind + ":" + std::to_string(options.port) +
-                                            " (in use, or not an address of this machine)");
+                                            ": the port is in use (another server?) or the address is not one of "
+                                            "this machine's");
     impl->port = options.port;
   }
+  impl->guard = make_guard_config(options.bind, impl->port, options.allow_origins, options.token,
+                                  options.max_body_bytes);
+  impl->routes();
   return std::unique_ptr<ViewService>(new ViewService(std::move(impl)));
 }
 
@@ -362,16 +569,21 @@ Result<nlohmann::json> ViewService::import_glb_file(const std::string& path) {
 }
 
 int ViewService::port() const { return impl_->port; }
+std::string ViewService::url() const {
+  const std::string& b = impl_->options.bind;
+  const bool v6 = b.find(':') != std::string::npos;
+  return "http://" + (v6 ? "[" + b + "]" : b) + ":" + std::to_string(impl_->port);
+}
 std::string ViewService::backend() const { return impl_->pool->backend(); }
 std::string ViewService::backend_reason() const { return impl_->backend_reason; }
 std::string ViewService::device() const { return impl_->pool->device(); }
 size_t ViewService::scene_count() const { return impl_->store->count(); }
 
 Status ViewService::run() {
-  if (!impl_->server.listen_after_bind()) return make_error(ErrorCode::kIo, "the listener stopped with an error");
+  if (!impl_->server->listen_after_bind()) return make_error(ErrorCode::kIo, "the listener stopped with an error");
   return ok_status();
 }
 
-void ViewService::stop() { impl_->server.stop(); }
+void ViewService::stop() { impl_->server->stop(); }
 
 }  // namespace rgbdcast::service

@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -19,12 +20,26 @@ struct ServeOptions {
   std::string data_dir = "rgbdcast-data";
   std::string bind = "127.0.0.1";  // loopback unless asked
   int port = 8080;                 // 0: any free port (the bound port is printed)
-  int threads = 16;                // HTTP worker threads (each keep-alive connection holds one while active)
-  size_t max_body_bytes = 64u << 20;
+  int threads = 32;                // HTTP worker threads; a connection holds one only while a request is served
+                                   // (service/connection_gate.h). Must exceed renderers + render_queue + max_uploads
+                                   // so that the queues, not the threads, are what fills up first.
+  size_t max_body_bytes = 64u << 20;  // bytes received, after any Content-Encoding is inflated
   BackendChoice backend = BackendChoice::kAuto;
   int renderers = 2;               // renderer instances: two overlap one view's render with another's readback and
                                    // encoding (bench/load.sh on 2 cores: 64 -> 80 views/s on lavapipe)
-  int render_queue = 32;           // views waiting beyond those rendering; more get 503
+  int render_queue = 16;           // views waiting beyond those rendering; more get 503
+  int reducers = 1;                // frame reductions at once (each uses OpenMP inside PCL)
+  int reduce_queue = 2;            // frame uploads waiting for a reducer; more get 503
+  int max_uploads = 8;             // request bodies being received at once; more get 503
+  int max_frame_width = 1920, max_frame_height = 1080;  // multipart frames, checked from the image headers
+  // Access control: a token makes POST and DELETE need "Authorization: Bearer <token>". Binding to a non-loopback
+  // address without a token is refused unless insecure_no_auth.
+  std::string token;
+  bool insecure_no_auth = false;
+  std::vector<std::string> allow_origins;  // extra origins (and their hosts) accepted besides the server's own
+  double header_timeout_s = 5.0;   // a new connection has this long to send its request headers
+  double idle_timeout_s = 5.0;     // keep-alive connections close after this long without a request
+  int max_connections = 512;
 };
 
 class ViewService {
@@ -35,6 +50,7 @@ class ViewService {
   ~ViewService();
 
   int port() const;                  // the bound port
+  std::string url() const;           // http://<bind address>:<port>
   std::string backend() const;       // "vulkan" or "osmesa"
   std::string backend_reason() const;
   std::string device() const;

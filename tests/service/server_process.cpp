@@ -46,7 +46,7 @@ bool ServerProcess::start(const std::string& data_dir, const std::vector<std::st
     *error = "pipe failed";
     return false;
   }
-  std::vector<std::string> args = {rgbdcast_binary(), "serve", "--data-dir", data_dir, "--bind", "127.0.0.1",
+  std::vector<std::string> args = {rgbdcast_binary(), "serve", "--data-dir", data_dir, "--bind", bind_,
                                    "--port", "0"};
   // RGBDCAST_TEST_BACKEND=osmesa|vulkan runs the suite on one backend (default: the server's auto choice).
   if (const char* backend = std::getenv("RGBDCAST_TEST_BACKEND"); backend && *backend) {
@@ -74,7 +74,7 @@ bool ServerProcess::start(const std::string& data_dir, const std::vector<std::st
   pid_ = pid;
   out_fd_ = fds[0];
   output_.clear();
-  const std::regex listening(R"(listening on http://127\.0\.0\.1:(\d+)/)");
+  const std::regex listening(R"(listening on http://[^ ]+:(\d+)/)");
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   while (std::chrono::steady_clock::now() < deadline) {
     pollfd p{out_fd_, POLLIN, 0};

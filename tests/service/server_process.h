@@ -17,7 +17,9 @@ class ServerProcess {
   ServerProcess(const ServerProcess&) = delete;
   ServerProcess& operator=(const ServerProcess&) = delete;
 
-  // Starts `rgbdcast serve --data-dir dir --bind 127.0.0.1 --port 0 <extra>`; waits up to timeout_s for the port.
+  // The address given to --bind (default 127.0.0.1; any loopback address works for the tests).
+  void set_bind(const std::string& address) { bind_ = address; }
+  // Starts `rgbdcast serve --data-dir dir --bind <bind> --port 0 <extra>`; waits up to timeout_s for the port.
   // On failure returns false with the server's output in *error.
   bool start(const std::string& data_dir, const std::vector<std::string>& extra, std::string* error,
              double timeout_s = 60.0);
@@ -34,6 +36,7 @@ class ServerProcess {
   pid_t pid_ = -1;
   int out_fd_ = -1;
   int port_ = 0;
+  std::string bind_ = "127.0.0.1";
   std::string output_;
 };
 

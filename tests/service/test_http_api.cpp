@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "tests/common/test_data.h"
+#include "tests/service/raw_http.h"
 #include "tests/service/server_process.h"
 
 namespace fs = std::filesystem;
@@ -82,28 +83,8 @@ size_t files_in(const std::string& dir) {
   return n;
 }
 
-// A raw TCP connection, for requests an HTTP client library would not send (a body cut short).
-int connect_loopback(int port) {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_port = htons(static_cast<uint16_t>(port));
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-    close(fd);
-    return -1;
-  }
-  return fd;
-}
-bool send_all(int fd, const std::string& s) {
-  size_t off = 0;
-  while (off < s.size()) {
-    const ssize_t n = send(fd, s.data() + off, s.size() - off, MSG_NOSIGNAL);
-    if (n <= 0) return false;
-    off += static_cast<size_t>(n);
-  }
-  return true;
-}
+using rgbdcast::test::connect_loopback;
+using rgbdcast::test::send_all;
 
 // One server for the suite: starting it and reducing frame 0 on it takes seconds, so the tests share them.
 class ServiceHttp : public ::testing::Test {

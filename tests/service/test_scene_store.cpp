@@ -112,3 +112,35 @@ TEST(ServiceStore, AtomicWriteLeavesNoTemporaryFile) {
   EXPECT_EQ(st.error().code, rgbdcast::ErrorCode::kIo);
   fs::remove_all(dir);
 }
+
+// Issue 11: a truncated metadata file, or one whose field has the wrong type, is moved to quarantine/ with its GLB;
+// the other scenes are served (before: exit 2 on the first, SIGABRT on the second).
+TEST(ServiceStore, BadMetadataIsQuarantinedAndTheRestServed) {
+  const std::string dir = rgbdcast::test::temp_dir("store-quarantine");
+  std::string good, truncated, wrong_type;
+  {
+    auto store = SceneStore::open(dir);
+    ASSERT_TRUE(store.ok());
+    good = (*store)->put(bytes_of("glTF-good"), {{"triangles", 1}})->id;
+    truncated = (*store)->put(bytes_of("glTF-trunc"), {{"triangles", 2}})->id;
+    wrong_type = (*store)->put(bytes_of("glTF-type"), {{"triangles", 3}})->id;
+  }
+  const std::string scenes = dir + "/scenes/";
+  {
+    std::ofstream(scenes + truncated + ".json", std::ios::trunc) << "{\"id\": \"" << truncated << "\", \"byt";
+    std::ofstream(scenes + wrong_type + ".json", std::ios::trunc)
+        << "{\"id\": \"" << wrong_type << "\", \"bytes\": \"nine\", \"etag\": 7, \"created_unix_s\": []}";
+  }
+  auto store = SceneStore::open(dir);
+  ASSERT_TRUE(store.ok()) << store.error().message;
+  EXPECT_EQ((*store)->count(), 1u);
+  EXPECT_TRUE((*store)->get(good).has_value());
+  ASSERT_EQ((*store)->quarantined().size(), 2u);
+  for (const std::string& id : {truncated, wrong_type}) {
+    EXPECT_TRUE(fs::exists(dir + "/quarantine/" + id + ".json")) << id;
+    EXPECT_TRUE(fs::exists(dir + "/quarantine/" + id + ".glb")) << id;
+    EXPECT_FALSE(fs::exists(scenes + id + ".glb")) << id;
+  }
+  EXPECT_EQ(files_in(scenes), 2u);
+  fs::remove_all(dir);
+}

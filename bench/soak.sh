@@ -1,0 +1,70 @@
+#!/usr/bin/env bash
+# Soak test of `rgbdcast serve` (issue 11): 8 clients on loopback mix GLB uploads, views of random sizes and modes,
+# GLB downloads, listings and deletes for DURATION seconds, then the server stops by itself. Reports the number of
+# requests by status class, every 5xx, and RSS after warm-up vs at the end.
+#   bench/soak.sh [DURATION_S=1800] [CLIENTS=8] [BUILD_DIR=build]
+# Needs the TUM fr1/xyz frame 0 under ../shared/data (the first scene is reduced from it on the server).
+set -euo pipefail
+DURATION=${1:-1800}
+CLIENTS=${2:-8}
+BUILD=${3:-build}
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+WORK=$(mktemp -d /tmp/rgbdcast-soak.XXXXXX)
+source "$ROOT/bench/serve_common.sh"
+trap 'kill "$SERVER" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$WORK"' EXIT
+
+start_server "$WORK/store"
+[ "$(frame_upload "$WORK/first.json")" = 201 ] || { echo "soak: the first frame upload failed"; cat "$WORK/server.log"; exit 1; }
+ID=$(scene_id "$WORK/first.json")
+curl -sf -o "$WORK/scene.glb" "$BASE/v1/scenes/$ID/model.glb"
+echo "soak: server pid $SERVER, port $PORT, base scene $ID ($(stat -c %s "$WORK/scene.glb") bytes), $CLIENTS clients, ${DURATION} s"
+
+END=$(( $(date +%s) + DURATION ))
+client() {
+  local n=$1 log=$WORK/client$n.log mine=() code
+  RANDOM=$((n * 7919))
+  while [ "$(date +%s)" -lt "$END" ]; do
+    local r=$((RANDOM % 100)) w=$((16 + RANDOM % 1024)) h=$((16 + RANDOM % 768))
+    if [ $r -lt 10 ]; then
+      local out
+      out=$(curl -s -o "$WORK/up$n.json" -w '%{http_code}' -H 'Content-Type: model/gltf-binary' \
+        --data-binary "@$WORK/scene.glb" "$BASE/v1/scenes")
+      echo "POST $out" >> "$log"
+      [ "$out" = 201 ] && mine+=("$(scene_id "$WORK/up$n.json")")
+    elif [ $r -lt 16 ] && [ ${#mine[@]} -gt 0 ]; then
+      code=$(curl -s -o /dev/null -w '%{http_code}' -X DELETE "$BASE/v1/scenes/${mine[0]}")
+      echo "DELETE $code" >> "$log"
+      mine=("${mine[@]:1}")
+    elif [ $r -lt 20 ]; then
+      code=$(curl -s -o /dev/null -w '%{http_code}' "$BASE/v1/scenes/$ID/model.glb"); echo "GLB $code" >> "$log"
+    elif [ $r -lt 24 ]; then
+      code=$(curl -s -o /dev/null -w '%{http_code}' "$BASE/v1/scenes"); echo "LIST $code" >> "$log"
+    else
+      local mode=mesh; [ $((RANDOM % 4)) = 0 ] && mode=points
+      local target=$ID; [ ${#mine[@]} -gt 0 ] && [ $((RANDOM % 2)) = 0 ] && target=${mine[0]}
+      code=$(curl -s -o /dev/null -w '%{http_code}' \
+        "$BASE/v1/scenes/$target/view?pose=capture&width=$w&height=$h&mode=$mode&format=jpeg")
+      echo "VIEW $code" >> "$log"
+    fi
+  done
+}
+for n in $(seq "$CLIENTS"); do client "$n" & done
+WARM=$(( DURATION / 10 < 60 ? DURATION / 10 : 60 ))
+sleep "$WARM"
+RSS_WARM=$(rss_mib)
+: > "$WORK/rss.log"
+while [ "$(date +%s)" -lt "$END" ]; do echo "$(date +%s) $(rss_mib)" >> "$WORK/rss.log"; sleep 10; done
+wait $(jobs -p | grep -v "^$SERVER$") 2>/dev/null || true
+sleep 6  # idle: the server trims its heap and resets renderers that served large views
+RSS_END=$(rss_mib)
+RSS_MAX=$(awk 'BEGIN{m=0} {if ($2>m) m=$2} END{print m}' "$WORK/rss.log")
+cat "$WORK"/client*.log > "$WORK/all.log"
+TOTAL=$(wc -l < "$WORK/all.log")
+FIVE=$(awk '$2 ~ /^5/' "$WORK/all.log" | wc -l)
+ZERO=$(awk '$2 == "000"' "$WORK/all.log" | wc -l)
+echo "soak: $TOTAL requests in ${DURATION} s by $CLIENTS clients"
+awk '{c[$1" "$2]++} END{for (k in c) print "  " k, c[k]}' "$WORK/all.log" | sort
+echo "soak: 5xx $FIVE, no response $ZERO"
+awk -v w="$RSS_WARM" -v e="$RSS_END" -v m="$RSS_MAX" 'BEGIN{printf "soak: RSS after warm-up %.1f MiB, max %.1f MiB, end (after 6 s idle) %.1f MiB, growth %+.1f %%\n", w, m, e, (e-w)*100.0/w}'
+kill -0 "$SERVER" 2>/dev/null && echo "soak: server alive at the end" || { echo "soak: SERVER DIED"; exit 1; }
+[ "$FIVE" = 0 ] && [ "$ZERO" = 0 ]

@@ -1,0 +1,42 @@
+#include "service/routes.h"
+
+namespace rgbdcast::service {
+namespace {
+
+constexpr std::string_view kScenes = "/v1/scenes/";
+
+RouteMatch route(const char* label, const char* allow) { return RouteMatch{label, allow, true}; }
+
+}  // namespace
+
+bool RouteMatch::allows(std::string_view method) const {
+  if (!known || method.empty()) return false;
+  const std::string_view list = allow;
+  size_t start = 0;
+  while (start < list.size()) {
+    size_t end = list.find(", ", start);
+    if (end == std::string_view::npos) end = list.size();
+    if (list.substr(start, end - start) == method) return true;
+    start = end + 2;
+  }
+  return false;
+}
+
+RouteMatch match_route(std::string_view path) {
+  if (path == "/") return route("/", "GET, HEAD");
+  if (path == "/healthz") return route("/healthz", "GET, HEAD");
+  if (path == "/metrics") return route("/metrics", "GET, HEAD");
+  if (path == "/v1/scenes") return route("/v1/scenes", "GET, HEAD, POST");
+  if (path.substr(0, kScenes.size()) != kScenes) return {};
+  // /v1/scenes/{id}[/model.glb|/view]: the id is any non-empty segment here (a malformed id is the handler's 400).
+  const std::string_view rest = path.substr(kScenes.size());
+  const size_t slash = rest.find('/');
+  if (slash == 0 || rest.empty()) return {};
+  if (slash == std::string_view::npos) return route("/v1/scenes/{id}", "GET, HEAD, DELETE");
+  const std::string_view tail = rest.substr(slash);
+  if (tail == "/model.glb") return route("/v1/scenes/{id}/model.glb", "GET, HEAD");
+  if (tail == "/view") return route("/v1/scenes/{id}/view", "GET, HEAD, POST");
+  return {};
+}
+
+}  // namespace rgbdcast::service
