@@ -177,7 +177,7 @@ void register_reduce(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--simplify", args->params.simplify_error_m,
                   "Collapse edges while the surface moves less than this many metres (0 = off)")->capture_default_str();
-  cmd->add_option("--texture", args->texture, "atlas (undistorted per-triangle cells), frame (projective baseline) or auto (atlas when triangles are large)")
+  cmd->add_option("--texture", args->texture, "atlas (undistorted per-triangle cells), footprint (cells sized to each triangle's image footprint), frame (projective baseline) or auto (paper: atlas when triangles are large, else frame; realtime: frame, split to 0.5 px)")
       ->capture_default_str();
   cmd->add_option("--cell-size", args->atlas.cell_size_px, "Atlas cell side in texels")->capture_default_str();
   cmd->add_option("--jpeg-quality", args->atlas.jpeg_quality, "Texture JPEG quality 1..100")->capture_default_str();

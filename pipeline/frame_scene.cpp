@@ -88,6 +88,8 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   out.node.to_world = camera_to_world;
   AtlasOptions atlas = options.atlas;
   atlas.mode = resolve_texture(options);
+  // The realtime preset spends no texture bytes on pixels no triangle samples (they are filled smoothly).
+  if (options.params.preset == Preset::kRealtime && !atlas.fill_unsampled) atlas.fill_unsampled = true;
 
   // Mesh at a tolerance -> covered triangles dropped -> textured. The realtime preset prepares its hierarchy once.
   Result<RealtimeReduction> prepared = make_error(ErrorCode::kInternal, "not prepared");
@@ -145,48 +147,65 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     if (b.glb_bytes <= target) {
       b.rule = "fits";
     } else {
-      // Geometry: at most its share of the budget (triangle count scaled to the bytes, then the tolerance found by
-      // bisection on the count alone, which costs no encoding).
-      const double geometry_cap = options.budget_geometry_share * target;
-      if (b.geometry_bytes > geometry_cap) {
-        const double want = prepared->hierarchy.count(tol0) * geometry_cap / b.geometry_bytes;
+      // Geometry: at most its share of the budget. The triangle count is scaled to the bytes, and the tolerance is
+      // found by bisection on the count alone, which costs no encoding.
+      auto tolerance_for = [&](double want) {  // the smallest tolerance >= tol0 with at most `want` triangles
+        if (prepared->hierarchy.count(tol0) <= want) return tol0;
         double lo = tol0, hi = tol0;
         while (prepared->hierarchy.count(hi) > want && hi < kMaxToleranceFactor) lo = hi, hi *= 2;
+        hi = std::min(hi, kMaxToleranceFactor);
         for (int i = 0; i < 20 && hi / lo > 1.01; ++i) {
           const double mid = std::sqrt(lo * hi);
           (prepared->hierarchy.count(mid) > want ? lo : hi) = mid;
         }
-        b.tolerance_factor = hi;
+        return hi;
+      };
+      auto remesh = [&](double tolerance) -> Status {
         std::vector<StageReport> stages;
-        textured = texture_at(hi, &stages);
-        if (!textured) return textured.error();
+        auto t = texture_at(tolerance, &stages);
+        if (!t) return t.error();
+        textured = std::move(t);
         out.stages = std::move(stages);
-        if (auto s = encode_texture(textured->mesh, full_texture, kMaxQuality, 1.0); !s) return s.error();
-        if (auto s = measure(textured->mesh); !s) return s.error();
+        b.tolerance_factor = tolerance;
+        if (auto s = encode_texture(textured->mesh, full_texture, kMaxQuality, 1.0); !s) return s;
+        return measure(textured->mesh);
+      };
+      const double geometry_cap = options.budget_geometry_share * target;
+      b.rule = "texture-fitted";
+      if (b.geometry_bytes > geometry_cap) {
+        const double triangles = static_cast<double>(textured->mesh.triangle_count());
+        if (auto s = remesh(tolerance_for(triangles * geometry_cap / b.geometry_bytes)); !s) return s.error();
         b.rule = "geometry-capped";
-      } else {
-        b.rule = "texture-fitted";
+        // The texture at its best quality may leave bytes over: they go back to the mesh, once.
+        const double left = target - b.glb_bytes;
+        if (left > 0.05 * target && b.tolerance_factor > tol0) {
+          const double more = static_cast<double>(textured->mesh.triangle_count()) *
+                              (b.geometry_bytes + 0.9 * left) / std::max<double>(1.0, b.geometry_bytes);
+          if (auto s = remesh(tolerance_for(more)); !s) return s.error();
+        }
       }
       // Texture: the largest quality (then, below kMinQuality, a smaller scale) whose bytes fit what is left.
       const double texture_target = target - (b.glb_bytes - b.texture_bytes);
-      double scale = 1.0;
-      int q_lo = kMinQuality, q_hi = kMaxQuality;  // q_lo fits (after scaling), q_hi does not
-      for (;;) {
-        if (auto s = encode_texture(textured->mesh, full_texture, kMinQuality, scale); !s) return s.error();
-        ++b.encodes;
-        if (textured->mesh.texture_encoded.size() <= texture_target || scale * 0.7 < kMinTextureScale) break;
-        scale *= 0.7;
+      if (b.texture_bytes > texture_target) {  // else the best quality fits
+        double scale = 1.0;
+        int q_lo = kMinQuality, q_hi = kMaxQuality;  // q_lo fits (after scaling), q_hi does not
+        for (;;) {
+          if (auto s = encode_texture(textured->mesh, full_texture, kMinQuality, scale); !s) return s.error();
+          ++b.encodes;
+          if (textured->mesh.texture_encoded.size() <= texture_target || scale * 0.7 < kMinTextureScale) break;
+          scale *= 0.7;
+        }
+        while (q_hi - q_lo > 2) {
+          const int q = (q_lo + q_hi) / 2;
+          if (auto s = encode_texture(textured->mesh, full_texture, q, scale); !s) return s.error();
+          ++b.encodes;
+          (textured->mesh.texture_encoded.size() <= texture_target ? q_lo : q_hi) = q;
+        }
+        if (auto s = encode_texture(textured->mesh, full_texture, q_lo, scale); !s) return s.error();
+        b.jpeg_quality = q_lo;
+        b.texture_scale = scale;
+        if (auto s = measure(textured->mesh); !s) return s.error();
       }
-      while (q_hi - q_lo > 2) {
-        const int q = (q_lo + q_hi) / 2;
-        if (auto s = encode_texture(textured->mesh, full_texture, q, scale); !s) return s.error();
-        ++b.encodes;
-        (textured->mesh.texture_encoded.size() <= texture_target ? q_lo : q_hi) = q;
-      }
-      if (auto s = encode_texture(textured->mesh, full_texture, q_lo, scale); !s) return s.error();
-      b.jpeg_quality = q_lo;
-      b.texture_scale = scale;
-      if (auto s = measure(textured->mesh); !s) return s.error();
       if (b.glb_bytes > 1.1 * target) b.rule = "over-budget";
     }
     out.stages.push_back({"budget", "bytes", b.glb_bytes, ms_since(t0)});
