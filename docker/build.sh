@@ -56,7 +56,12 @@ done_step
 echo "docker/build.sh:   $IMAGE $("$DOCKER" image inspect -f '{{.Size}}' "$IMAGE") bytes"
 
 step "run $IMAGE, wait for /healthz"
-container="$("$DOCKER" run -d -p "127.0.0.1:$PORT:8080" "$IMAGE")"
+# The server refuses a non-loopback bind without a token: one for this check, and the address curl uses allowed.
+head -c 24 /dev/urandom | od -An -tx1 | tr -d ' \n' > "$work/token"
+chmod 644 "$work/token"
+container="$("$DOCKER" run -d -p "127.0.0.1:$PORT:8080" -v "$work/token:/run/secrets/rgbdcast-token:ro" "$IMAGE" \
+  rgbdcast serve --bind 0.0.0.0 --port 8080 --data-dir /var/lib/rgbdcast --token-file /run/secrets/rgbdcast-token \
+  --allow-origin "http://127.0.0.1:$PORT")"
 for _ in $(seq 1 60); do
   curl -fsS "http://127.0.0.1:$PORT/healthz" > "$work/healthz.json" 2>/dev/null && break
   sleep 0.5
@@ -79,6 +84,7 @@ fi
 
 step "upload $(basename "$scene") ($(stat -c %s "$scene") bytes) and fetch a view"
 code="$(curl -sS -o "$work/upload.json" -w '%{http_code}' -H 'Content-Type: model/gltf-binary' \
+  -H "Authorization: Bearer $(cat "$work/token")" \
   --data-binary "@$scene" "http://127.0.0.1:$PORT/v1/scenes")"
 [ "$code" = 201 ] || die "POST /v1/scenes answered $code: $(cat "$work/upload.json")"
 id="$(sed -n 's/.*"id": *"\([^"]*\)".*/\1/p' "$work/upload.json" | head -1)"
