@@ -88,6 +88,8 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   out.node.to_world = camera_to_world;
   AtlasOptions atlas = options.atlas;
   atlas.mode = resolve_texture(options);
+  // A budget starts from the best quality, so the texture is encoded once at it, not again.
+  if (options.budget_kb > 0) atlas.jpeg_quality = kMaxQuality;
   // The realtime preset spends no texture bytes on pixels no triangle samples (they are filled smoothly).
   if (options.params.preset == Preset::kRealtime && !atlas.fill_unsampled) atlas.fill_unsampled = true;
 
@@ -125,7 +127,6 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     b.budget_bytes = options.budget_kb * 1000.0;
     const double target = b.budget_bytes - kExtrasReserveBytes;
     b.tolerance_factor = tol0;
-    b.jpeg_quality = atlas.jpeg_quality;
     const Image full_texture = textured->mesh.texture;
     GlbStats st;
     auto measure = [&](const Mesh& mesh) -> Status {
@@ -140,8 +141,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
       b.glb_bytes = glb->size();
       return ok_status();
     };
-    // The scene's own need: default tolerance at the best quality.
-    if (auto s = encode_texture(textured->mesh, full_texture, kMaxQuality, 1.0); !s) return s.error();
+    // The scene's own need: default tolerance at the best quality (texture_at encoded it so).
     b.jpeg_quality = kMaxQuality;
     if (auto s = measure(textured->mesh); !s) return s.error();
     if (b.glb_bytes <= target) {
@@ -167,8 +167,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
         textured = std::move(t);
         out.stages = std::move(stages);
         b.tolerance_factor = tolerance;
-        if (auto s = encode_texture(textured->mesh, full_texture, kMaxQuality, 1.0); !s) return s;
-        return measure(textured->mesh);
+        return measure(textured->mesh);  // its texture at the best quality, as texture_at encoded it
       };
       const double geometry_cap = options.budget_geometry_share * target;
       b.rule = "texture-fitted";

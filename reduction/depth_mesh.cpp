@@ -55,13 +55,22 @@ cv::Mat log_depth(const cv::Mat& depth_m) {
 
 }  // namespace
 
+Status DepthFilterParams::validate() const {
+  if (!(std::isfinite(jump_relative) && jump_relative > 0 && jump_relative < 10))
+    return make_error(ErrorCode::kInvalidArgument, "depth jump must be between 0 and 10 (relative)");
+  if (min_region_px < 0 || min_region_px > 1000000)
+    return make_error(ErrorCode::kInvalidArgument, "speckle size must be 0..1000000 pixels");
+  if (min_support < 0 || min_support > 8)
+    return make_error(ErrorCode::kInvalidArgument, "flying-pixel support must be 0..8 neighbours");
+  if (gap_fill_px < 0 || gap_fill_px > 64 || smooth_px < 0 || smooth_px > 64)
+    return make_error(ErrorCode::kInvalidArgument, "gap fill and smoothing radii must be 0..64 pixels");
+  return ok_status();
+}
+
 Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilterParams& p) {
   if (depth_m.empty() || depth_m.type() != CV_32FC1)
     return make_error(ErrorCode::kInvalidArgument, "depth filter: depth must be a non-empty CV_32FC1 image");
-  if (!(std::isfinite(p.jump_relative) && p.jump_relative > 0 && p.jump_relative < 10))
-    return make_error(ErrorCode::kInvalidArgument, "depth filter: jump must be between 0 and 10 (relative)");
-  if (p.min_region_px < 0 || p.min_support < 0 || p.min_support > 8)
-    return make_error(ErrorCode::kInvalidArgument, "depth filter: region size >= 0 and support 0..8");
+  if (auto st = p.validate(); !st) return st.error();
   DepthFilterResult r;
   const int w = depth_m.cols, h = depth_m.rows;
   cv::Mat l = log_depth(depth_m);

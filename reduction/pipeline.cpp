@@ -28,12 +28,7 @@ ReductionParams reduction_preset(Preset preset) {
 Status ReductionParams::validate() const {
   if (preset == Preset::kRealtime) {
     if (auto st = depth_mesh.validate(); !st) return st;
-    if (!(std::isfinite(filter.jump_relative) && filter.jump_relative > 0 && filter.jump_relative < 10))
-      return make_error(ErrorCode::kInvalidArgument, "depth jump must be between 0 and 10 (relative)");
-    if (filter.min_region_px < 0 || filter.min_region_px > 1000000)
-      return make_error(ErrorCode::kInvalidArgument, "speckle size must be 0..1000000 pixels");
-    if (filter.min_support < 0 || filter.min_support > 8)
-      return make_error(ErrorCode::kInvalidArgument, "flying-pixel support must be 0..8 neighbours");
+    if (auto st = filter.validate(); !st) return st;
   }
   auto positive = [](double v) { return std::isfinite(v) && v > 0; };
   if (outlier_k < 1 || outlier_k > 1000) return make_error(ErrorCode::kInvalidArgument, "outlier K must be 1..1000");
@@ -137,8 +132,7 @@ Result<RealtimeReduction> prepare_realtime(const RgbdFrame& frame, const Reducti
   std::vector<StageReport> stages;
   StageTimer timer(&stages);
   // An organized cloud (PCD) carries its own depth image in depth_m (z of each point).
-  DepthFilterParams fp = params.filter;
-  auto filtered = filter_depth(frame.depth_m, fp);
+  auto filtered = filter_depth(frame.depth_m, params.filter);
   if (!filtered) return filtered.error();
   // valid and filter share one pass; the split of the time is not worth a second one.
   stages.push_back({"valid", "points", filtered->valid, 0.0});
