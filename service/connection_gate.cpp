@@ -173,6 +173,7 @@ struct GatedServer::Impl {
   GatedServer* server = nullptr;
   GateOptions options;
   int epoll_fd = -1;
+  int listen_fd = -1;
   std::atomic<bool> stopping{false};
   mutable std::mutex mutex;
   std::condition_variable ready_cv;
@@ -338,9 +339,10 @@ GatedServer::GatedServer(const GateOptions& options) : impl_(std::make_unique<Im
   set_keep_alive_max_count(static_cast<size_t>(std::max(1, options.max_requests_per_connection)));
   set_keep_alive_timeout(static_cast<time_t>(std::max(1.0, options.idle_timeout_s)));
   // Only SO_REUSEADDR: httplib's default also sets SO_REUSEPORT, which lets a second server share the port.
-  set_socket_options([](socket_t sock) {
+  set_socket_options([impl = impl_.get()](socket_t sock) {
     int yes = 1;
     ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    impl->listen_fd = sock;  // the last socket httplib tried is the one it bound
   });
   impl_->gate = std::thread([this] { impl_->run_gate(); });
   for (int i = 0; i < impl_->options.workers; ++i) impl_->workers.emplace_back([this] { impl_->run_worker(); });
@@ -369,6 +371,10 @@ GateStats GatedServer::stats() const {
   std::lock_guard lock(impl_->mutex);
   s.waiting = impl_->waiting.size();
   return s;
+}
+
+bool GatedServer::widen_backlog(int backlog) {
+  return impl_->listen_fd >= 0 && ::listen(impl_->listen_fd, backlog) == 0;
 }
 
 void GatedServer::close_after_response() { t_close_after = true; }

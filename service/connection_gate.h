@@ -47,6 +47,10 @@ class GatedServer : public httplib::Server {
 
   // Stops the gate and the workers and closes every connection (call after stop(), or from the destructor).
   void shut_down();
+  // After bind_to_port / bind_to_any_port: httplib 0.11.4 listens with a backlog of 5, so a burst of connections
+  // (slow clients reconnecting when the gate cuts them) overflows the accept queue, the kernel drops SYNs and a fresh
+  // client waits for its 1 s SYN retransmit. Listening again on the bound socket raises the backlog (Linux).
+  bool widen_backlog(int backlog = 1024);
   GateStats stats() const;
   // From a handler: close the connection once this response is written.
   static void close_after_response();

@@ -548,6 +548,7 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
                                             "this machine's");
     impl->port = options.port;
   }
+  if (!impl->server->widen_backlog()) return make_error(ErrorCode::kIo, "cannot set the listen backlog");
   impl->guard = make_guard_config(options.bind, impl->port, options.allow_origins, options.token,
                                   options.max_body_bytes);
   impl->routes();
