@@ -23,6 +23,9 @@ constexpr int kMinQuality = 20, kMaxQuality = 92;
 // below what they allow is not met; the report says so ("over-budget").
 constexpr double kMaxToleranceFactor = 32;
 constexpr double kMinTextureScale = 0.5;
+// Geometry bytes per triangle of the compact GLB (meshopt + quantization) before one is measured: the median of the
+// realtime preset's meshes on the shared frames is 4.5 (bench/realtime_bench). Only the first guess depends on it.
+constexpr double kPriorBytesPerTriangle = 4.5;
 
 TextureMode resolve_texture(const FrameReductionOptions& o) {
   if (o.texture != TextureMode::kAuto) return o.texture;
@@ -36,21 +39,23 @@ Scene node_scene(const SceneNode& node, const CaptureCamera& camera) {
   return s;
 }
 
-// Re-encodes the node's texture at a quality and scale (the mesh's UVs are relative, so a scaled texture needs no
-// change to them).
-Status encode_texture(Mesh& mesh, const Image& full, int quality, double scale) {
-  Image im = full;
-  if (scale < 1.0) {
-    const cv::Mat src(full.height, full.width, CV_8UC3, const_cast<std::uint8_t*>(full.data.data()));
-    cv::Mat small;
-    cv::resize(src, small, cv::Size(std::max(1, int(std::lround(full.width * scale))),
-                                    std::max(1, int(std::lround(full.height * scale)))),
-               0, 0, cv::INTER_AREA);
-    im = image_from_rgb_mat(small);
-  }
+// The texture at a resolution scale (INTER_AREA: an integer factor such as 0.5 takes OpenCV's fast path). The
+// mesh's UVs are relative, so a scaled texture needs no change to them.
+Image scaled_texture(const Image& full, double scale) {
+  if (scale >= 1.0) return full;
+  const cv::Mat src(full.height, full.width, CV_8UC3, const_cast<std::uint8_t*>(full.data.data()));
+  cv::Mat small;
+  cv::resize(src, small, cv::Size(std::max(1, int(std::lround(full.width * scale))),
+                                  std::max(1, int(std::lround(full.height * scale)))),
+             0, 0, cv::INTER_AREA);
+  return image_from_rgb_mat(small);
+}
+
+// Re-encodes the node's texture from `im` at a quality.
+Status encode_texture(Mesh& mesh, const Image& im, int quality) {
   auto jpeg = encode_jpeg(im, quality);
   if (!jpeg) return jpeg.error();
-  mesh.texture = std::move(im);
+  mesh.texture = im;
   mesh.texture_encoded = std::move(*jpeg);
   mesh.texture_mime = "image/jpeg";
   return ok_status();
@@ -118,97 +123,138 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   };
 
   const double tol0 = options.params.depth_mesh.tolerance_factor;
-  auto textured = texture_at(tol0, &out.stages);
-  if (!textured) return textured.error();
-
-  if (options.budget_kb > 0) {
-    const auto t0 = Clock::now();
-    BudgetChoice& b = out.budget;
-    b.budget_bytes = options.budget_kb * 1000.0;
-    const double target = b.budget_bytes - kExtrasReserveBytes;
-    b.tolerance_factor = tol0;
-    const Image full_texture = textured->mesh.texture;
-    GlbStats st;
-    auto measure = [&](const Mesh& mesh) -> Status {
-      SceneNode probe;
-      probe.mesh = mesh;
-      probe.to_world = camera_to_world;
-      auto glb = encode_glb(node_scene(probe, out.camera), options.glb, &st);
-      ++b.encodes;
-      if (!glb) return glb.error();
-      b.geometry_bytes = st.geometry_bytes;
-      b.texture_bytes = st.texture_bytes;
-      b.glb_bytes = glb->size();
-      return ok_status();
-    };
-    // The scene's own need: default tolerance at the best quality (texture_at encoded it so).
-    b.jpeg_quality = kMaxQuality;
-    if (auto s = measure(textured->mesh); !s) return s.error();
-    if (b.glb_bytes <= target) {
-      b.rule = "fits";
-    } else {
-      // Geometry: at most its share of the budget. The triangle count is scaled to the bytes, and the tolerance is
-      // found by bisection on the count alone, which costs no encoding.
-      auto tolerance_for = [&](double want) {  // the smallest tolerance >= tol0 with at most `want` triangles
-        if (prepared->hierarchy.count(tol0) <= want) return tol0;
-        double lo = tol0, hi = tol0;
-        while (prepared->hierarchy.count(hi) > want && hi < kMaxToleranceFactor) lo = hi, hi *= 2;
-        hi = std::min(hi, kMaxToleranceFactor);
-        for (int i = 0; i < 20 && hi / lo > 1.01; ++i) {
-          const double mid = std::sqrt(lo * hi);
-          (prepared->hierarchy.count(mid) > want ? lo : hi) = mid;
-        }
-        return hi;
-      };
-      auto remesh = [&](double tolerance) -> Status {
-        std::vector<StageReport> stages;
-        auto t = texture_at(tolerance, &stages);
-        if (!t) return t.error();
-        textured = std::move(t);
-        out.stages = std::move(stages);
-        b.tolerance_factor = tolerance;
-        return measure(textured->mesh);  // its texture at the best quality, as texture_at encoded it
-      };
-      const double geometry_cap = options.budget_geometry_share * target;
-      b.rule = "texture-fitted";
-      if (b.geometry_bytes > geometry_cap) {
-        const double triangles = static_cast<double>(textured->mesh.triangle_count());
-        if (auto s = remesh(tolerance_for(triangles * geometry_cap / b.geometry_bytes)); !s) return s.error();
-        b.rule = "geometry-capped";
-        // The texture at its best quality may leave bytes over: they go back to the mesh, once.
-        const double left = target - b.glb_bytes;
-        if (left > 0.05 * target && b.tolerance_factor > tol0) {
-          const double more = static_cast<double>(textured->mesh.triangle_count()) *
-                              (b.geometry_bytes + 0.9 * left) / std::max<double>(1.0, b.geometry_bytes);
-          if (auto s = remesh(tolerance_for(more)); !s) return s.error();
-        }
-      }
-      // Texture: the largest quality (then, below kMinQuality, a smaller scale) whose bytes fit what is left.
-      const double texture_target = target - (b.glb_bytes - b.texture_bytes);
-      if (b.texture_bytes > texture_target) {  // else the best quality fits
-        double scale = 1.0;
-        int q_lo = kMinQuality, q_hi = kMaxQuality;  // q_lo fits (after scaling), q_hi does not
-        for (;;) {
-          if (auto s = encode_texture(textured->mesh, full_texture, kMinQuality, scale); !s) return s.error();
-          ++b.encodes;
-          if (textured->mesh.texture_encoded.size() <= texture_target || scale * 0.7 < kMinTextureScale) break;
-          scale *= 0.7;
-        }
-        while (q_hi - q_lo > 2) {
-          const int q = (q_lo + q_hi) / 2;
-          if (auto s = encode_texture(textured->mesh, full_texture, q, scale); !s) return s.error();
-          ++b.encodes;
-          (textured->mesh.texture_encoded.size() <= texture_target ? q_lo : q_hi) = q;
-        }
-        if (auto s = encode_texture(textured->mesh, full_texture, q_lo, scale); !s) return s.error();
-        b.jpeg_quality = q_lo;
-        b.texture_scale = scale;
-        if (auto s = measure(textured->mesh); !s) return s.error();
-      }
-      if (b.glb_bytes > 1.1 * target) b.rule = "over-budget";
-    }
-    out.stages.push_back({"budget", "bytes", b.glb_bytes, ms_since(t0)});
+  if (options.budget_kb <= 0) {
+    auto textured = texture_at(tol0, &out.stages);
+    if (!textured) return textured.error();
+    out.node.mesh = std::move(textured->mesh);
+    out.atlas_stats = std::move(*textured);
+    out.atlas_stats.mesh = Mesh{};
+    return out;
   }
+
+  // A budget (realtime preset, so the hierarchy is prepared). The mesh is extracted at a tolerance chosen from the
+  // triangle count, which costs no encoding, and a bytes-per-triangle figure: first the codec's prior, then the one
+  // just measured. So the frame is meshed, textured and encoded once or twice, not at every step of a search.
+  const auto t0 = Clock::now();
+  BudgetChoice& b = out.budget;
+  b.budget_bytes = options.budget_kb * 1000.0;
+  const double target = b.budget_bytes - kExtrasReserveBytes;
+  const double geometry_cap = options.budget_geometry_share * target;
+  const DepthMeshHierarchy& hierarchy = prepared->hierarchy;
+  double bytes_per_triangle = kPriorBytesPerTriangle;
+  double kept = 1.0;  // triangles left after dropping those earlier views cover, over those extracted
+  Result<AtlasResult> textured = make_error(ErrorCode::kInternal, "not meshed");
+  GlbStats st;
+  auto measure = [&](const Mesh& mesh) -> Status {
+    SceneNode probe;
+    probe.mesh = mesh;
+    probe.to_world = camera_to_world;
+    auto glb = encode_glb(node_scene(probe, out.camera), options.glb, &st);
+    ++b.encodes;
+    if (!glb) return glb.error();
+    b.geometry_bytes = st.geometry_bytes;
+    b.texture_bytes = st.texture_bytes;
+    b.glb_bytes = glb->size();
+    return ok_status();
+  };
+  // The smallest tolerance >= tol0 whose mesh has at most `want` triangles (bisection on the count alone).
+  auto tolerance_for = [&](double want) {
+    want /= kept;
+    if (hierarchy.count(tol0) <= want) return tol0;
+    double lo = tol0, hi = tol0;
+    while (hi < kMaxToleranceFactor && hierarchy.count(hi) > want) lo = hi, hi *= 2;
+    hi = std::min(hi, kMaxToleranceFactor);
+    for (int i = 0; i < 12 && hi / lo > 1.02; ++i) {
+      const double mid = std::sqrt(lo * hi);
+      (hierarchy.count(mid) > want ? lo : hi) = mid;
+    }
+    return hi;
+  };
+  auto remesh = [&](double tolerance) -> Status {
+    std::vector<StageReport> stages;
+    auto t = texture_at(tolerance, &stages);  // its texture at the best quality
+    if (!t) return t.error();
+    const double extracted = static_cast<double>(hierarchy.count(tolerance));
+    const double triangles = static_cast<double>(t->mesh.triangle_count());
+    kept = extracted > 0 ? std::max(0.05, triangles / extracted) : 1.0;
+    textured = std::move(t);
+    out.stages = std::move(stages);
+    b.tolerance_factor = tolerance;
+    if (auto s = measure(textured->mesh); !s) return s;
+    bytes_per_triangle = static_cast<double>(b.geometry_bytes) / std::max(1.0, triangles);
+    return ok_status();
+  };
+  auto geometry_for = [&](double bytes) { return tolerance_for(bytes / bytes_per_triangle); };
+
+  b.jpeg_quality = kMaxQuality;
+  if (auto s = remesh(geometry_for(geometry_cap)); !s) return s.error();
+  // One correction when the prior was off by more than 10 %.
+  if (b.geometry_bytes > 1.1 * geometry_cap && b.tolerance_factor < kMaxToleranceFactor)
+    if (auto s = remesh(geometry_for(geometry_cap)); !s) return s.error();
+  b.rule = b.tolerance_factor > tol0 ? "geometry-capped" : "texture-fitted";
+  if (b.glb_bytes <= target) {
+    // The texture at its best quality leaves bytes over: they go back to the mesh, once.
+    const double left = target - static_cast<double>(b.glb_bytes);
+    if (left > 0.05 * target && b.tolerance_factor > tol0) {
+      if (auto s = remesh(geometry_for(static_cast<double>(b.geometry_bytes) + 0.9 * left)); !s) return s.error();
+    }
+    if (b.tolerance_factor <= tol0 && b.glb_bytes <= target) b.rule = "fits";
+  }
+  // Texture: the largest quality (at full, then half resolution) whose bytes fit what is left. JPEG bytes are close
+  // to exponential in the quality over 20..92, so the quality is interpolated on log bytes between two encodes and
+  // refined once, instead of bisected.
+  const double texture_target = target - static_cast<double>(b.glb_bytes - b.texture_bytes);
+  if (static_cast<double>(b.texture_bytes) > texture_target) {
+    const Image full_texture = textured->mesh.texture;
+    Image half;
+    auto source = [&](double scale) -> const Image& {
+      if (scale >= 1.0) return full_texture;
+      if (half.data.empty()) half = scaled_texture(full_texture, scale);
+      return half;
+    };
+    int encoded_q = kMaxQuality;
+    double encoded_scale = 1.0;
+    auto bytes_at = [&](int q, double scale) -> Result<double> {
+      if (auto s = encode_texture(textured->mesh, source(scale), q); !s) return s.error();
+      encoded_q = q, encoded_scale = scale;
+      ++b.encodes;
+      return static_cast<double>(textured->mesh.texture_encoded.size());
+    };
+    double scale = 1.0;
+    int q_hi = kMaxQuality;  // bytes at q_hi (at this scale) do not fit
+    double bytes_hi = static_cast<double>(b.texture_bytes);
+    int q_lo = kMinQuality;
+    auto lo = bytes_at(q_lo, scale);
+    if (!lo) return lo.error();
+    if (*lo > texture_target) {  // the least quality does not fit at full resolution: half resolution
+      scale = kMinTextureScale;
+      lo = bytes_at(q_lo, scale);
+      if (!lo) return lo.error();
+      if (*lo <= texture_target) {
+        auto hi = bytes_at(q_hi, scale);
+        if (!hi) return hi.error();
+        bytes_hi = *hi;
+      }
+    }
+    double bytes_lo = *lo;
+    if (bytes_lo <= texture_target && bytes_hi > texture_target) {
+      for (int step = 0; step < 3 && q_hi - q_lo > 2; ++step) {
+        const double f = std::log(texture_target / bytes_lo) / std::log(bytes_hi / bytes_lo);
+        const int q = std::clamp(static_cast<int>(std::floor(q_lo + f * (q_hi - q_lo))), q_lo + 1, q_hi - 1);
+        auto bq = bytes_at(q, scale);
+        if (!bq) return bq.error();
+        if (*bq <= texture_target) q_lo = q, bytes_lo = *bq;
+        else q_hi = q, bytes_hi = *bq;
+      }
+    }
+    if (encoded_q != q_lo || encoded_scale != scale)
+      if (auto s = encode_texture(textured->mesh, source(scale), q_lo); !s) return s.error();
+    b.jpeg_quality = q_lo;
+    b.texture_scale = scale;
+    if (auto s = measure(textured->mesh); !s) return s.error();
+  }
+  if (b.glb_bytes > 1.1 * target) b.rule = "over-budget";
+  out.stages.push_back({"budget", "bytes", b.glb_bytes, ms_since(t0)});
   out.node.mesh = std::move(textured->mesh);
   out.atlas_stats = std::move(*textured);
   out.atlas_stats.mesh = Mesh{};

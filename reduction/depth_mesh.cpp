@@ -191,6 +191,7 @@ struct RtinTable {
   int S = 0;
   std::vector<std::int16_t> ax, ay, bx, by, cx, cy;  // indexed by id, 2 .. 4 S^2 - 1
   std::vector<std::int32_t> leaf_of_point;           // S * S
+  std::vector<std::int32_t> point_of_leaf;           // the inverse: y * S + x, or -1 (by id - first_leaf)
   int first_leaf() const { return 2 * S * S; }
   int end() const { return 4 * S * S; }
 
@@ -217,6 +218,9 @@ struct RtinTable {
       auto& slot = leaf_of_point[static_cast<size_t>(y0) * S + x0];
       if (has && slot < 0) slot = id;
     }
+    point_of_leaf.assign(static_cast<size_t>(end() - first_leaf()), -1);
+    for (int p = 0; p < S * S; ++p)
+      if (leaf_of_point[p] >= 0) point_of_leaf[leaf_of_point[p] - first_leaf()] = p;
   }
 };
 
@@ -312,23 +316,28 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
 
 #pragma omp parallel
   {
-    std::vector<Moments> m(end);
+    // Moments of the internal triangles only: a leaf owns at most one grid point, so the lowest internal level
+    // sums its two leaves' pixels directly.
+    std::vector<Moments> m(first_leaf);
 #pragma omp for schedule(static)
     for (int tile = 0; tile < tiles; ++tile) {
       const int ox = (tile % h.tiles_x_) * S, oy = (tile / h.tiles_x_) * S;
-      for (int id = first_leaf; id < end; ++id) m[id] = Moments{};
-      for (int y = 0; y < S; ++y) {
-        for (int x = 0; x < S; ++x) {
-          Moments& l = m[t.leaf_of_point[static_cast<size_t>(y) * S + x]];
-          ++l.total;
-          const int gx = ox + x, gy = oy + y;
-          if (gx >= h.width_ || gy >= h.height_) continue;
-          const float z = depth_m.at<float>(gy, gx);
-          if (!(z > 0.f)) continue;
-          const double w = 1.0 / z, u = x, v = y;
-          l.n += 1, l.su += u, l.sv += v, l.sw += w, l.suu += u * u, l.suv += u * v, l.svv += v * v;
-          l.suw += u * w, l.svw += v * w, l.sww += w * w;
-        }
+      auto add_point = [&](Moments& mt, int point) {
+        if (point < 0) return;
+        ++mt.total;
+        const int x = point % S, y = point / S, gx = ox + x, gy = oy + y;
+        if (gx >= h.width_ || gy >= h.height_) return;
+        const float z = depth_m.at<float>(gy, gx);
+        if (!(z > 0.f)) return;
+        const double w = 1.0 / z, u = x, v = y;
+        mt.n += 1, mt.su += u, mt.sv += v, mt.sw += w, mt.suu += u * u, mt.suv += u * v, mt.svv += v * v;
+        mt.suw += u * w, mt.svw += v * w, mt.sww += w * w;
+      };
+      for (int id = first_leaf / 2; id < first_leaf; ++id) {
+        Moments& mt = m[id];
+        mt = Moments{};
+        add_point(mt, t.point_of_leaf[2 * id - first_leaf]);
+        add_point(mt, t.point_of_leaf[2 * id + 1 - first_leaf]);
       }
       auto depth_at = [&](int x, int y) { return D[static_cast<size_t>(oy + y) * GW + (ox + x)]; };
       // Tile-local coordinates of a vertex after the snap onto the image's last pixel.
@@ -347,8 +356,10 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
       float* err = &tri_error[static_cast<size_t>(tile) * first_leaf];
       for (int id = first_leaf - 1; id >= 2; --id) {
         Moments& mt = m[id];
-        mt = m[2 * id];
-        mt.add(m[2 * id + 1]);
+        if (id < first_leaf / 2) {
+          mt = m[2 * id];
+          mt.add(m[2 * id + 1]);
+        }
         const double px[3] = {sx(t.ax[id]), sx(t.bx[id]), sx(t.cx[id])};
         const double py[3] = {sy(t.ay[id]), sy(t.by[id]), sy(t.cy[id])};
         const double z[3] = {depth_at(t.ax[id], t.ay[id]), depth_at(t.bx[id], t.by[id]),
