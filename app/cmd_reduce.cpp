@@ -159,6 +159,12 @@ void register_reduce(CLI::App& app) {
   cmd->add_option("--texture-deviation", args->params.depth_mesh.texture_deviation_px,
                   "Realtime: split triangles until affine texturing is within this many pixels of the projective "
                   "mapping (0 = off)")->capture_default_str();
+  cmd->add_option("--simplify-px", args->params.depth_mesh.simplify_px,
+                  "Realtime: collapse edges while the mesh moves less than this many pixels across the image or sigma "
+                  "in depth (straightens outlines; 0 = off)")->capture_default_str();
+  cmd->add_option("--boundary-lost-px", args->params.depth_mesh.boundary_max_lost_px,
+                  "Realtime: a triangle on a hole's or the image's edge splits when keeping it whole would drop more "
+                  "than this many valid pixels")->capture_default_str();
   cmd->add_option("--outliers", args->params.outlier_method,
                   "Outlier neighbour search: kdtree (PCL, the paper's) or organized (image window, faster)")
       ->transform(CLI::CheckedTransformer(std::map<std::string, OutlierMethod>{

@@ -30,6 +30,8 @@ nlohmann::json params_json(const ReduceArgs& a) {
                       {"depth_noise", a.params.depth_mesh.noise_m_per_m2},
                       {"jump_relative", a.params.depth_mesh.jump_relative},
                       {"tile_px", a.params.depth_mesh.tile_px},
+                      {"simplify_px", a.params.depth_mesh.simplify_px},
+                      {"boundary_lost_px", a.params.depth_mesh.boundary_max_lost_px},
                       {"speckle_px", a.params.filter.min_region_px},
                       {"outliers", a.params.outlier_method == OutlierMethod::kKdTree ? "kdtree" : "organized"},
           {"outlier_k", a.params.outlier_k},

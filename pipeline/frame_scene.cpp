@@ -193,10 +193,14 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     if (auto s = remesh(geometry_for(geometry_cap)); !s) return s.error();
   b.rule = b.tolerance_factor > tol0 ? "geometry-capped" : "texture-fitted";
   if (b.glb_bytes <= target) {
-    // The texture at its best quality leaves bytes over: they go back to the mesh, once.
-    const double left = target - static_cast<double>(b.glb_bytes);
-    if (left > 0.05 * target && b.tolerance_factor > tol0) {
+    // The texture at its best quality leaves bytes over: they go back to the mesh (at most three times: the bytes a
+    // triangle costs, and the share of triangles the collapses keep, change with the tolerance).
+    for (int round = 0; round < 3; ++round) {
+      const double left = target - static_cast<double>(b.glb_bytes);
+      if (left <= 0.05 * target || b.tolerance_factor <= tol0) break;
+      const double before = b.tolerance_factor;
       if (auto s = remesh(geometry_for(static_cast<double>(b.geometry_bytes) + 0.9 * left)); !s) return s.error();
+      if (b.tolerance_factor == before) break;
     }
     if (b.tolerance_factor <= tol0 && b.glb_bytes <= target) b.rule = "fits";
   }

@@ -181,6 +181,10 @@ Status DepthMeshParams::validate() const {
     return make_error(ErrorCode::kInvalidArgument, "tile size must be a power of two, 2..128");
   if (!(std::isfinite(boundary_px_per_sigma) && boundary_px_per_sigma > 0))
     return make_error(ErrorCode::kInvalidArgument, "boundary pixels per sigma must be > 0");
+  if (!(std::isfinite(boundary_max_lost_px) && boundary_max_lost_px >= 0))
+    return make_error(ErrorCode::kInvalidArgument, "boundary pixels lost must be >= 0");
+  if (!(std::isfinite(simplify_px) && simplify_px >= 0 && simplify_px <= 64))
+    return make_error(ErrorCode::kInvalidArgument, "simplification error must be 0..64 pixels (0 = off)");
   if (!(std::isfinite(boundary_push_px) && boundary_push_px >= 0 && boundary_push_px <= 1))
     return make_error(ErrorCode::kInvalidArgument, "boundary push must be 0..1 pixels");
   return ok_status();
@@ -311,6 +315,7 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
   const double sigma_w = p.noise_m_per_m2;
   const double leg_ratio = 1 + p.jump_relative, diagonal_ratio = std::pow(leg_ratio, M_SQRT2);  // leaves
   const bool texture_split = p.texture_deviation_px > 0;
+  const double max_lost = p.boundary_max_lost_px;
   const std::vector<float>& D = h.depth_;
   const int GW = h.grid_w_;
 
@@ -367,9 +372,10 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
         if (z[0] <= 0 || z[1] <= 0 || z[2] <= 0) {
           // On the edge of the valid depth: a triangle that stays whole here is not emitted, so its valid pixels
           // beyond those along one edge (which its neighbour across that edge covers) would be lost. Its error
-          // is that loss, boundary_px_per_sigma pixels to a sigma: at the default tolerance a few pixels of a
-          // ragged border go, and a byte budget can trade more of them for bytes.
-          err[id] = static_cast<float>(std::max(0.0, mt.n - (longest[id] + 1)) / p.boundary_px_per_sigma);
+          // is that loss, boundary_px_per_sigma pixels to a sigma, up to boundary_max_lost_px: past that it
+          // splits whatever the tolerance, so a byte budget trades interior detail, not coverage, for bytes.
+          const double lost = std::max(0.0, mt.n - (longest[id] + 1));
+          err[id] = lost > max_lost ? kInf : static_cast<float>(lost / p.boundary_px_per_sigma);
           continue;
         }
         if (mt.total - mt.n > p.max_hole_fraction * mt.total) {

@@ -58,6 +58,15 @@ struct DepthMeshParams {
   double jump_relative = 0.08;        // as DepthFilterParams: per pixel of edge length
   double boundary_px_per_sigma = 1.0; // a border triangle dropped whole loses its inner valid pixels: this many cost
                                       // as much as one sigma of fit error
+  double boundary_max_lost_px = 2.0;  // ... and it splits, whatever the tolerance, when it would lose more than this
+                                      // many (a budget then trades interior detail, not coverage, for bytes)
+  // After extraction (extract_realtime): edge collapses while the mesh moves less than this many pixels across the
+  // image or sigma of inverse depth (meshoptimizer's quadric simplifier in (u, v, w / sigma_w) space; 0: off). The
+  // RTIN follows a discontinuity or a hole's edge in one-pixel steps, 2-4 triangles a pixel of outline; the
+  // collapses turn each straight run into a few long edges. Away from the outline, vertices move only where the
+  // surface is close enough to fronto-parallel that affine texturing stays near texture_deviation_px on triangles
+  // of up to 48 pixels (reduction/simplify.cpp).
+  double simplify_px = 1.0;
   double max_hole_fraction = 0.5;     // a triangle may bridge invalid pixels up to this fraction of its pixels
   double texture_deviation_px = 0.5;  // split while affine texture interpolation deviates more (0: no such split)
   int tile_px = 128;                  // largest triangle legs; a power of two, 2..128
@@ -83,6 +92,7 @@ class DepthMeshHierarchy {
   size_t count(double tolerance_factor) const;
 
   int width() const { return width_; }
+  const DepthMeshParams& params() const { return params_; }
   int height() const { return height_; }
 
  private:

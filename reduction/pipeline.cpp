@@ -160,9 +160,15 @@ Result<ReducedFrame> extract_realtime(const RealtimeReduction& prepared, const R
     const cv::Vec3b c = frame.color_rgb.at<cv::Vec3b>(pixels[i].y(), pixels[i].x());
     out.mesh.colors[i] = {c[0], c[1], c[2]};
   }
+  timer.done("triangulate", "triangles", out.mesh.triangle_count());
+  const DepthMeshParams& mp = prepared.hierarchy.params();
+  if (mp.simplify_px > 0 && !out.mesh.indices.empty()) {
+    simplify_image_space(out.mesh, frame.intrinsics.pinhole(), mp.noise_m_per_m2, mp.simplify_px,
+                         mp.texture_deviation_px, 0);
+    timer.done("simplify", "triangles", out.mesh.triangle_count());
+  }
   out.cloud.positions = out.mesh.positions;
   out.cloud.colors = out.mesh.colors;
-  timer.done("triangulate", "triangles", out.mesh.triangle_count());
   if (out.mesh.indices.empty()) return make_error(ErrorCode::kEmpty, "the reduction left no triangles");
   return out;
 }

@@ -2,6 +2,8 @@
 // valid pixels at the capture pose (the decoded GLB rendered, as a receiver sees it).
 #include <gtest/gtest.h>
 
+#include <iostream>
+
 #include <nlohmann/json.hpp>
 
 #include "evaluation/image_metrics.h"
@@ -81,9 +83,9 @@ TEST(FrameScene, BudgetMetOrReportedOnEverySharedFrame) {
 }
 
 // Coverage of the valid pixels at the capture pose, the decoded GLB rendered. Without a budget: at least 0.985 (the
-// issue's target is 0.99; the two fr2 frames give 0.989 and 0.990, every other shared frame more). Under the default
-// 40 kB budget border detail is traded for bytes and coverage stays at least 0.95 (the paper preset covers 0.82-0.89
-// of these frames at 140-890 kB).
+// issue's target is 0.99; the two fr2 frames give 0.988 and 0.989, every other shared frame more). Under the default
+// 40 kB budget a border triangle still may not drop more than 2 pixels, so coverage stays at least 0.98 (fr2: 0.986;
+// the paper preset covers 0.82-0.89 of these frames at 140-890 kB).
 TEST(FrameScene, CoversTheValidPixelsAtTheCapturePose) {
   auto renderer = create_renderer(BackendChoice::kAuto);
   ASSERT_TRUE(renderer) << renderer.error().message;
@@ -105,7 +107,9 @@ TEST(FrameScene, CoversTheValidPixelsAtTheCapturePose) {
       ASSERT_TRUE(img) << what;
       auto f = compare_views(frame.color_rgb, img->color, frame.depth_m > 0);
       ASSERT_TRUE(f) << what;
-      EXPECT_GE(f->coverage, kb == 0 ? 0.985 : 0.95) << what << " at " << kb << " kB";
+      std::cout << what << " at " << kb << " kB: coverage " << f->coverage << ", PSNR drawn " << f->psnr_db
+                << " dB, all valid " << f->psnr_valid_db << " dB\n";
+      EXPECT_GE(f->coverage, kb == 0 ? 0.985 : 0.98) << what << " at " << kb << " kB";
       EXPECT_GE(f->psnr_db, kb == 0 ? 30.0 : 25.0) << what << " at " << kb << " kB";
     });
   }

@@ -4,7 +4,9 @@
 
 #include <cstring>
 #include <map>
+#include <iostream>
 #include <set>
+#include <tuple>
 
 #include "input/frame_source.h"
 #include "reduction/depth_mesh.h"
@@ -174,6 +176,63 @@ TEST(DepthMesh, DeterministicByteForByte) {
   EXPECT_EQ(std::memcmp(a->mesh.positions.data(), b->mesh.positions.data(),
                         a->mesh.positions.size() * sizeof(Eigen::Vector3f)),
             0);
+}
+
+// The realtime stage after the hierarchy: edge collapses in (u, v, w / sigma) space straighten the one-pixel
+// staircases along outlines. On a real frame the mesh keeps being a manifold facing the camera, loses most of its
+// triangles, and keeps its outline: no vertex leaves the surface (every vertex is one of the hierarchy's).
+TEST(DepthMesh, SimplificationStraightensOutlinesAndKeepsTheSurface) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  auto frame = fr1_frame(0);
+  ASSERT_TRUE(frame) << frame.error().message;
+  ReductionParams p = reduction_preset(Preset::kRealtime);
+  p.depth_mesh.tolerance_factor = 8;
+  ReductionParams off = p;
+  off.depth_mesh.simplify_px = 0;
+  auto a = reduce_frame(*frame, off);
+  auto b = reduce_frame(*frame, p);
+  ASSERT_TRUE(a && b);
+  std::cout << "fr1/xyz frame 0 at 8 sigma: " << a->mesh.triangle_count() << " triangles, "
+            << b->mesh.triangle_count() << " after collapses\n";
+  EXPECT_LT(b->mesh.triangle_count(), a->mesh.triangle_count() * 3 / 4);
+  std::set<std::tuple<float, float, float>> hierarchy_vertices;
+  for (const auto& v : a->mesh.positions) hierarchy_vertices.insert({v.x(), v.y(), v.z()});
+  size_t foreign = 0;
+  for (const auto& v : b->mesh.positions) foreign += !hierarchy_vertices.count({v.x(), v.y(), v.z()});
+  EXPECT_EQ(foreign, 0u);
+  size_t over = 0, back = 0;
+  for (const auto& [edge, uses] : edge_uses(b->mesh)) over += uses > 2;
+  for (size_t t = 0; t < b->mesh.indices.size(); t += 3) {
+    const Eigen::Vector3f v0 = b->mesh.positions[b->mesh.indices[t]], v1 = b->mesh.positions[b->mesh.indices[t + 1]],
+                          v2 = b->mesh.positions[b->mesh.indices[t + 2]];
+    if ((v1 - v0).cross(v2 - v0).dot(v0) >= 0) ++back;
+  }
+  EXPECT_EQ(over, 0u);
+  EXPECT_EQ(back, 0u);
+}
+
+// A collapse never joins the two sides of a depth step: they share no edge, and the step stays open.
+TEST(DepthMesh, SimplificationLeavesNoTriangleAcrossAStep) {
+  const Intrinsics k = kinect();
+  RgbdFrame frame;
+  frame.intrinsics = k;
+  frame.depth_m = cv::Mat(k.height, k.width, CV_32FC1, cv::Scalar(2.0f));
+  frame.depth_m(cv::Rect(0, 0, 300, k.height)).setTo(1.0f);
+  frame.depth_m(cv::Rect(200, 100, 200, 150)).setTo(1.2f);
+  frame.color_rgb = cv::Mat(k.height, k.width, CV_8UC3, cv::Scalar(90, 120, 150));
+  auto r = reduce_frame(frame, reduction_preset(Preset::kRealtime));
+  ASSERT_TRUE(r) << r.error().message;
+  size_t across = 0;
+  for (size_t t = 0; t < r->mesh.indices.size(); t += 3) {
+    float lo = 1e9f, hi = 0;
+    for (int i = 0; i < 3; ++i) {
+      const float z = r->mesh.positions[r->mesh.indices[t + i]].z();
+      lo = std::min(lo, z), hi = std::max(hi, z);
+    }
+    if (hi > lo * 1.01f) ++across;
+  }
+  EXPECT_GT(r->mesh.triangle_count(), 0u);
+  EXPECT_EQ(across, 0u);
 }
 
 TEST(DepthMesh, FilterDropsFlyingPixelsAndSpeckles) {
