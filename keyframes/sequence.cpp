@@ -56,12 +56,12 @@ Result<SequenceResult> track_sequence(size_t frame_count, const FrameLoader& loa
       const TrackStep step = tracker.push(*frame, &kd);
       rec.track_ms = step.features_ms + step.match_ms;
       rec.method = step.method;
+      rec.matches = step.matches;
       if (!step.tracked()) {
         rec.message = "skipped: " + step.failure;
       } else {
         rec.tracked = true;
         rec.reference = step.reference;
-        rec.matches = step.matches;
         rec.inliers = step.inliers;
         rec.icp_used = step.icp_used;
         rec.pose = step.pose;

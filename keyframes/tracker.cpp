@@ -114,13 +114,14 @@ std::optional<Tracker::Attempt> Tracker::try_reference(const View& ref, const Rg
                                                        const FrameFeatures& features, const MatchParams& matching,
                                                        bool predict, TrackMethod method,
                                                        const Eigen::Matrix4d& predicted_pose, double dt_s,
-                                                       bool have_velocity, std::string* why) {
+                                                       bool have_velocity, std::string* why, int* match_count) {
   const std::string label = std::string(to_string(method)) + " vs " + std::to_string(ref.frame.index) + ": ";
   const Eigen::Matrix4d predicted_cur_to_ref = ref.pose.inverse() * predicted_pose;
   std::vector<FeatureMatch> matches =
       predict ? match_in_window(predicted_features(ref.features, predicted_cur_to_ref, frame.intrinsics), features,
                                 matching)
               : match_in_window(ref.features, features, matching);
+  if (match_count) *match_count = static_cast<int>(matches.size());
   OdometryParams op = odometry_;
   op.matching = matching;
   Result<PairEstimate> pair = estimate_motion(ref.frame, ref.features, frame, features, matches, op);
@@ -184,9 +185,10 @@ TrackStep Tracker::push(const RgbdFrame& frame, KeyframeDecision* keyframe) {
     const double dt = seconds_between(last_->frame, frame);
     const Eigen::Matrix4d predicted = predict_pose(dt);
     std::string why;
+    int window_matches = 0;
     // 1. The paper's window around the same pixel of the last tracked frame.
     found = try_reference(*last_, frame, *features, odometry_.matching, false, TrackMethod::kWindow, predicted, dt,
-                          have_velocity_, &why);
+                          have_velocity_, &why, &window_matches);
     if (found) out.method = TrackMethod::kWindow;
     // 2. A wide window around the constant-velocity prediction: the last tracked frame, then the last keyframe.
     if (!found && tracking_.widen) {
@@ -215,6 +217,7 @@ TrackStep Tracker::push(const RgbdFrame& frame, KeyframeDecision* keyframe) {
     if (!why.empty()) why.resize(why.size() - 2);
     if (!found) {
       out.failure = why;
+      out.matches = window_matches;
       out.match_ms = ms_since(t0);
       return out;
     }

@@ -52,7 +52,7 @@ struct TrackingParams {
 struct TrackStep {
   TrackMethod method = TrackMethod::kNone;
   int reference = -1;   // frame index the pose was estimated against (-1 for the first frame)
-  int matches = 0, inliers = 0;
+  int matches = 0, inliers = 0;  // of the try that was kept; for a skipped frame, the window's matches
   bool icp_used = false;
   double icp_rms_m = 0.0;
   Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();  // camera to world
@@ -80,7 +80,7 @@ class Tracker {
   std::optional<Attempt> try_reference(const View& ref, const RgbdFrame& frame, const FrameFeatures& features,
                                        const MatchParams& matching, bool predict, TrackMethod method,
                                        const Eigen::Matrix4d& predicted_pose, double dt_s, bool have_velocity,
-                                       std::string* why);
+                                       std::string* why, int* match_count = nullptr);
   double seconds_between(const RgbdFrame& a, const RgbdFrame& b) const;
   Eigen::Matrix4d predict_pose(double dt_s) const;
 
