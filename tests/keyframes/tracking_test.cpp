@@ -150,21 +150,27 @@ TEST(Tracking, ImplausibleJumpIsRejectedNotChained) {
   EXPECT_LE(rpe->rotation_max_deg, kMaxPairDeg);
 }
 
+// The excerpt with frames first..last black (no features: the camera is blinded), tracked with the live settings
+// up to frame `to`.
+Result<SequenceResult> track_blind(size_t first, size_t last, size_t to) {
+  const test::TestSequence seq = excerpt();
+  const FrameLoader base = seq.loader();
+  FrameLoader loader = [&](size_t i) -> Result<RgbdFrame> {
+    Result<RgbdFrame> f = base(i);
+    if (f && i >= first && i <= last) f->color_rgb.setTo(cv::Scalar(0, 0, 0));
+    return f;
+  };
+  SequenceParams params = SequenceParams::live();
+  params.to = to;
+  return track_sequence(seq.size(), loader, params);
+}
+
 // The camera is blinded for half a second (frames 40-54 black: no features) while it keeps moving (about 15 cm):
 // the constant-velocity prediction is stale, and tracking must pick up again when the images come back, against
 // the last tracked frame, the last keyframe or an earlier one, with every pair still within the goals.
 TEST(Tracking, RecoversAfterHalfASecondBlind) {
   REQUIRE_DATA(std::string(kExcerpt) + "/groundtruth.txt");
-  const test::TestSequence seq = excerpt();
-  const FrameLoader base = seq.loader();
-  FrameLoader loader = [&](size_t i) -> Result<RgbdFrame> {
-    Result<RgbdFrame> f = base(i);
-    if (f && i >= 40 && i <= 54) f->color_rgb.setTo(cv::Scalar(0, 0, 0));
-    return f;
-  };
-  SequenceParams params = SequenceParams::live();
-  params.to = 80;
-  Result<SequenceResult> r = track_sequence(seq.size(), loader, params);
+  Result<SequenceResult> r = track_blind(40, 54, 80);
   ASSERT_TRUE(r) << r.error().message;
   Result<RpeResult> rpe = rpe_of(*r);
   ASSERT_TRUE(rpe) << rpe.error().message;
@@ -184,14 +190,7 @@ TEST(Tracking, RecoversAfterHalfASecondBlind) {
 // one measured directly from it, so it carries the chain's drift; its translation error is within the 5 cm goal.
 TEST(Tracking, RelocalisesAgainstAnEarlierKeyframe) {
   REQUIRE_DATA(std::string(kExcerpt) + "/groundtruth.txt");
-  const test::TestSequence seq = excerpt();
-  const FrameLoader base = seq.loader();
-  FrameLoader loader = [&](size_t i) -> Result<RgbdFrame> {
-    Result<RgbdFrame> f = base(i);
-    if (f && i >= 62 && i <= 108) f->color_rgb.setTo(cv::Scalar(0, 0, 0));
-    return f;
-  };
-  Result<SequenceResult> r = track_sequence(seq.size(), loader, SequenceParams::live());
+  Result<SequenceResult> r = track_blind(62, 108, 119);
   ASSERT_TRUE(r) << r.error().message;
   Result<RpeResult> rpe = rpe_of(*r);
   ASSERT_TRUE(rpe) << rpe.error().message;
