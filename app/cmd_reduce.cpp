@@ -196,6 +196,10 @@ void register_reduce(CLI::App& app) {
   cmd->add_option("--from", args->from, "Sequence: first frame index");
   cmd->add_option("--to", args->to, "Sequence: last frame index (inclusive; default: the last)");
   cmd->add_option("--features", args->features, "Sequence: sift|orb|akaze")->capture_default_str();
+  cmd->add_option("--tracking", args->tracking,
+                  "Sequence: robust (the paper's window, then a wide search, then relocalisation) | paper (the "
+                  "window alone) | live (robust with exact in-window matching and a cheaper ICP; with --features orb)")
+      ->capture_default_str();
   cmd->add_option("--keyframe-translation", args->keyframe_translation_m,
                   "Sequence: new keyframe after this much motion (m)")->capture_default_str();
   cmd->add_option("--keyframe-rotation", args->keyframe_rotation_deg, "Sequence: ... or this much rotation (deg)")

@@ -27,6 +27,7 @@ struct ReduceArgs {
   bool sequence = false;
   int from = 0, to = -1;
   std::string features = "sift";
+  std::string tracking = "robust";  // robust | paper | live (keyframes/tracker.h, SequenceParams::live)
   double keyframe_translation_m = 0.15, keyframe_rotation_deg = 10.0, keyframe_overlap = 0.7;
   int keyframe_gap = 0;
   bool drop_covered = true;

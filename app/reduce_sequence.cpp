@@ -19,12 +19,18 @@ namespace {
 class Progress {
  public:
   explicit Progress(bool enabled) : enabled_(enabled && ::isatty(STDERR_FILENO)) {}
-  void update(size_t done, size_t total, size_t keyframes, size_t bytes) {
+  void update(size_t done, size_t total, size_t keyframes, size_t bytes, const FrameRecord& last) {
     if (!enabled_) return;
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
     const int width = 30, filled = total ? static_cast<int>(width * done / total) : width;
-    std::fprintf(stderr, "\r[%.*s%*s] %zu/%zu frames  %.1f frames/s  %zu keyframes  %.1f kB", filled,
-                 "##############################", width - filled, "", done, total, s > 0 ? done / s : 0.0, keyframes,
+    if (last.tracked) ++tracked_;
+    if (last.method == TrackMethod::kWide) ++wide_;
+    if (last.method == TrackMethod::kRelocalised) ++relocalised_;
+    std::fprintf(stderr,
+                 "\r[%.*s%*s] %zu/%zu frames  %.1f frames/s  %zu tracked (%zu wide, %zu relocalised)  last: %-11s  "
+                 "%zu keyframes  %.1f kB",
+                 filled, "##############################", width - filled, "", done, total, s > 0 ? done / s : 0.0,
+                 tracked_, wide_, relocalised_, last.tracked ? to_string(last.method) : "skipped", keyframes,
                  bytes / 1000.0);
     std::fflush(stderr);
   }
@@ -34,6 +40,7 @@ class Progress {
 
  private:
   bool enabled_;
+  size_t tracked_ = 0, wide_ = 0, relocalised_ = 0;
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 };
 
@@ -43,6 +50,10 @@ Status run_sequence(const ReduceArgs& a, const FrameSource& source) {
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
   SequenceParams params;
+  if (a.tracking == "paper") params.tracking = TrackingParams::paper_window_only();
+  else if (a.tracking == "live") params = SequenceParams::live();
+  else if (a.tracking != "robust")
+    return make_error(ErrorCode::kInvalidArgument, "--tracking must be robust, paper or live");
   auto features = parse_feature_type(a.features);
   if (!features) return features.error();
   params.odometry.features.type = *features;
@@ -79,8 +90,8 @@ Status run_sequence(const ReduceArgs& a, const FrameSource& source) {
     ++keyframe_count;
     return ok_status();
   };
-  auto on_progress = [&](const FrameRecord&, size_t done, size_t total) {
-    progress.update(done, total, keyframe_count, bytes_so_far);
+  auto on_progress = [&](const FrameRecord& record, size_t done, size_t total) {
+    progress.update(done, total, keyframe_count, bytes_so_far, record);
   };
   auto result = track_sequence(
       source.size(), [&](size_t i) { return source.frame(i); }, params, on_keyframe, on_progress);
@@ -102,7 +113,8 @@ Status run_sequence(const ReduceArgs& a, const FrameSource& source) {
   const double total_ms = std::chrono::duration<double, std::milli>(clock::now() - t0).count();
 
   std::cout << "rgbdcast reduce --sequence: " << result->frames.size() << " frames, " << result->tracked
-            << " tracked, " << result->keyframes << " keyframes, " << result->skipped << " skipped; "
+            << " tracked (" << result->widened << " by the wide search, " << result->relocalised
+            << " relocalised), " << result->keyframes << " keyframes, " << result->skipped << " skipped; "
             << scene.triangle_count() << " triangles, " << glb->size() << " bytes (geometry " << stats.geometry_bytes
             << ", texture " << stats.texture_bytes << ") -> " << a.out << " (" << static_cast<int>(total_ms)
             << " ms)\n";
@@ -112,6 +124,10 @@ Status run_sequence(const ReduceArgs& a, const FrameSource& source) {
   nlohmann::json r = {{"input", a.input},
                       {"sequence", true},
                       {"features", a.features},
+                      {"tracking", a.tracking},
+                      {"tracked", result->tracked},
+                      {"tracked_wide", result->widened},
+                      {"tracked_relocalised", result->relocalised},
                       {"drop_covered", a.drop_covered},
                       {"params", params_json(a)},
                       {"frames", frames_json(*result)},

@@ -10,7 +10,7 @@
 namespace rgbdcast {
 
 Status IcpParams::validate() const {
-  if (max_iterations < 1 || pixel_step < 1) return make_error(ErrorCode::kInvalidArgument, "ICP: iterations and step must be >= 1");
+  if (max_iterations < 1 || pixel_step < 1 || image_step < 1 || image_step > 16) return make_error(ErrorCode::kInvalidArgument, "ICP: iterations and step must be >= 1");
   if (!(min_distance_m > 0) || !(max_distance_m >= min_distance_m))
     return make_error(ErrorCode::kInvalidArgument, "ICP: need 0 < min_distance_m <= max_distance_m");
   if (!(max_normal_angle_deg > 0 && max_normal_angle_deg <= 180) || !(huber_m > 0) || !(max_depth_m > 0))
@@ -75,6 +75,27 @@ Maps make_maps(const RgbdFrame& f, double max_depth_m, int step) {
   return m;
 }
 
+// Every step-th pixel of a frame's geometry (depth, organised points), with intrinsics for the smaller grid:
+// pixel u' = u / step, so fx' = fx / step and cx' = cx / step.
+RgbdFrame decimate(const RgbdFrame& f, int step) {
+  RgbdFrame d;
+  d.index = f.index;
+  const int w = f.depth_m.cols / step, h = f.depth_m.rows / step;
+  d.depth_m.create(h, w, CV_32FC1);
+  if (!f.xyz_m.empty()) d.xyz_m.create(h, w, CV_32FC3);
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      d.depth_m.at<float>(v, u) = f.depth_m.at<float>(v * step, u * step);
+      if (!f.xyz_m.empty()) d.xyz_m.at<cv::Vec3f>(v, u) = f.xyz_m.at<cv::Vec3f>(v * step, u * step);
+    }
+  d.intrinsics = f.intrinsics;
+  d.intrinsics.fx /= step;
+  d.intrinsics.fy /= step;
+  d.intrinsics.cx /= step;
+  d.intrinsics.cy /= step;
+  return d;
+}
+
 Eigen::Matrix4d se3_exp(const Eigen::Matrix<double, 6, 1>& x) {
   Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
   const Eigen::Vector3d w = x.head<3>();
@@ -94,9 +115,13 @@ Result<IcpResult> refine_point_to_plane(const RgbdFrame& source, const RgbdFrame
     if (f->depth_m.empty() || f->depth_m.type() != CV_32FC1)
       return make_error(ErrorCode::kInvalidInput, "ICP: frame " + std::to_string(f->index) + " has no CV_32F depth");
 
-  const Maps src = make_maps(source, params.max_depth_m, params.pixel_step);
-  const Maps dst = make_maps(target, params.max_depth_m, 1);
-  const Intrinsics& k = target.intrinsics;
+  const RgbdFrame small_source = params.image_step > 1 ? decimate(source, params.image_step) : RgbdFrame{};
+  const RgbdFrame small_target = params.image_step > 1 ? decimate(target, params.image_step) : RgbdFrame{};
+  const RgbdFrame& s_frame = params.image_step > 1 ? small_source : source;
+  const RgbdFrame& t_frame = params.image_step > 1 ? small_target : target;
+  const Maps src = make_maps(s_frame, params.max_depth_m, params.pixel_step);
+  const Maps dst = make_maps(t_frame, params.max_depth_m, 1);
+  const Intrinsics& k = t_frame.intrinsics;
   const int tw = dst.vertex.cols, th = dst.vertex.rows;
   const double cos_gate = std::cos(params.max_normal_angle_deg * M_PI / 180.0);
 

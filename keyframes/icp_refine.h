@@ -15,6 +15,8 @@ namespace rgbdcast {
 struct IcpParams {
   int max_iterations = 30;
   int pixel_step = 2;                 // source subsampling
+  int image_step = 1;                 // both frames decimated to every image_step-th pixel first (intrinsics
+                                      // scaled): 2 costs a quarter, for live tracking
   double max_distance_m = 0.08;       // correspondence gate in the first iteration ...
   double min_distance_m = 0.03;       // ... shrinking to this. Not below the depth noise: a 1 cm gate truncates
                                       // noisy Kinect depth one-sidedly and biased augmented ICL by 1.2 cm / 0.5 deg

@@ -1,9 +1,11 @@
 #pragma once
-// The keyframe stage over a sequence: for each frame in [from, to], detect features, estimate the motion from the
-// last tracked frame (frame-to-frame, as the paper's window assumes small inter-frame motion), chain it into a
-// camera-to-world pose in the first tracked frame's coordinates, and decide whether it is a keyframe. A frame that
-// cannot be loaded, has no features with depth, has a timestamp not after the last tracked frame's, or has too few
-// matches is skipped (its record says why) and the next frame is tried against the same last tracked frame.
+// The keyframe stage over a sequence: for each frame in [from, to], a Tracker (keyframes/tracker.h) estimates its
+// camera-to-world pose in the first tracked frame's coordinates (the paper's windowed match first, then a wide
+// search around a constant-velocity prediction, then relocalisation against earlier keyframes; implausible results
+// rejected) and decides whether it is a keyframe. A frame that cannot be loaded, has no features with depth, has a
+// timestamp not after the last tracked frame's, or that no try explains is skipped (its record says why) and the
+// next frame is tried against the same last tracked frame. params.tracking = TrackingParams::paper_window_only()
+// gives the paper's method alone.
 // on_keyframe is called for each keyframe, in order, with the frame and its record (pose filled in): the place to
 // reduce it and add it to a scene. Its error is noted in the record and processing goes on.
 //
@@ -26,6 +28,7 @@
 
 #include "keyframes/frame_odometry.h"
 #include "keyframes/keyframe_selector.h"
+#include "keyframes/tracker.h"
 #include "keyframes/trajectory_io.h"
 
 namespace rgbdcast {
@@ -33,15 +36,19 @@ namespace rgbdcast {
 struct SequenceParams {
   OdometryParams odometry;
   KeyframeParams keyframes;
+  TrackingParams tracking;
   size_t from = 0;                                    // first frame index
   size_t to = std::numeric_limits<size_t>::max();     // last frame index, inclusive (clamped to the source)
+  // For live tracking at 30 Hz on 2 cores: ORB (SIFT alone costs more than a 33 ms frame), exact in-window
+  // matching, ICP on every second pixel with at most 12 iterations. Defaults otherwise.
+  static SequenceParams live();
   Status validate() const;
 };
 
 struct FrameRecord {
   size_t index = 0;
   double timestamp = 0.0;
-  int matches = 0;   // windowed matches with the last tracked frame (0 for the first)
+  int matches = 0;   // matches with the reference frame by the method used (0 for the first)
   int inliers = 0;   // RANSAC inliers
   bool tracked = false;   // has a pose
   bool keyframe = false;
@@ -49,11 +56,15 @@ struct FrameRecord {
   Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();  // camera to world (first tracked frame = identity)
   double ms = 0.0;        // load + features + match + RANSAC (+ ICP) for this frame, excluding on_keyframe
   std::string message;    // why it was skipped, or notes (ICP not used, keyframe reason, callback error)
+  TrackMethod method = TrackMethod::kNone;  // how the pose was found: first, window, wide, relocalised (none: skipped)
+  int reference = -1;     // frame index the pose was estimated against (-1: first frame or skipped)
+  double track_ms = 0.0;  // tracking alone: features + match + RANSAC + ICP + keyframe decision (no load)
 };
 
 struct SequenceResult {
   std::vector<FrameRecord> frames;
   size_t tracked = 0, keyframes = 0, skipped = 0;
+  size_t widened = 0, relocalised = 0;  // tracked frames whose pose came from the wide search / relocalisation
   Trajectory trajectory() const;  // the tracked frames' poses (index and timestamp set)
 };
 

@@ -10,6 +10,8 @@ nlohmann::json frame_record_json(const FrameRecord& r) {
   j["inliers"] = r.inliers;
   j["keyframe"] = r.keyframe;
   j["tracked"] = r.tracked;
+  j["method"] = to_string(r.method);
+  j["reference"] = r.reference;
   if (r.tracked) {
     nlohmann::json rows = nlohmann::json::array();
     for (int i = 0; i < 4; ++i) rows.push_back({r.pose(i, 0), r.pose(i, 1), r.pose(i, 2), r.pose(i, 3)});
@@ -19,6 +21,7 @@ nlohmann::json frame_record_json(const FrameRecord& r) {
   }
   j["icp"] = r.icp_used;
   j["ms"] = r.ms;
+  j["track_ms"] = r.track_ms;
   if (!r.message.empty()) j["message"] = r.message;
   return j;
 }

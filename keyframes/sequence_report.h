@@ -1,7 +1,9 @@
 #pragma once
-// The `frames` array of `rgbdcast reduce --sequence --report`: one entry per frame
-// {index, timestamp, matches, inliers, keyframe, tracked, pose, ms, message}, pose the camera-to-world 4x4 as
-// row-major nested lists (null when the frame was skipped), in the first tracked frame's coordinates.
+// The `frames` array of `rgbdcast reduce --sequence --report`: one entry per frame {index, timestamp, matches,
+// inliers, keyframe, tracked, method, reference, pose, icp, ms, track_ms, message}, method how the pose was found
+// ("first", "window", "wide", "relocalised"; "none" when skipped), reference the frame it was estimated against,
+// pose the camera-to-world 4x4 as row-major nested lists (null when the frame was skipped), in the first tracked
+// frame's coordinates.
 #include <nlohmann/json.hpp>
 
 #include "keyframes/pose_error.h"

@@ -14,6 +14,11 @@ struct MatchParams {
   int knn = 8;          // FLANN neighbours examined per keypoint (the window filter picks among them)
   double ratio = 0.8;   // Lowe's ratio between the best and second-best candidate inside the window; 1 = off
   bool one_to_one = true;  // a previous keypoint keeps only its best current match
+  // false (the paper's order): FLANN's knn nearest descriptors, then the window picks among them, so a true match
+  // outside the knn is lost. true: every previous keypoint inside the window is compared by brute force (an x-sorted
+  // sweep, cv::hal distances; cv::BFMatcher when there is no window): exact, and cheaper than building a FLANN
+  // index per frame, since a 20 px window holds a few dozen keypoints.
+  bool exact_window = false;
   Status validate() const;
 };
 

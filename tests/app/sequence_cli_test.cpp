@@ -27,7 +27,7 @@ TEST(SequenceCli, AugmentedIclBecomesOneValidMultiViewGlb) {
   ASSERT_EQ(frames.size(), 5u);
   int keyframes = 0;
   for (const auto& f : frames) {
-    for (const char* k : {"index", "timestamp", "matches", "inliers", "keyframe", "pose", "ms"}) EXPECT_TRUE(f.contains(k)) << k;
+    for (const char* k : {"index", "timestamp", "matches", "inliers", "keyframe", "pose", "ms", "method", "track_ms"}) EXPECT_TRUE(f.contains(k)) << k;
     keyframes += f.at("keyframe").get<bool>();
     ASSERT_EQ(f.at("pose").size(), 4u);  // row-major 4x4
   }
@@ -69,7 +69,8 @@ TEST(SequenceCli, WidelySpacedFramesAreSkippedWithAClearMessage) {
   const std::string dir = test::temp_dir("seq-icl");
   auto r = test::run_command(test::rgbdcast_binary() + " reduce --sequence --input " + test::data_path("icl_nuim_livingroom") +
                              " --out " + dir + "/scene.glb --report " + dir + "/r.json");
-  // The first frame is a keyframe on its own; the others fail the 20x20 window and are skipped, with a reason.
+  // The first frame is a keyframe on its own; the others (0.3-1 m apart, no timestamps: 33 ms apart at 30 Hz) fail
+  // the 20x20 window, and whatever the wider tries find is faster than a hand-held camera: skipped, with a reason.
   ASSERT_EQ(r.exit_code, 0) << r.err;
   std::ifstream in(dir + "/r.json");
   const nlohmann::json j = nlohmann::json::parse(in);
@@ -81,6 +82,16 @@ TEST(SequenceCli, WidelySpacedFramesAreSkippedWithAClearMessage) {
     }
   EXPECT_GE(skipped, 3);
   EXPECT_NE(r.out.find("skipped"), std::string::npos) << r.out;
+}
+
+TEST(SequenceCli, UnknownTrackingModeIsAClearError) {
+  REQUIRE_DATA("augmented_icl_livingroom");
+  const std::string dir = test::temp_dir("seq-tracking");
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --sequence --tracking fast --input " +
+                             test::data_path("augmented_icl_livingroom") + " --out " + dir + "/scene.glb");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--tracking must be robust, paper or live"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir + "/scene.glb"));
 }
 
 TEST(SequenceCli, MissingGroundTruthIsAClearError) {

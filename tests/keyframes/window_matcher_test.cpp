@@ -1,4 +1,4 @@
-// The 20 x 20 window of the FLANN matcher, on synthetic features where the descriptor-nearest keypoint is placed
+// The 20 x 20 window of the matcher, on synthetic features where the descriptor-nearest keypoint is placed
 // inside or outside the window, for float (KD-tree) and binary (LSH) descriptors.
 #include <gtest/gtest.h>
 
@@ -41,10 +41,14 @@ TEST(WindowMatcher, InsideWindowIsPlusMinusHalfTheEdge) {
   EXPECT_TRUE(inside_window(a, {500, 500}, 0));  // 0 = no window
 }
 
+// Both searches: FLANN's nearest descriptors then the window (the paper's order), and the exact sweep over the
+// keypoints inside the window (exact_window, cv::BFMatcher when there is no window).
 TEST(WindowMatcher, RejectsMatchesOutside20x20) {
+  for (bool exact : {false, true})
   for (FeatureType type : {FeatureType::kSift, FeatureType::kOrb}) {
-    SCOPED_TRACE(to_string(type));
-    const MatchParams params;  // 20 x 20
+    SCOPED_TRACE(std::string(to_string(type)) + (exact ? " exact" : " flann"));
+    MatchParams params;  // 20 x 20
+    params.exact_window = exact;
     {
       FrameFeatures prev, cur;
       make_pair(type, 150, 6.f, -7.f, &prev, &cur);  // inside
@@ -80,12 +84,15 @@ TEST(WindowMatcher, PrefersNearestDescriptorInsideWindow) {
   cur.keypoints[0].pt = {25, 20};
   prev.descriptors.row(1).copyTo(cur.descriptors.row(0));
   cur.keypoints[1].pt = {400, 400};
-  MatchParams p;
-  p.ratio = 1.0;
-  const std::vector<FeatureMatch> m = match_in_window(prev, cur, p);
-  ASSERT_EQ(m.size(), 1u);
-  EXPECT_EQ(m[0].cur, 0);
-  EXPECT_EQ(m[0].prev, 0);  // prev 1 has the better descriptor but lies 35 px away
+  for (bool exact : {false, true}) {
+    MatchParams p;
+    p.ratio = 1.0;
+    p.exact_window = exact;
+    const std::vector<FeatureMatch> m = match_in_window(prev, cur, p);
+    ASSERT_EQ(m.size(), 1u) << exact;
+    EXPECT_EQ(m[0].cur, 0);
+    EXPECT_EQ(m[0].prev, 0);  // prev 1 has the better descriptor but lies 35 px away
+  }
 }
 
 TEST(WindowMatcher, EmptyOrMismatchedInputGivesNoMatches) {
