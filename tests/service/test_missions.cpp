@@ -4,6 +4,9 @@
 // (validator-clean, a node and a camera per keyframe), a restart mid-mission (nothing lost or duplicated), a corrupt
 // keyframe file quarantined, Server-Sent Events read by a real socket client (backlog, live, Last-Event-ID replay,
 // keep-alive, the stream cap), bad input (each a 4xx with a JSON body and nothing stored) and auth on writes.
+// Eigen (gltf_io.h) before httplib.h: a macro of the headers httplib pulls in breaks Eigen's product kernels.
+#include "gltf/gltf_io.h"
+
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <poll.h>
@@ -20,7 +23,6 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "gltf/gltf_io.h"
 #include "tests/common/gltf_validator.h"
 #include "tests/common/test_data.h"
 #include "tests/service/mission_keyframes.h"
@@ -288,10 +290,11 @@ TEST(Missions, ViewsGrowIncrementallyAndModelIsOneValidGlb) {
   EXPECT_EQ(scene->nodes.size(), 4u);
   EXPECT_EQ(scene->cameras.size(), 4u);
   size_t triangles = 0;
-  for (const auto& f : json::parse(c->Get("/v1/missions/lab")->body)["keyframes"]) triangles += f["triangles"].get<size_t>();
+  const json listed = json::parse(c->Get("/v1/missions/lab")->body);
+  for (const auto& f : listed["keyframes"]) triangles += f["triangles"].get<size_t>();
   EXPECT_EQ(scene->triangle_count(), triangles);
   // Keyframe 3's camera sits where its pose says (world frame).
-  const auto pose = json::parse(c->Get("/v1/missions/lab")->body)["keyframes"][3]["pose"];
+  const json pose = listed["keyframes"][3]["pose"];
   EXPECT_NEAR(scene->cameras[3].camera_to_world(0, 3), pose[0].get<double>(), 1e-4);
   EXPECT_NEAR(scene->cameras[3].camera_to_world(2, 3), pose[2].get<double>(), 1e-4);
   const std::string path = dir + "/mission.glb";
