@@ -165,6 +165,15 @@ class SseClient {
   bool closed_ = false;
 };
 
+// A test's folder, removed at the end when the test passed (declared before the server, so removed after it stops).
+struct TestDir {
+  std::string path;
+  explicit TestDir(const std::string& tag) : path(rgbdcast::test::temp_dir(tag)) {}
+  ~TestDir() {
+    if (!::testing::Test::HasFailure()) rgbdcast::test::remove_tree_quietly(path);
+  }
+};
+
 std::vector<std::string> ids_of(const std::vector<SseEvent>& events) {
   std::vector<std::string> ids;
   for (const auto& e : events) ids.push_back(e.id);
@@ -176,7 +185,8 @@ std::vector<std::string> ids_of(const std::vector<SseEvent>& events) {
 TEST(Missions, PostIsIdempotentAndConflictsAre409) {
   REQUIRE_KEYFRAMES();
   const auto& k = keyframes();
-  const std::string dir = rgbdcast::test::temp_dir("missions-idem");
+  const TestDir test_dir("missions-idem");
+  const std::string dir = test_dir.path;
   ServerProcess server;
   std::string error;
   ASSERT_TRUE(server.start(dir, {}, &error)) << error;
@@ -246,7 +256,8 @@ TEST(Missions, PostIsIdempotentAndConflictsAre409) {
 TEST(Missions, ViewsGrowIncrementallyAndModelIsOneValidGlb) {
   REQUIRE_KEYFRAMES();
   const auto& k = keyframes();
-  const std::string dir = rgbdcast::test::temp_dir("missions-views");
+  const TestDir test_dir("missions-views");
+  const std::string dir = test_dir.path;
   ServerProcess server;
   std::string error;
   // One renderer: every view after the first is served by the worker that holds the mission, so a missing
@@ -305,7 +316,8 @@ TEST(Missions, ViewsGrowIncrementallyAndModelIsOneValidGlb) {
 TEST(Missions, RestartMidMissionLosesAndDuplicatesNothing) {
   REQUIRE_KEYFRAMES();
   const auto& k = keyframes();
-  const std::string dir = rgbdcast::test::temp_dir("missions-restart");
+  const TestDir test_dir("missions-restart");
+  const std::string dir = test_dir.path;
   std::string error;
   json before;
   std::string answer1;
@@ -355,7 +367,8 @@ TEST(Missions, RestartMidMissionLosesAndDuplicatesNothing) {
 TEST(Missions, EventsReachARealClientWithReplayAndKeepAlive) {
   REQUIRE_KEYFRAMES();
   const auto& k = keyframes();
-  const std::string dir = rgbdcast::test::temp_dir("missions-sse");
+  const TestDir test_dir("missions-sse");
+  const std::string dir = test_dir.path;
   ServerProcess server;
   std::string error;
   ASSERT_TRUE(server.start(dir, {"--keep-alive-s", "0.5", "--max-event-streams", "2", "--event-stream-max-s", "6"},
@@ -410,7 +423,8 @@ TEST(Missions, EventsReachARealClientWithReplayAndKeepAlive) {
 TEST(Missions, BadInputIs4xxWithJsonAndStoresNothing) {
   REQUIRE_KEYFRAMES();
   const auto& k = keyframes();
-  const std::string dir = rgbdcast::test::temp_dir("missions-bad");
+  const TestDir test_dir("missions-bad");
+  const std::string dir = test_dir.path;
   ServerProcess server;
   std::string error;
   ASSERT_TRUE(server.start(dir, {}, &error)) << error;
@@ -461,7 +475,8 @@ TEST(Missions, BadInputIs4xxWithJsonAndStoresNothing) {
 TEST(Missions, WritesNeedTheTokenWhenOneIsSet) {
   REQUIRE_KEYFRAMES();
   const auto& k = keyframes();
-  const std::string dir = rgbdcast::test::temp_dir("missions-auth");
+  const TestDir test_dir("missions-auth");
+  const std::string dir = test_dir.path;
   std::ofstream(dir + "/token") << "s3cret-token-for-tests\n";
   ServerProcess server;
   std::string error;
