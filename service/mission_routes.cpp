@@ -147,6 +147,7 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   k.received = received;
   k.camera = mission_camera_json(placed->cameras.front());
   std::lock_guard lock(post_mutex_);
+  const auto t_store = std::chrono::steady_clock::now();
   auto put = missions_.put(k, glb);
   if (!put) return send_error(res, put.error());
   if (put->outcome == PutOutcome::kConflict) {
@@ -161,7 +162,12 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   // Stored: now every renderer holding the mission uploads this keyframe alone. A failure there only costs the next
   // view a whole upload (the renderer dropped the mission); the keyframe is stored either way.
   auto part = std::make_shared<Scene>(std::move(*placed));
+  const auto t_append = std::chrono::steady_clock::now();
   auto appended = pool_.append(mission_scene_key(*name), part);
+  const auto t_done = std::chrono::steady_clock::now();
+  auto ms = [](auto a, auto b) { return std::to_string(std::chrono::duration<double, std::milli>(b - a).count()); };
+  res.set_header("X-Store-Ms", ms(t_store, t_append));    // both files written and synced
+  res.set_header("X-Append-Ms", ms(t_append, t_done));    // every renderer holding the mission took the keyframe
   if (!appended && appended.error().code == ErrorCode::kUnavailable)
     return send_error(res, appended.error());  // stopping
   const double available = now_unix_s();
