@@ -308,6 +308,17 @@ TEST(Missions, ViewsGrowIncrementallyAndModelIsOneValidGlb) {
   const json pose = listed["keyframes"][3]["pose"];
   EXPECT_NEAR(scene->cameras[3].camera_to_world(0, 3), pose[0].get<double>(), 1e-4);
   EXPECT_NEAR(scene->cameras[3].camera_to_world(2, 3), pose[2].get<double>(), 1e-4);
+  // Encoded once per change of the mission: the same bytes from the cache, 304 for a current copy.
+  EXPECT_EQ(glb->get_header_value("X-Model-Cache"), "miss");
+  auto again = c->Get("/v1/missions/lab/model.glb");
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->get_header_value("X-Model-Cache"), "hit");
+  EXPECT_EQ(again->body, glb->body);
+  const std::string etag = glb->get_header_value("ETag");
+  ASSERT_FALSE(etag.empty());
+  auto current = c->Get("/v1/missions/lab/model.glb", {{"If-None-Match", etag}});
+  ASSERT_TRUE(current);
+  EXPECT_EQ(current->status, 304);
   const std::string path = dir + "/mission.glb";
   std::ofstream(path, std::ios::binary) << glb->body;
   EXPECT_GLTF_VALID(path);
