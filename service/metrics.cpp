@@ -96,6 +96,12 @@ std::string Metrics::prometheus_text(const MetricsGauges& g) const {
   out += "# HELP rgbdcast_scene_bytes_stored Bytes of GLB in the store.\n";
   out += "# TYPE rgbdcast_scene_bytes_stored gauge\n";
   out += "rgbdcast_scene_bytes_stored " + std::to_string(g.bytes_stored) + "\n";
+  out += "# HELP rgbdcast_missions_stored Live missions in the store.\n";
+  out += "# TYPE rgbdcast_missions_stored gauge\n";
+  out += "rgbdcast_missions_stored " + std::to_string(g.missions_stored) + "\n";
+  out += "# HELP rgbdcast_event_streams_open Mission event streams open (each holds an HTTP thread).\n";
+  out += "# TYPE rgbdcast_event_streams_open gauge\n";
+  out += "rgbdcast_event_streams_open " + std::to_string(g.event_streams_open) + "\n";
   return out;
 }
 

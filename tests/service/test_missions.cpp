@@ -427,6 +427,14 @@ TEST(Missions, EventsReachARealClientWithReplayAndKeepAlive) {
   auto health = c->Get("/healthz");
   ASSERT_TRUE(health);
   EXPECT_EQ(health->status, 200);
+  EXPECT_EQ(json::parse(health->body)["missions"], 1);
+  auto metrics = c->Get("/metrics");
+  ASSERT_TRUE(metrics);
+  EXPECT_NE(metrics->body.find("rgbdcast_missions_stored 1\n"), std::string::npos);
+  std::smatch open_streams;
+  ASSERT_TRUE(std::regex_search(metrics->body, open_streams, std::regex("rgbdcast_event_streams_open (\\d+)\n")));
+  EXPECT_GE(std::stoi(open_streams[1]), 1) << "'later' is open";  // 'replay' too unless its 6 s are over
+  EXPECT_LE(std::stoi(open_streams[1]), 2) << "'all' ended";
   expect_json_error(c->Get("/v1/missions/nope/events"), 404, "events of unknown mission");
   expect_json_error(c->Get("/v1/missions/live/events?last_event_id=abc"), 400, "bad last event id");
 }
