@@ -174,6 +174,29 @@ TEST(GltfDraco, RealFramesRoundTripWithinTheQuantizationStep) {
   }
 }
 
+TEST(GltfDraco, EverySpeedDecodesBothDracoMethods) {
+  // Speeds 0-9 use the edgebreaker (0: its valence coder), 10 the sequential coder: both header layouts are read.
+  const SharedFrame& f = kFrames[0];
+  REQUIRE_DATA(f.path);
+  const Scene scene = realtime_scene(f.path, f.index);
+  for (int speed : {0, 5, 7, 10}) {
+    GlbWriteOptions w = draco_options();
+    w.draco.encode_speed = w.draco.decode_speed = speed;
+    auto glb = encode_glb(scene, w);
+    ASSERT_TRUE(glb) << glb.error().message;
+    auto chunks = glb::parse_glb(glb->data(), glb->size());
+    const json doc = json::parse(chunks->json);
+    const json& v = doc["bufferViews"][doc["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]
+                                          ["bufferView"].get<size_t>()];
+    auto header = glb::read_draco_header(chunks->bin.data() + v.value("byteOffset", size_t(0)), v["byteLength"]);
+    ASSERT_TRUE(header) << header.error().message;
+    EXPECT_EQ(header->edgebreaker, speed < 10) << "speed " << speed;
+    auto back = decode_glb(glb->data(), glb->size());
+    ASSERT_TRUE(back) << "speed " << speed << ": " << back.error().message;
+    EXPECT_EQ(back->nodes[0].mesh.triangle_count(), scene.nodes[0].mesh.triangle_count()) << "speed " << speed;
+  }
+}
+
 TEST(GltfDraco, ValidatorReportsNoErrorOrWarning) {
   const SharedFrame& f = kFrames[0];
   REQUIRE_DATA(f.path);
