@@ -33,7 +33,9 @@ void run_convert(const ConvertArgs& a) {
   if (!out) fail(make_error(out.error().code, a.input + ": " + out.error().message));
   if (auto st = glb::write_file_atomically(a.out, *out); !st) fail(st.error());
   std::cout << "rgbdcast convert: " << a.input << " (" << bytes->size() << " bytes) -> " << a.out << " ("
-            << to_string(a.glb.flavor) << ", " << out->size() << " bytes: geometry " << stats.geometry_bytes
+            << to_string(a.glb.flavor)
+            << (a.glb.flavor == GlbFlavor::kCompact ? std::string(" ") + to_string(a.glb.geometry_codec) : "") << ", "
+            << out->size() << " bytes: geometry " << stats.geometry_bytes
             << ", texture " << stats.texture_bytes << ", " << static_cast<int>(stats.ms) << " ms)\n";
 }
 
@@ -44,6 +46,7 @@ void register_convert(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("convert", "Re-encode a GLB in another flavour (compat opens in every viewer)");
   cmd->add_option("input", args->input, "Input GLB")->required();
   add_flavor_option(cmd, &args->glb, "compat");
+  add_geometry_codec_option(cmd, &args->glb);
   cmd->add_option("--jpeg-quality", args->glb.jpeg_quality, "JPEG quality 1..100 for PNG textures re-encoded for compat")
       ->capture_default_str();
   cmd->add_option("-o,--out", args->out, "Output GLB (written atomically)")->required();
@@ -61,6 +64,19 @@ void add_flavor_option(CLI::App* cmd, GlbWriteOptions* glb, const std::string& d
          "compact (meshopt + quantized: three.js, Babylon.js, Foxglove) or compat (plain floats, JPEG: Blender, "
          "Assimp, every viewer)")
       ->default_str(default_name);
+}
+
+void add_geometry_codec_option(CLI::App* cmd, GlbWriteOptions* glb) {
+  cmd->add_option_function<std::string>(
+         "--geometry-codec",
+         [cmd, glb](const std::string& name) {
+           auto c = parse_geometry_codec(name);
+           if (!c) app::fail(cmd->get_name(), c.error());
+           glb->geometry_codec = *c;
+         },
+         "compact flavour only: meshopt (EXT_meshopt_compression + KHR_mesh_quantization) or draco "
+         "(KHR_draco_mesh_compression: about half the geometry bytes; three.js DRACOLoader)")
+      ->default_str("meshopt");
 }
 
 }  // namespace rgbdcast::app

@@ -17,6 +17,8 @@ void register_convert(CLI::App& app);
 // --flavor compact|compat into glb->flavor (app/cmd_convert.cpp); an unknown name is a one-line error, exit 2.
 // default_name is what the help shows; the caller's glb->flavor holds the default itself.
 void add_flavor_option(CLI::App* cmd, GlbWriteOptions* glb, const std::string& default_name);
+// --geometry-codec meshopt|draco into glb->geometry_codec (compact flavour); an unknown name is one line, exit 2.
+void add_geometry_codec_option(CLI::App* cmd, GlbWriteOptions* glb);
 
 }  // namespace rgbdcast::app
 

@@ -44,6 +44,7 @@ nlohmann::json params_json(const ReduceArgs& a) {
           {"cell_size_px", a.atlas.cell_size_px},
           {"jpeg_quality", a.atlas.jpeg_quality},
           {"meshopt", a.glb.meshopt},
+          {"geometry_codec", to_string(a.glb.geometry_codec)},
           {"position_step_m", a.glb.position_quantum_m}};
   return j;
 }

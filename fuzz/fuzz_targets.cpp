@@ -1,6 +1,7 @@
 #include "fuzz/fuzz_targets.h"
 
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -8,6 +9,8 @@
 #include <unistd.h>
 #include <vector>
 
+#include "gltf/draco_header.h"
+#include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
 #include "input/frame_source.h"
 #include "input/intrinsics_io.h"
@@ -42,6 +45,41 @@ void glb(const std::uint8_t* data, size_t size) {
   } else {
     check_error(scene.error());
   }
+}
+
+// The Draco decoder behind draco_decompress's checks: the bytes after the first four are a Draco bitstream inside a
+// fixed GLB (POSITION float VEC3, TEXCOORD_0 float VEC2, uint32 indices). The declared point count is the input's
+// first four bytes; the declared face count is the header's (when it parses), so that mutations reach Draco itself.
+// Any input must give a consistent Scene or a one-line error, within the default limits.
+void draco(const std::uint8_t* data, size_t size) {
+  if (size < 4) return;
+  const std::uint32_t points = le32(data);
+  const std::uint8_t* bits = data + 4;
+  const size_t n = size - 4;
+  auto header = rgbdcast::glb::read_draco_header(bits, n);
+  const std::uint64_t faces = header.ok() ? header->num_faces : 1;
+  nlohmann::json doc = {
+      {"asset", {{"version", "2.0"}}},
+      {"extensionsUsed", {"KHR_draco_mesh_compression"}},
+      {"extensionsRequired", {"KHR_draco_mesh_compression"}},
+      {"buffers", {{{"byteLength", n}}}},
+      {"bufferViews", {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", n}}}},
+      {"accessors",
+       {{{"componentType", 5126}, {"count", points}, {"type", "VEC3"}, {"min", {0, 0, 0}}, {"max", {1, 1, 1}}},
+        {{"componentType", 5126}, {"count", points}, {"type", "VEC2"}},
+        {{"componentType", 5125}, {"count", 3 * faces}, {"type", "SCALAR"}}}},
+      {"meshes",
+       {{{"primitives",
+          {{{"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 1}}},
+            {"indices", 2},
+            {"extensions",
+             {{"KHR_draco_mesh_compression", {{"bufferView", 0}, {"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 1}}}}}}}}}}}}},
+      {"nodes", {{{"mesh", 0}}}},
+      {"scenes", {{{"nodes", {0}}}}},
+      {"scene", 0}};
+  const std::vector<std::uint8_t> bin(bits, bits + n);
+  const std::vector<std::uint8_t> glb_bytes = rgbdcast::glb::pack_glb(doc.dump(), bin);
+  glb(glb_bytes.data(), glb_bytes.size());
 }
 
 // parse_intrinsics_json on arbitrary text (the "intrinsics" part of a frame upload).

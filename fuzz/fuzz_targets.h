@@ -8,6 +8,8 @@
 namespace rgbdcast::fuzz {
 
 void glb(const std::uint8_t* data, size_t size);           // decode_glb (POST /v1/scenes body)
+// decode_glb on a GLB around a Draco bitstream: u32 declared points (LE), then the bitstream (KHR_draco_mesh_compression)
+void draco(const std::uint8_t* data, size_t size);
 void intrinsics(const std::uint8_t* data, size_t size);    // parse_intrinsics_json
 void frame_decode(const std::uint8_t* data, size_t size);  // decode_color, decode_depth16, make_frame
 void frame_upload(const std::uint8_t* data, size_t size);  // the multipart frame upload up to the reduction

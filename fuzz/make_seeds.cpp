@@ -11,6 +11,9 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
+#include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
 #include "tests/gltf/hostile_glbs.h"
 #include "tests/gltf/sample_scenes.h"
@@ -54,6 +57,26 @@ int main(int argc, char** argv) {
   write(root / "glb" / "plain.glb", encode_glb(test::sample_scene(), plain).value());
   write(root / "glb" / "quantized.glb", encode_glb(test::sample_scene(), quantized).value());
   write(root / "glb" / "meshopt.glb", encode_glb(test::sample_scene(), GlbWriteOptions{}).value());
+  GlbWriteOptions draco;
+  draco.geometry_codec = GeometryCodec::kDraco;
+  const Bytes draco_glb = encode_glb(test::sample_scene(), draco).value();
+  write(root / "glb" / "draco.glb", draco_glb);
+  // Draco: each Draco bitstream of that file, after its declared point count (fuzz_targets.h).
+  {
+    auto chunks = glb::parse_glb(draco_glb.data(), draco_glb.size()).value();
+    const auto doc = nlohmann::json::parse(chunks.json);
+    int k = 0;
+    for (const auto& mesh : doc["meshes"])
+      for (const auto& prim : mesh["primitives"]) {
+        if (!prim.contains("extensions")) continue;
+        const auto& view = doc["bufferViews"][prim["extensions"]["KHR_draco_mesh_compression"]["bufferView"].get<size_t>()];
+        const size_t off = view.value("byteOffset", size_t(0)), len = view["byteLength"].get<size_t>();
+        Bytes seed;
+        put_u32(seed, doc["accessors"][prim["attributes"]["POSITION"].get<size_t>()]["count"].get<std::uint32_t>());
+        seed.insert(seed.end(), chunks.bin.begin() + off, chunks.bin.begin() + off + len);
+        write(root / "draco" / ("mesh" + std::to_string(k++) + ".bin"), seed);
+      }
+  }
   write(root / "glb" / "buffer_uri.glb", test::glb_with_buffer_uri("/etc/hostname"));
   write(root / "glb" / "nested_extras.glb", test::glb_with_nested_extras(70));
 

@@ -1,5 +1,7 @@
 #include "gltf/document_check.h"
 
+#include "gltf/pass_helpers.h"
+
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -51,27 +53,6 @@ Status check_uri(const json& o, const std::string& where) {
   if (it->is_string() && it->get_ref<const std::string&>().rfind("data:", 0) == 0)
     return bad("data URI not allowed (" + where + ".uri): a GLB keeps its data in the BIN chunk");
   return bad("external URI not allowed (" + where + ".uri): a GLB must be self-contained");
-}
-
-size_t component_bytes(std::uint64_t type) {
-  switch (type) {
-    case 5120: case 5121: return 1;  // BYTE, UNSIGNED_BYTE
-    case 5122: case 5123: return 2;  // SHORT, UNSIGNED_SHORT
-    case 5125: case 5126: return 4;  // UNSIGNED_INT, FLOAT
-    default: return 0;
-  }
-}
-
-size_t type_components(const json& type) {
-  if (!type.is_string()) return 0;
-  const std::string& t = type.get_ref<const std::string&>();
-  if (t == "SCALAR") return 1;
-  if (t == "VEC2") return 2;
-  if (t == "VEC3") return 3;
-  if (t == "VEC4" || t == "MAT2") return 4;
-  if (t == "MAT3") return 9;
-  if (t == "MAT4") return 16;
-  return 0;
 }
 
 }  // namespace
@@ -136,8 +117,8 @@ Status check_document(const json& doc, size_t bin_size) {
     if (!uint_member(a, "byteOffset", 0, &offset))
       return bad(at("accessors", i) + ".byteOffset must be a non-negative integer");
     const size_t csize = a.contains("componentType") && uint_member(a, "componentType", 0, &ctype)
-                             ? component_bytes(ctype) : 0;
-    const size_t comps = a.contains("type") ? type_components(a["type"]) : 0;
+                             && ctype <= 0xffff ? component_size(static_cast<int>(ctype)) : 0;
+    const size_t comps = a.contains("type") && a["type"].is_string() ? component_count(a["type"].get<std::string>()) : 0;
     if (csize == 0 || comps == 0) return bad(at("accessors", i) + " has an unknown componentType or type");
     const std::uint64_t elem = csize * comps;
     const std::uint64_t stride = view_stride[view] ? view_stride[view] : elem;

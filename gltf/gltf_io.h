@@ -23,7 +23,8 @@
 // uniform scale) on the geometry's child node; UVs that all sit on texel corners (the atlas) as uint16 texel
 // coordinates with KHR_texture_transform scale (1/width, 1/height) on the baseColorTexture, other UVs in [0,1] as
 // uint16 in 1/8 texel (scale 1/(8 width), 1/(8 height)). A triangle list whose indices are 0, 1, 2, ... (the atlas mesh) is written without indices.
-// With `meshopt`, EXT_meshopt_compression (vertex and index codecs) on top.
+// With `meshopt`, EXT_meshopt_compression (vertex and index codecs) on top. With geometry_codec kDraco instead, float
+// POSITION and TEXCOORD_0 (no KHR_mesh_quantization, no texture transform) compressed by KHR_draco_mesh_compression.
 //
 // Two flavours of the same scene (GlbFlavor):
 //  - compact, the wire format: quantization and meshopt as GlbWriteOptions says (both on by default). Opens in
@@ -49,6 +50,24 @@ const char* to_string(GlbFlavor flavor);  // "compact", "compat"
 // "compact" or "compat"; anything else is kInvalidArgument with a message naming both.
 Result<GlbFlavor> parse_glb_flavor(std::string_view name);
 
+// Geometry compression of the compact flavour. meshopt: KHR_mesh_quantization + EXT_meshopt_compression (the
+// default; ~4.5 B a triangle on a realtime frame). draco: KHR_draco_mesh_compression (float attributes quantized by
+// Draco after the rule in gltf/draco_buffers.h; ~2.6 B a triangle, ~3.5 ms more CPU to encode a realtime frame;
+// three.js reads it with DRACOLoader; Debian's Blender 3.4 cannot, Assimp 5.2.5 only partly: README.md).
+enum class GeometryCodec { kMeshopt, kDraco };
+const char* to_string(GeometryCodec codec);  // "meshopt", "draco"
+// "meshopt" or "draco"; anything else is kInvalidArgument naming both.
+Result<GeometryCodec> parse_geometry_codec(std::string_view name);
+
+// KHR_draco_mesh_compression settings (gltf/draco_buffers.h has the quantization rule).
+struct DracoOptions {
+  double position_step_m = 0.001;  // POSITION step at most this (set from GlbWriteOptions::position_quantum_m)
+  double uv_step_texels = 0.25;    // TEXCOORD step at most this many texels of the texture it samples
+  // Draco's speed, 0 (smallest, slowest) .. 10; 7 measured best for the realtime preset (BENCHMARKS.md: Draco).
+  int encode_speed = 7;
+  int decode_speed = 7;
+};
+
 struct GlbWriteOptions {
   GlbFlavor flavor = GlbFlavor::kCompact;  // compat overrides quantize and meshopt (see the top of this file)
   int jpeg_quality = 85;  // used only for meshes with pixels but no texture_encoded (1..100)
@@ -61,6 +80,9 @@ struct GlbWriteOptions {
   // Quantization step for positions (grows if the extent needs it). 1 mm: max error 0.5 mm, far below the Kinect's
   // depth noise and the 1 cm voxel grid; 2 mm saves another ~20 % of the atlas geometry (bench/atlas_bench).
   double position_quantum_m = 0.001;
+  // compact only: kDraco replaces quantize + meshopt with KHR_draco_mesh_compression (compat ignores it).
+  GeometryCodec geometry_codec = GeometryCodec::kMeshopt;
+  DracoOptions draco;  // its position_step_m is taken from position_quantum_m
 };
 
 // Where the bytes of a GLB went.
@@ -95,6 +117,7 @@ struct GlbDecodeLimits {
   // Texture bytes the decoded Scene holds (RGB pixels + encoded copy), counted per mesh instance that uses them.
   size_t max_scene_texture_bytes = size_t(512) << 20;
   size_t max_meshopt_bytes = size_t(128) << 20;  // EXT_meshopt_compression output, summed over the file
+  size_t max_draco_bytes = size_t(128) << 20;    // KHR_draco_mesh_compression output, summed over the file
 };
 
 // Decodes GLB bytes from an untrusted source: any GLB rgbdcast writes and ordinary textured-mesh GLBs. Textures are

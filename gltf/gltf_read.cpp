@@ -1,5 +1,5 @@
 // decode_glb / read_glb_file: untrusted GLB bytes -> Scene. Order: strict container parse, EXT_meshopt_compression
-// decode (meshopt_buffers.h), tinygltf for the document (images decoded by OpenCV after a size probe), then every
+// decode (meshopt_buffers.h), KHR_draco_mesh_compression decode (draco_buffers.h), tinygltf for the document (images decoded by OpenCV after a size probe), then every
 // index and byte range this file uses is checked before it is read.
 #include <tiny_gltf.h>
 
@@ -21,6 +21,7 @@
 #include "scene/json_nesting.h"
 #include "gltf/json_value.h"
 #include "gltf/meshopt_buffers.h"
+#include "gltf/draco_buffers.h"
 
 namespace rgbdcast {
 namespace {
@@ -403,6 +404,14 @@ Result<Scene> decode_glb(const std::uint8_t* data, size_t size, const GlbDecodeL
     decompressed = glb::meshopt_decompress(*chunks, limits.max_meshopt_bytes);
     if (!decompressed) return decompressed.error();
     plain = &decompressed.value();
+  }
+  Result<glb::GlbChunks> undraco = glb::GlbChunks{};
+  if (glb::uses_draco(*plain)) {
+    undraco = glb::draco_decompress(*plain, limits);
+    if (!undraco) return undraco.error();
+    plain = &undraco.value();
+  }
+  if (plain != &chunks.value()) {
     repacked = glb::pack_glb(plain->json, plain->bin);
     bytes = repacked.data();
     nbytes = repacked.size();

@@ -15,6 +15,7 @@
 #include "scene/image_probe.h"
 #include "gltf/json_value.h"
 #include "gltf/meshopt_buffers.h"
+#include "gltf/draco_buffers.h"
 
 namespace rgbdcast {
 namespace {
@@ -290,6 +291,16 @@ Status check_mesh(const Mesh& m, const std::string& name) {
 
 const char* to_string(GlbFlavor flavor) { return flavor == GlbFlavor::kCompat ? "compat" : "compact"; }
 
+const char* to_string(GeometryCodec codec) { return codec == GeometryCodec::kDraco ? "draco" : "meshopt"; }
+
+Result<GeometryCodec> parse_geometry_codec(std::string_view name) {
+  if (name == "meshopt") return GeometryCodec::kMeshopt;
+  if (name == "draco") return GeometryCodec::kDraco;
+  return make_error(ErrorCode::kInvalidArgument,
+                    "unknown geometry codec '" + std::string(name) + "' (meshopt: EXT_meshopt_compression, the "
+                    "default; draco: KHR_draco_mesh_compression, about half the geometry bytes)");
+}
+
 Result<GlbFlavor> parse_glb_flavor(std::string_view name) {
   if (name == "compact") return GlbFlavor::kCompact;
   if (name == "compat") return GlbFlavor::kCompat;
@@ -302,7 +313,9 @@ Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteO
   const auto t0 = std::chrono::steady_clock::now();
   if (scene.nodes.empty() && scene.cameras.empty()) return make_error(ErrorCode::kEmpty, "glTF export: empty scene");
   GlbWriteOptions options = requested;
-  if (options.flavor == GlbFlavor::kCompat) options.quantize = options.meshopt = false;
+  const bool draco = options.flavor == GlbFlavor::kCompact && options.geometry_codec == GeometryCodec::kDraco;
+  // Draco quantizes float attributes itself (gltf/draco_buffers.h): the model is written with plain floats first.
+  if (options.flavor == GlbFlavor::kCompat || draco) options.quantize = options.meshopt = false;
   ModelBuilder b(options);
   tinygltf::Node root;
   root.name = "rgbdcast_world";
@@ -425,6 +438,15 @@ Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteO
     if (!packed) return packed.error();
     glb = glb::pack_glb(packed->json, packed->bin);
     geometry_bytes = packed->bin.size() - b.texture_bytes_;  // BIN = compressed geometry + images (+ padding)
+  } else if (draco) {
+    auto chunks = glb::parse_glb(glb.data(), glb.size());
+    if (!chunks) return make_error(ErrorCode::kInternal, "glTF export: " + chunks.error().message);
+    DracoOptions d = options.draco;
+    d.position_step_m = options.position_quantum_m;
+    auto packed = glb::draco_compress(chunks.value(), d);
+    if (!packed) return packed.error();
+    glb = glb::pack_glb(packed->json, packed->bin);
+    geometry_bytes = packed->bin.size() - b.texture_bytes_;
   }
   if (stats) {
     auto chunks = glb::parse_glb(glb.data(), glb.size());

@@ -5,6 +5,8 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
+#include "gltf/pass_helpers.h"
+
 namespace rgbdcast::glb {
 namespace {
 
@@ -13,42 +15,10 @@ constexpr const char* kExt = "EXT_meshopt_compression";
 
 Error bad(const std::string& what) { return make_error(ErrorCode::kInvalidInput, "GLB meshopt: " + what); }
 
-void align4(std::vector<std::uint8_t>& b) {
-  while (b.size() % 4) b.push_back(0);
-}
-
-void add_extension_name(json& doc, const char* list, const char* name) {
-  json& arr = doc[list];
-  if (!arr.is_array()) arr = json::array();
-  for (const auto& e : arr)
-    if (e == name) return;
-  arr.push_back(name);
-}
-
-void remove_extension_name(json& doc, const char* list, const char* name) {
-  if (!doc.contains(list) || !doc[list].is_array()) return;
-  json out = json::array();
-  for (const auto& e : doc[list])
-    if (e != name) out.push_back(e);
-  if (out.empty())
-    doc.erase(list);
-  else
-    doc[list] = out;
-}
-
 struct ViewUse {
   std::string mode;  // ATTRIBUTES, TRIANGLES, INDICES
   size_t count = 0, stride = 0;
 };
-
-size_t component_size(int type) {
-  switch (type) {
-    case 5120: case 5121: return 1;
-    case 5122: case 5123: return 2;
-    case 5125: case 5126: return 4;
-    default: return 0;
-  }
-}
 
 }  // namespace
 
@@ -128,8 +98,7 @@ Result<GlbChunks> meshopt_compress(const GlbChunks& in) {
     doc["buffers"] = json::array({json{{"byteLength", out.bin.size()}},
                                   json{{"byteLength", std::max<size_t>(fallback_size, 4)},
                                        {"extensions", {{kExt, {{"fallback", true}}}}}}});
-    add_extension_name(doc, "extensionsUsed", kExt);
-    add_extension_name(doc, "extensionsRequired", kExt);
+    require_extension(doc, kExt);
     out.json = doc.dump();
     return out;
   } catch (const json::exception& e) {
@@ -144,9 +113,7 @@ Result<GlbChunks> meshopt_decompress(const GlbChunks& in, size_t max_decoded_byt
   try {
     json doc = json::parse(in.json);
     if (!doc.is_object()) return bad("JSON is not an object");
-    bool used = false;
-    for (const auto& e : doc.value("extensionsUsed", json::array())) used = used || e == kExt;
-    if (!used) return in;
+    if (!lists_extension(doc, "extensionsUsed", kExt)) return in;
     GlbChunks out = in;
     out.has_bin = true;
     json& buffers = doc.at("buffers");
@@ -235,8 +202,7 @@ Result<GlbChunks> meshopt_decompress(const GlbChunks& in, size_t max_decoded_byt
     align4(out.bin);
     kept[0]["byteLength"] = out.bin.size();
     doc["buffers"] = kept;
-    remove_extension_name(doc, "extensionsUsed", kExt);
-    remove_extension_name(doc, "extensionsRequired", kExt);
+    drop_extension(doc, kExt);
     out.json = doc.dump();
     return out;
   } catch (const json::exception& e) {

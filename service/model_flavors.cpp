@@ -13,26 +13,28 @@
 namespace rgbdcast::service {
 namespace {
 
-bool uses_meshopt(const std::vector<std::uint8_t>& glb) {
+bool uses_extension(const std::vector<std::uint8_t>& glb, const char* name) {
   auto chunks = glb::parse_glb(glb.data(), glb.size());
   if (!chunks) return false;
   const auto doc = nlohmann::json::parse(chunks->json, nullptr, false);
   if (doc.is_discarded() || !doc.contains("extensionsUsed") || !doc["extensionsUsed"].is_array()) return false;
   for (const auto& e : doc["extensionsUsed"])
-    if (e == "EXT_meshopt_compression") return true;
+    if (e == name) return true;
   return false;
 }
 
-// The stored file in `flavor`: itself when it already is compact, else converted.
-Result<FlavoredModel> make_flavor(const StoredScene& scene, GlbFlavor flavor, const SceneStore& store,
+// The stored file in `flavor`: itself when it already is in it, else converted.
+Result<FlavoredModel> make_flavor(const StoredScene& scene, ModelFlavor flavor, const SceneStore& store,
                                   bool* converted) {
   auto stored = store.read_glb(scene.id);
   if (!stored) return stored.error();
   *converted = false;
-  if (flavor == GlbFlavor::kCompact && uses_meshopt(*stored))
+  if ((flavor == ModelFlavor::kCompact && uses_extension(*stored, "EXT_meshopt_compression")) ||
+      (flavor == ModelFlavor::kDraco && uses_extension(*stored, "KHR_draco_mesh_compression")))
     return FlavoredModel{std::make_shared<const std::vector<std::uint8_t>>(std::move(*stored)), scene.etag, true};
   GlbWriteOptions options;
-  options.flavor = flavor;
+  options.flavor = flavor == ModelFlavor::kCompat ? GlbFlavor::kCompat : GlbFlavor::kCompact;
+  options.geometry_codec = flavor == ModelFlavor::kDraco ? GeometryCodec::kDraco : GeometryCodec::kMeshopt;
   auto out = convert_glb(stored->data(), stored->size(), options);
   if (!out)
     return make_error(ErrorCode::kInternal, "stored scene " + scene.id + " does not convert to " +
@@ -49,7 +51,25 @@ void send_error(httplib::Response& res, int status, const std::string& detail) {
 
 }  // namespace
 
-Result<FlavoredModel> ModelFlavors::get(const StoredScene& scene, GlbFlavor flavor, const SceneStore& store,
+const char* to_string(ModelFlavor flavor) {
+  switch (flavor) {
+    case ModelFlavor::kCompat: return "compat";
+    case ModelFlavor::kDraco: return "draco";
+    default: return "compact";
+  }
+}
+
+Result<ModelFlavor> parse_model_flavor(std::string_view name) {
+  if (name == "compact") return ModelFlavor::kCompact;
+  if (name == "compat") return ModelFlavor::kCompat;
+  if (name == "draco") return ModelFlavor::kDraco;
+  return make_error(ErrorCode::kInvalidArgument,
+                    "unknown GLB flavor '" + std::string(name) + "' (compact: meshopt + quantized, for three.js, "
+                    "Babylon.js, Foxglove; draco: KHR_draco_mesh_compression, for three.js with DRACOLoader; "
+                    "compat: plain floats, for Blender, Assimp and every viewer)");
+}
+
+Result<FlavoredModel> ModelFlavors::get(const StoredScene& scene, ModelFlavor flavor, const SceneStore& store,
                                         bool* converted_now) {
   if (converted_now) *converted_now = false;
   const Key key{scene.id, flavor};
@@ -143,7 +163,7 @@ bool ModelFlavors::serve(const httplib::Request& req, httplib::Response& res, co
     send_error(res, 400, "flavor given more than once");
     return true;
   }
-  auto flavor = parse_glb_flavor(req.get_param_value("flavor"));
+  auto flavor = parse_model_flavor(req.get_param_value("flavor"));
   if (!flavor) {
     send_error(res, 400, flavor.error().message);
     return true;

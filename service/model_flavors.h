@@ -1,8 +1,10 @@
 #pragma once
-// GET /v1/scenes/{id}/model.glb?flavor=compact|compat: a stored scene in each GLB flavour (gltf/gltf_io.h).
+// GET /v1/scenes/{id}/model.glb?flavor=compact|compat|draco: a stored scene in each GLB flavour (gltf/gltf_io.h).
 // - No flavor parameter: not handled here; the caller serves the stored file as it always did.
 // - compact: the stored file itself when it already uses EXT_meshopt_compression (every GLB rgbdcast writes by
 //   default), else converted once.
+// - draco: the compact flavour with KHR_draco_mesh_compression geometry (GeometryCodec::kDraco): the stored file
+//   itself when it already uses the extension, else converted once and cached like compat.
 // - compat: converted once per scene (convert_glb) and cached in memory, keyed by scene id and the stored file's
 //   ETag, so a replaced scene is never served stale. Concurrent first requests convert once: the others wait.
 // - Each flavour has its own strong ETag (of its bytes); If-None-Match gives 304. X-Flavor-Cache says "miss" on the
@@ -16,6 +18,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "gltf/gltf_io.h"
@@ -29,6 +32,12 @@ struct Response;
 
 namespace rgbdcast::service {
 
+// The flavours the service serves: the two GLB flavours, and compact with Draco geometry.
+enum class ModelFlavor { kCompact, kCompat, kDraco };
+const char* to_string(ModelFlavor flavor);  // "compact", "compat", "draco"
+// kInvalidArgument naming the three for anything else.
+Result<ModelFlavor> parse_model_flavor(std::string_view name);
+
 struct FlavoredModel {
   std::shared_ptr<const std::vector<std::uint8_t>> bytes;
   std::string etag;  // quoted strong ETag of bytes
@@ -41,7 +50,7 @@ class ModelFlavors {
 
   // The scene's GLB in `flavor`, converted at most once while cached. *converted_now (optional) tells whether this
   // call made it.
-  Result<FlavoredModel> get(const StoredScene& scene, GlbFlavor flavor, const SceneStore& store,
+  Result<FlavoredModel> get(const StoredScene& scene, ModelFlavor flavor, const SceneStore& store,
                             bool* converted_now = nullptr);
   // Answers the request when it has a flavor parameter (returns true); false leaves it to the caller.
   bool serve(const httplib::Request& req, httplib::Response& res, const StoredScene& scene, const SceneStore& store);
@@ -57,7 +66,7 @@ class ModelFlavors {
     std::shared_future<Result<FlavoredModel>> model;
     size_t bytes = 0;  // 0 while converting
   };
-  using Key = std::pair<std::string, GlbFlavor>;
+  using Key = std::pair<std::string, ModelFlavor>;
   void evict_locked();
 
   const size_t max_bytes_;

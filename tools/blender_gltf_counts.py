@@ -39,6 +39,8 @@ try:
         "cameras": len([o for o in bpy.context.scene.objects if o.type == "CAMERA"]),
     }
 except Exception as e:  # the importer raises plain exceptions for files it cannot read
-    result = {"ok": False, "error": str(e).strip().splitlines()[-1] if str(e).strip() else type(e).__name__}
+    # every line of the message, joined: bpy's operator errors put the cause before a "Location:" line
+    lines = [line.strip() for line in str(e).strip().splitlines() if line.strip()]
+    result = {"ok": False, "error": " | ".join(lines) if lines else type(e).__name__}
 with open(out, "w") as f:
     json.dump(result, f)

@@ -1,7 +1,8 @@
-// GET /v1/scenes/{id}/model.glb?flavor=compact|compat on the real `rgbdcast serve`: a compact GLB of TUM fr1/xyz
+// GET /v1/scenes/{id}/model.glb?flavor=compact|compat|draco on the real `rgbdcast serve`: a compact GLB of TUM fr1/xyz
 // frame 0 (made by `rgbdcast reduce`) is uploaded; its compat flavour is converted once, cached (X-Flavor-Cache),
 // has its own ETag (304 on If-None-Match), holds the same scene in plain floats; compact is the stored file; an
-// unknown flavour is 400 with a JSON body; a deleted scene's flavours are gone.
+// unknown flavour is 400 with a JSON body; a deleted scene's flavours are gone. draco (KHR_draco_mesh_compression) is
+// converted once and cached like compat; a Draco GLB uploaded is decoded (untrusted) and stored; a forged one is 422.
 // Eigen (through gltf_io.h) before httplib.h: glibc's resolv.h, which httplib includes, defines _res, a name Eigen uses.
 #include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
@@ -29,24 +30,34 @@ json glb_json(const std::string& body) {
   return chunks ? json::parse(chunks->json, nullptr, false) : json();
 }
 
+// TUM fr1/xyz frame 0 reduced by the real command line (extra: more reduce options), as GLB bytes.
+std::string reduce_tum_frame(const std::string& dir, const std::string& extra) {
+  const std::string glb_path = dir + "/tum-compact.glb";
+  const auto reduced = test::run_command(test::rgbdcast_binary() + " reduce --input " + test::data_path(kTum) +
+                                         " --frame 0 " + extra + " --out " + glb_path);
+  EXPECT_EQ(reduced.exit_code, 0) << reduced.err;
+  return test::read_file(glb_path);
+}
+
+// POSTs a GLB to /v1/scenes; the new scene's id, or "" (with a test failure).
+std::string upload(httplib::Client& c, const std::string& glb) {
+  auto up = c.Post("/v1/scenes", glb, "model/gltf-binary");
+  EXPECT_TRUE(up && up->status == 201) << (up ? up->body : "no response");
+  return up && up->status == 201 ? json::parse(up->body)["id"].get<std::string>() : "";
+}
+
 TEST(ServiceModelFlavors, CompatIsConvertedOnceCachedAndHasItsOwnEtag) {
   REQUIRE_DATA(kTum);
   const std::string dir = test::temp_dir("model-flavors");
-  const std::string glb_path = dir + "/tum-compact.glb";
-  const auto reduced = test::run_command(test::rgbdcast_binary() + " reduce --input " + test::data_path(kTum) +
-                                         " --frame 0 --out " + glb_path);
-  ASSERT_EQ(reduced.exit_code, 0) << reduced.err;
-  const std::string compact = test::read_file(glb_path);
+  const std::string compact = reduce_tum_frame(dir, "");
 
   test::ServerProcess server;
   std::string error;
   ASSERT_TRUE(server.start(dir + "/data", {}, &error)) << error;
   httplib::Client c("127.0.0.1", server.port());
   c.set_read_timeout(60, 0);
-  auto up = c.Post("/v1/scenes", compact, "model/gltf-binary");
-  ASSERT_TRUE(up);
-  ASSERT_EQ(up->status, 201) << up->body;
-  const std::string id = json::parse(up->body)["id"];
+  const std::string id = upload(c, compact);
+  ASSERT_FALSE(id.empty());
   const std::string base = "/v1/scenes/" + id + "/model.glb";
 
   auto stored = c.Get(base.c_str());
@@ -125,6 +136,60 @@ TEST(ServiceModelFlavors, CompatIsConvertedOnceCachedAndHasItsOwnEtag) {
   auto gone = c.Get((base + "?flavor=compat").c_str());
   ASSERT_TRUE(gone);
   EXPECT_EQ(gone->status, 404);
+  server.stop();
+  fs::remove_all(dir);
+}
+
+TEST(ServiceModelFlavors, DracoIsConvertedOnceAndADracoUploadIsStoredAndServed) {
+  REQUIRE_DATA(kTum);
+  const std::string dir = test::temp_dir("model-flavors-draco");
+  const std::string compact = reduce_tum_frame(dir, "--preset realtime");
+  test::ServerProcess server;
+  std::string error;
+  ASSERT_TRUE(server.start(dir + "/data", {}, &error)) << error;
+  httplib::Client c("127.0.0.1", server.port());
+  c.set_read_timeout(60, 0);
+  const std::string base = "/v1/scenes/" + upload(c, compact) + "/model.glb";
+
+  auto draco = c.Get((base + "?flavor=draco").c_str());
+  ASSERT_TRUE(draco);
+  ASSERT_EQ(draco->status, 200) << draco->body;
+  EXPECT_EQ(draco->get_header_value("X-Flavor-Cache"), "miss");
+  EXPECT_EQ(glb_json(draco->body)["extensionsRequired"], json::array({"KHR_draco_mesh_compression"}));
+  EXPECT_LT(draco->body.size(), compact.size());
+  std::printf("[ flavors ] realtime TUM frame 0: compact (meshopt) %zu bytes, draco %zu bytes\n", compact.size(),
+              draco->body.size());
+  auto again = c.Get((base + "?flavor=draco").c_str());
+  ASSERT_TRUE(again && again->status == 200);
+  EXPECT_EQ(again->get_header_value("X-Flavor-Cache"), "hit");
+  auto a = decode_glb(reinterpret_cast<const std::uint8_t*>(compact.data()), compact.size());
+  auto b = decode_glb(reinterpret_cast<const std::uint8_t*>(draco->body.data()), draco->body.size());
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(b->nodes[0].mesh.triangle_count(), a->nodes[0].mesh.triangle_count());
+
+  // The Draco file uploaded: decoded as untrusted input, stored; its draco flavour is the stored file.
+  const std::string draco_id = upload(c, draco->body);
+  ASSERT_FALSE(draco_id.empty());
+  const std::string draco_base = "/v1/scenes/" + draco_id + "/model.glb";
+  auto stored = c.Get((draco_base + "?flavor=draco").c_str());
+  ASSERT_TRUE(stored && stored->status == 200);
+  EXPECT_EQ(stored->get_header_value("X-Flavor-Cache"), "stored");
+  auto compat = c.Get((draco_base + "?flavor=compat").c_str());
+  ASSERT_TRUE(compat && compat->status == 200);
+  EXPECT_FALSE(glb_json(compat->body).contains("extensionsRequired"));
+
+  // A Draco GLB whose indices accessor declares more triangles than its Draco data: 422 with a JSON body.
+  auto chunks = glb::parse_glb(reinterpret_cast<const std::uint8_t*>(draco->body.data()), draco->body.size());
+  ASSERT_TRUE(chunks.ok());
+  json doc = json::parse(chunks->json);
+  const size_t ind = doc["meshes"][0]["primitives"][0]["indices"];
+  doc["accessors"][ind]["count"] = doc["accessors"][ind]["count"].get<size_t>() + 300;
+  const auto forged = glb::pack_glb(doc.dump(), chunks->bin);
+  auto refused = c.Post("/v1/scenes", std::string(forged.begin(), forged.end()), "model/gltf-binary");
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 422) << refused->body;
+  EXPECT_NE(refused->body.find("draco"), std::string::npos) << refused->body;
+  EXPECT_TRUE(json::parse(refused->body, nullptr, false).is_object()) << refused->body;
   server.stop();
   fs::remove_all(dir);
 }
