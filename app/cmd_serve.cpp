@@ -69,6 +69,18 @@ void register_serve(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(1, 900));
 
+  cmd->add_option("--max-event-streams", opts->max_event_streams,
+                  "Mission event streams (SSE) open at once before 503; each holds an HTTP thread while open")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 256));
+  cmd->add_option("--event-stream-max-s", opts->event_stream_max_s,
+                  "Seconds one event stream stays open; the browser then reconnects with Last-Event-ID")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 86400.0));
+  cmd->add_option("--keep-alive-s", opts->keep_alive_s, "Seconds without an event before a keep-alive comment")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 3600.0));
+
   cmd->add_option("--import", *imports, "GLB files to store at start (skipped when already stored)")
       ->check(CLI::ExistingFile);
 

@@ -48,6 +48,14 @@ class Renderer {
   virtual std::string device() const = 0;   // the device or renderer string, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)"
   // Copies a scene to the device. Fails on an empty scene (no triangles and no points). upload_ms is reported.
   virtual Result<ResidentSceneId> upload(const Scene& scene, double* upload_ms = nullptr) = 0;
+  // Adds the nodes of `scene` to the resident scene `id`, uploading only them: a live mission grows by one keyframe
+  // without the rest going to the device again. The scene's cameras are not kept (the caller holds them). Fails like
+  // upload() (an empty scene, bad data), and with kNotFound on an unknown id; on failure the resident scene is as it
+  // was. Backends without it return kUnavailable (the caller then uploads the whole scene again).
+  virtual Status append(ResidentSceneId id, const Scene& scene, double* upload_ms = nullptr) {
+    (void)id, (void)scene, (void)upload_ms;
+    return make_error(ErrorCode::kUnavailable, backend() + ": appending to a resident scene is not supported");
+  }
   virtual void release(ResidentSceneId id) = 0;
   // Renders a resident scene. Mesh mode draws each node's triangles, and the points of nodes without triangles.
   // Points mode draws each node's points, or the mesh vertices when a node has no points.

@@ -25,6 +25,7 @@ const char* error_name_for(int status) {
     case 404: return "not_found";
     case 405: return "method_not_allowed";
     case 408: return "request_timeout";
+    case 409: return "conflict";
     case 411: return "length_required";
     case 413: return "payload_too_large";
     case 414: return "uri_too_long";

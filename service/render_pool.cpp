@@ -18,11 +18,13 @@ struct RenderPool::Worker {
     std::string scene_id;
     ResidentSceneId device_id;
     std::vector<CaptureCamera> cameras;
+    std::set<std::string> node_names;  // what append() skips
   };
   std::thread thread;
   std::unique_ptr<Renderer> renderer;
   std::list<Resident> resident;       // most recently used first
   std::vector<std::string> forgotten;  // guarded by the pool's mutex
+  std::vector<std::shared_ptr<Append>> appends;  // guarded by the pool's mutex
   bool rendered_large = false;         // since the renderer was made
   bool heap_dirty = false;             // rendered since the last malloc_trim
 };
@@ -60,6 +62,7 @@ RenderPool::~RenderPool() {
   cv_.notify_all();
   for (auto& w : workers_)
     if (w->thread.joinable()) w->thread.join();
+  appended_cv_.notify_all();
   for (auto& job : queue_) job->promise.set_value(make_error(ErrorCode::kUnavailable, "server is stopping"));
 }
 
@@ -87,6 +90,50 @@ Result<RenderOutput> RenderPool::render(const std::string& scene_id, const ViewR
 void RenderPool::forget(const std::string& scene_id) {
   std::lock_guard lock(mutex_);
   for (auto& w : workers_) w->forgotten.push_back(scene_id);
+}
+
+Status RenderPool::append(const std::string& scene_id, std::shared_ptr<const Scene> part) {
+  auto task = std::make_shared<Append>();
+  task->scene_id = scene_id;
+  task->part = std::move(part);
+  std::unique_lock lock(mutex_);
+  if (stopping_) return make_error(ErrorCode::kUnavailable, "server is stopping");
+  task->remaining = workers_.size();
+  for (auto& w : workers_) w->appends.push_back(task);
+  cv_.notify_all();
+  appended_cv_.wait(lock, [&] { return stopping_ || task->remaining == 0; });
+  if (task->remaining > 0) return make_error(ErrorCode::kUnavailable, "server is stopping");
+  if (task->error) return *task->error;
+  return ok_status();
+}
+
+void RenderPool::apply_append(Worker* w, Append& task) {
+  auto it = w->resident.begin();
+  while (it != w->resident.end() && it->scene_id != task.scene_id) ++it;
+  if (it == w->resident.end()) return;
+  Scene fresh;  // the part without the nodes this resident scene already has
+  bool all_fresh = true;
+  for (const SceneNode& node : task.part->nodes) {
+    if (it->node_names.count(node.name)) all_fresh = false;
+    else fresh.nodes.push_back(node);
+  }
+  if (fresh.nodes.empty()) return;
+  Status st = make_error(ErrorCode::kInternal, "append threw");
+  try {
+    st = w->renderer->append(it->device_id, all_fresh ? *task.part : fresh);
+  } catch (const std::exception& e) {
+    st = make_error(ErrorCode::kInternal, std::string("append threw: ") + e.what());
+  }
+  if (!st) {
+    w->renderer->release(it->device_id);
+    w->resident.erase(it);
+    std::lock_guard lock(mutex_);
+    if (!task.error && st.error().code != ErrorCode::kUnavailable) task.error = st.error();
+    return;
+  }
+  for (const SceneNode& node : task.part->nodes) it->node_names.insert(node.name);
+  it->cameras.insert(it->cameras.end(), task.part->cameras.begin(), task.part->cameras.end());
+  w->heap_dirty = true;
 }
 
 size_t RenderPool::queue_depth() const {
@@ -144,19 +191,23 @@ void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> st
   for (;;) {
     std::unique_ptr<Job> job;
     std::vector<std::string> forgotten;
+    std::vector<std::shared_ptr<Append>> appends;
     {
       std::unique_lock lock(mutex_);
       const auto idle = std::chrono::duration<double>(options_.idle_release_s);
-      if (!cv_.wait_for(lock, idle, [&] { return stopping_ || !queue_.empty(); })) {
+      if (!cv_.wait_for(lock, idle, [&] { return stopping_ || !queue_.empty() || !w->appends.empty(); })) {
         lock.unlock();
         release_when_idle(w, factory);
         continue;
       }
       if (stopping_) break;
-      job = std::move(queue_.front());
-      queue_.pop_front();
-      ++busy_;
       forgotten.swap(w->forgotten);
+      appends.swap(w->appends);
+      if (!queue_.empty()) {
+        job = std::move(queue_.front());
+        queue_.pop_front();
+        ++busy_;
+      }
     }
     for (const auto& id : forgotten) {
       for (auto it = w->resident.begin(); it != w->resident.end();) {
@@ -168,6 +219,15 @@ void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> st
         }
       }
     }
+    if (!appends.empty()) {
+      for (const auto& task : appends) apply_append(w, *task);
+      {
+        std::lock_guard lock(mutex_);
+        for (const auto& task : appends) --task->remaining;
+      }
+      appended_cv_.notify_all();
+    }
+    if (!job) continue;
     RenderOutput out;
     out.queue_ms = ms_since(job->queued_at);
     out.backend = w->renderer->backend();
@@ -181,7 +241,9 @@ void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> st
         out.load_ms = ms_since(t0);
         auto id = w->renderer->upload(**scene, &out.upload_ms);
         if (!id) return id.error();
-        w->resident.push_front({job->scene_id, *id, (*scene)->cameras});
+        std::set<std::string> names;
+        for (const SceneNode& node : (*scene)->nodes) names.insert(node.name);
+        w->resident.push_front({job->scene_id, *id, (*scene)->cameras, std::move(names)});
         while (w->resident.size() > static_cast<size_t>(options_.resident_scenes)) {
           w->renderer->release(w->resident.back().device_id);
           w->resident.pop_back();

@@ -7,12 +7,16 @@
 // - Each worker keeps up to `resident_scenes` scenes uploaded (least recently used goes first); forget() drops a
 //   deleted scene from every worker before its next job.
 // - Scenes are loaded through the SceneLoader (decoded GLB) on a cache miss; a loader error is returned as is.
+// - append() grows a resident scene in place (a live mission gains a keyframe): each worker that holds the scene
+//   uploads only the new nodes (Renderer::append); a worker that does not hold it loads it whole on its next view.
 #include <condition_variable>
 #include <deque>
 #include <functional>
 #include <future>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -59,6 +63,12 @@ class RenderPool {
 
   Result<RenderOutput> render(const std::string& scene_id, const ViewRequest& request);
   void forget(const std::string& scene_id);
+  // Adds `part`'s nodes and cameras to `scene_id` on every worker that has it resident, and returns once every worker
+  // has done so (a worker busy with a view finishes that view first; nothing waits in the render queue). Nodes whose
+  // name the resident scene already has are skipped: a worker that loaded the scene after the part was stored has it.
+  // A worker whose append fails drops the scene (its next view loads it whole); the first such error is returned.
+  // kUnavailable when the pool is stopping.
+  Status append(const std::string& scene_id, std::shared_ptr<const Scene> part);
 
   const std::string& backend() const { return backend_; }
   const std::string& device() const { return device_; }
@@ -74,6 +84,13 @@ class RenderPool {
     std::promise<Result<RenderOutput>> promise;
   };
   struct Worker;
+  struct Append {
+    std::string scene_id;
+    std::shared_ptr<const Scene> part;
+    size_t remaining = 0;  // workers that have not applied it yet (guarded by mutex_)
+    std::optional<Error> error;
+  };
+  void apply_append(Worker* worker, Append& append);
 
   explicit RenderPool(const RenderPoolOptions& options, SceneLoader loader);
   void run(Worker* worker, RendererFactory factory, std::promise<Status> started);
@@ -84,6 +101,7 @@ class RenderPool {
   std::string backend_, device_;
   mutable std::mutex mutex_;
   std::condition_variable cv_;
+  std::condition_variable appended_cv_;
   std::deque<std::unique_ptr<Job>> queue_;
   bool stopping_ = false;
   size_t rejected_ = 0;

@@ -56,9 +56,8 @@ nlohmann::json scene_stats(const Scene& scene, size_t glb_bytes) {
   return stats;
 }
 
-Result<IngestedScene> ingest_glb(std::vector<std::uint8_t> glb) {
+Result<Scene> decode_client_glb(const std::vector<std::uint8_t>& glb) {
   if (glb.empty()) return make_error(ErrorCode::kInvalidInput, "empty body: expected a GLB");
-  const auto t0 = std::chrono::steady_clock::now();
   auto scene = decode_glb(glb.data(), glb.size());
   if (!scene) return make_error(ErrorCode::kInvalidInput, "not a valid GLB: " + scene.error().message);
   if (scene->triangle_count() == 0 && scene->vertex_count() == 0) {
@@ -66,6 +65,13 @@ Result<IngestedScene> ingest_glb(std::vector<std::uint8_t> glb) {
     for (const auto& node : scene->nodes) points += node.points.size();
     if (points == 0) return make_error(ErrorCode::kEmpty, "the GLB holds no triangles and no points");
   }
+  return scene;
+}
+
+Result<IngestedScene> ingest_glb(std::vector<std::uint8_t> glb) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto scene = decode_client_glb(glb);
+  if (!scene) return scene.error();
   const double decode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   IngestedScene out;
   out.stats = scene_stats(*scene, glb.size());

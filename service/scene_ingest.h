@@ -25,6 +25,8 @@ struct IngestedScene {
 };
 
 Result<IngestedScene> ingest_glb(std::vector<std::uint8_t> glb);
+// The decode and checks of ingest_glb (kInvalidInput, kEmpty), for callers that keep the Scene (a mission keyframe).
+Result<Scene> decode_client_glb(const std::vector<std::uint8_t>& glb);
 
 struct FrameUpload {
   std::vector<unsigned char> color;  // PNG or JPEG bytes

@@ -18,9 +18,11 @@ namespace rgbdcast::service {
 namespace {
 
 constexpr size_t kIdLength = 32;
-constexpr const char* kTempPrefix = ".tmp-";
+constexpr const char* kTempPrefix = kTempFilePrefix;
 
 std::string errno_text() { return std::strerror(errno); }
+
+}  // namespace
 
 Status fsync_dir(const std::string& dir) {
   const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
@@ -30,6 +32,8 @@ Status fsync_dir(const std::string& dir) {
   if (rc != 0) return make_error(ErrorCode::kIo, "cannot fsync folder " + dir + ": " + errno_text());
   return ok_status();
 }
+
+namespace {
 
 std::string random_hex(size_t digits) {
   static thread_local std::random_device rd;
@@ -43,11 +47,15 @@ std::string random_hex(size_t digits) {
   return s;
 }
 
+}  // namespace
+
 Result<std::string> read_text(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return make_error(ErrorCode::kIo, "cannot read " + path);
   return std::string(std::istreambuf_iterator<char>(in), {});
 }
+
+namespace {
 
 // The metadata of one stored scene: a JSON object whose bookkeeping fields have their types. Anything else is
 // kInvalidInput with the reason (nlohmann's type errors are caught here, never thrown further).
@@ -69,22 +77,22 @@ Result<StoredScene> parse_metadata(const std::string& id, const std::string& tex
   }
 }
 
-// Moves <id>.json and <id>.glb (when there) into <data_dir>/quarantine/.
-Status quarantine(const std::string& data_dir, const std::string& scenes_dir, const std::string& id) {
+}  // namespace
+
+Status quarantine(const std::string& data_dir, const std::string& from_dir, const std::string& stem,
+                  const std::string& prefix) {
   const fs::path q = fs::path(data_dir) / "quarantine";
   std::error_code ec;
   fs::create_directories(q, ec);
   if (ec) return make_error(ErrorCode::kIo, "cannot create the quarantine folder: " + ec.message());
   for (const char* ext : {".json", ".glb"}) {
-    const fs::path from = fs::path(scenes_dir) / (id + ext);
+    const fs::path from = fs::path(from_dir) / (stem + ext);
     if (!fs::exists(from, ec)) continue;
-    fs::rename(from, q / (id + ext), ec);
-    if (ec) return make_error(ErrorCode::kIo, "cannot move " + id + ext + " to quarantine: " + ec.message());
+    fs::rename(from, q / (prefix + stem + ext), ec);
+    if (ec) return make_error(ErrorCode::kIo, "cannot move " + stem + ext + " to quarantine: " + ec.message());
   }
-  return fsync_dir(scenes_dir);
+  return fsync_dir(from_dir);
 }
-
-}  // namespace
 
 bool is_valid_scene_id(std::string_view id) {
   if (id.size() != kIdLength) return false;
@@ -170,7 +178,7 @@ Result<std::unique_ptr<SceneStore>> SceneStore::open(const std::string& data_dir
     }
   }
   for (const auto& [id, why] : bad) {
-    auto st = quarantine(data_dir, dir, id);
+    auto st = quarantine(data_dir, dir, id, "");
     if (!st) return st.error();
     store->quarantined_.push_back(id + ": " + why + " (moved to quarantine/)");
   }

@@ -16,9 +16,13 @@
 #include "gltf/gltf_io.h"
 #include "service/connection_gate.h"
 #include "service/http_errors.h"
+#include "service/http_reply.h"
 #include "service/image_encode.h"
 #include "service/job_queue.h"
 #include "service/metrics.h"
+#include "service/mission_routes.h"
+#include "service/mission_scene.h"
+#include "service/mission_store.h"
 #include "service/model_flavors.h"
 #include "service/render_pool.h"
 #include "service/request_guard.h"
@@ -42,37 +46,6 @@ std::string fmt_ms(double ms) {
   return buf;
 }
 
-void send_error(httplib::Response& res, int status, const std::string& detail) {
-  res.status = status;
-  res.set_content(error_body(status, detail), "application/json");
-}
-
-// Errors from the library may quote server paths: they are taken out.
-void send_error(httplib::Response& res, const Error& e) {
-  const int status = http_status_for(e.code);
-  if (status == 503) res.set_header("Retry-After", "1");
-  send_error(res, status, redact_paths(e.message));
-}
-
-void send_json(httplib::Response& res, int status, const nlohmann::json& body) {
-  res.status = status;
-  res.set_content(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "application/json");
-}
-
-// 503 for a full queue; the connection closes when the request body was not read.
-void send_busy(httplib::Response& res, const std::string& detail, int retry_after_s) {
-  res.set_header("Retry-After", std::to_string(retry_after_s));
-  send_error(res, 503, detail);
-}
-
-// The media type without parameters, lower case.
-std::string media_type(const std::string& content_type) {
-  std::string t = content_type.substr(0, content_type.find(';'));
-  while (!t.empty() && t.back() == ' ') t.pop_back();
-  for (auto& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return t;
-}
-
 nlohmann::json scene_summary(const StoredScene& s) {
   nlohmann::json j = {{"id", s.id}, {"bytes", s.bytes}, {"created_unix_s", s.created_unix_s}};
   for (const char* key : {"points", "triangles", "vertices", "source"})
@@ -82,36 +55,6 @@ nlohmann::json scene_summary(const StoredScene& s) {
                 {"view", "/v1/scenes/" + s.id + "/view?pose=capture"}};
   return j;
 }
-
-// A request body as it arrives, whatever its framing (Content-Length, chunked) and coding (gzip, br: httplib
-// inflates it): at most `limit` bytes are kept; past it the reading stops and `over` is set.
-struct BodyBudget {
-  size_t limit = 0, received = 0;
-  bool over = false;
-  bool take(size_t n) {
-    received += n;
-    over = over || received > limit;
-    return !over;
-  }
-};
-
-// Counts requests holding a slot; try_acquire fails when `limit` already do.
-class Slots {
- public:
-  explicit Slots(int limit) : limit_(limit) {}
-  bool try_acquire() {
-    int n = used_.load();
-    do {
-      if (n >= limit_) return false;
-    } while (!used_.compare_exchange_weak(n, n + 1));
-    return true;
-  }
-  void release() { --used_; }
-
- private:
-  const int limit_;
-  std::atomic<int> used_{0};
-};
 
 // Returns freed heap to the system once no reduction is running: a frame reduction peaks at hundreds of MB.
 void trim_heap() { ::malloc_trim(0); }
@@ -129,6 +72,8 @@ struct ViewService::Impl {
   ModelFlavors flavors;
   GuardConfig guard;
   std::unique_ptr<Slots> uploads;
+  std::unique_ptr<MissionStore> missions;
+  std::unique_ptr<MissionRoutes> mission_routes;
   std::unique_ptr<GatedServer> server;  // last: destroyed first, its workers may still wait on the pools
   int port = 0;
 
@@ -171,6 +116,9 @@ struct ViewService::Impl {
   void post_scene(const httplib::Request& req, httplib::Response& res, const httplib::ContentReader& reader);
   Result<IngestedScene> reduce_frame_upload(FrameUpload upload, httplib::Response& res, bool* busy);
   void get_view(const httplib::Request& req, httplib::Response& res);
+  // Renders a parsed view of a pool scene (a stored scene's id or a mission's key) and answers it.
+  void render_and_send(const httplib::Request& req, const std::string& scene_key, const ViewRequest& request,
+                       httplib::Response& res);
   void get_glb(const httplib::Request& req, httplib::Response& res);
 };
 
@@ -306,13 +254,19 @@ void ViewService::Impl::get_view(const httplib::Request& req, httplib::Response&
   if (req.method == "POST") params.emplace("camera", req.body);  // the camera JSON as the body (camera_json.h)
   auto request = parse_view_request(params);
   if (!request) return send_error(res, request.error());
+  render_and_send(req, scene->id, *request, res);
+}
+
+void ViewService::Impl::render_and_send(const httplib::Request& req, const std::string& scene_key,
+                                        const ViewRequest& view, httplib::Response& res) {
+  const ViewRequest* request = &view;
   if (req.method == "HEAD") {  // what a GET would answer, without rendering
     res.status = 200;
     res.set_header("Cache-Control", "no-store");
     res.set_header("Content-Type", mime_type(request->format));
     return;
   }
-  auto out = pool->render(scene->id, *request);
+  auto out = pool->render(scene_key, *request);
   if (!out) return send_error(res, out.error());
   const auto t0 = Clock::now();
   auto encoded = encode_image(out->color, request->format, request->quality);
@@ -407,7 +361,7 @@ void ViewService::Impl::routes() {
   server->Get("/", guarded([](Req, Res res) { res.set_content(operator_page_html(), "text/html; charset=utf-8"); }));
   server->Get("/healthz", guarded([this](Req, Res res) {
     send_json(res, 200, {{"status", "ok"}, {"backend", pool->backend()}, {"device", pool->device()},
-                         {"scenes", store->count()}});
+                         {"scenes", store->count()}, {"missions", missions->count()}});
   }));
   server->Get("/metrics", guarded([this](Req, Res res) {
     MetricsGauges g;
@@ -444,10 +398,12 @@ void ViewService::Impl::routes() {
   server->Get(R"(/v1/scenes/([^/]+)/model\.glb)", guarded([this](Req req, Res res) { get_glb(req, res); }));
   server->Get(R"(/v1/scenes/([^/]+)/view)", guarded([this](Req req, Res res) { get_view(req, res); }));
   server->Post(R"(/v1/scenes/([^/]+)/view)", guarded([this](Req req, Res res) { get_view(req, res); }));
+  mission_routes->install(*server, guarded, guarded_reader);
 }
 
 ViewService::ViewService(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 ViewService::~ViewService() {
+  if (impl_ && impl_->mission_routes) impl_->mission_routes->stop();
   if (impl_ && impl_->server) {
     impl_->server->stop();
     impl_->server->shut_down();
@@ -465,10 +421,15 @@ Status check_options(const ServeOptions& o) {
     return bad("renderers, reducers and max uploads must be at least 1, queues at least 0");
   // Views waiting for a renderer and bodies being received each hold an HTTP thread: with fewer threads than
   // they need, every thread blocks first and the queue's 503 never comes (issue 11). Two stay for /healthz.
-  const int needed = o.renderers + o.render_queue + o.max_uploads + 2;
+  // Open event streams hold a thread each for as long as they last (service/mission_routes.h).
+  if (o.max_event_streams < 0 || o.max_event_streams > 256) return bad("max event streams must be 0..256");
+  if (!(o.event_stream_max_s >= 1 && o.event_stream_max_s <= 86400)) return bad("event stream length 1..86400 s");
+  if (!(o.keep_alive_s >= 0.1 && o.keep_alive_s <= 3600)) return bad("keep-alive interval 0.1..3600 s");
+  const int needed = o.renderers + o.render_queue + o.max_uploads + o.max_event_streams + 2;
   if (o.threads < needed)
     return bad("--threads " + std::to_string(o.threads) + " is too few for --renderers + --render-queue + " +
-               "--max-uploads + 2 = " + std::to_string(needed) + ": the queues could never answer 503");
+               "--max-uploads + --max-event-streams + 2 = " + std::to_string(needed) +
+               ": the queues could never answer 503");
   if (o.max_frame_width < 1 || o.max_frame_height < 1) return bad("frame limit must be positive");
   if (!is_loopback_address(o.bind) && o.token.empty() && !o.insecure_no_auth)
     return bad("binding to " + o.bind + " (not loopback) without --token-file would let anyone on the network "
@@ -496,6 +457,11 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   impl->store = std::move(*store);
   for (const auto& q : impl->store->quarantined())
     std::fprintf(stderr, "rgbdcast serve: warning: %s\n", q.c_str());
+  auto missions = MissionStore::open(options.data_dir);
+  if (!missions) return missions.error();
+  impl->missions = std::move(*missions);
+  for (const auto& q : impl->missions->quarantined())
+    std::fprintf(stderr, "rgbdcast serve: warning: %s\n", q.c_str());
 
   cap_renderer_threads(options.renderers);
   // With one malloc arena per thread (up to 16 on 2 cores) a burst of large views leaves hundreds of MB spread over
@@ -503,6 +469,7 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   // idle before, 235 MiB with this and the idle reset, base 221 MiB). MALLOC_ARENA_MAX, when set, wins.
   if (!std::getenv("MALLOC_ARENA_MAX")) ::mallopt(M_ARENA_MAX, 2);
   SceneStore* store_ptr = impl->store.get();
+  MissionStore* missions_ptr = impl->missions.get();
   std::string* reason = &impl->backend_reason;
   std::mutex* reason_mutex = &impl->reason_mutex;
   const BackendChoice choice = options.backend;
@@ -518,7 +485,13 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
         *reason = sel->reason;
         return std::move(sel->renderer);
       },
-      [store_ptr](const std::string& id) -> Result<std::shared_ptr<const Scene>> {
+      [store_ptr, missions_ptr](const std::string& id) -> Result<std::shared_ptr<const Scene>> {
+        const std::string mission_prefix = mission_scene_key("");
+        if (id.rfind(mission_prefix, 0) == 0) {  // a live mission: every keyframe placed, in one scene
+          auto mission = assemble_mission(*missions_ptr, id.substr(mission_prefix.size()));
+          if (!mission) return mission.error();
+          return std::shared_ptr<const Scene>(std::make_shared<Scene>(std::move(*mission)));
+        }
         auto bytes = store_ptr->read_glb(id);
         if (!bytes) return bytes.error();
         auto scene = decode_glb(bytes->data(), bytes->size());
@@ -530,6 +503,16 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   impl->pool = std::move(*pool);
   impl->reducers = std::make_unique<JobQueue>(options.reducers, options.reduce_queue);
   impl->uploads = std::make_unique<Slots>(options.max_uploads);
+  MissionRouteOptions mission_options;
+  mission_options.max_body_bytes = options.max_body_bytes;
+  mission_options.max_event_streams = options.max_event_streams;
+  mission_options.event_stream_max_s = options.event_stream_max_s;
+  mission_options.keep_alive_s = options.keep_alive_s;
+  Impl* raw = impl.get();
+  impl->mission_routes = std::make_unique<MissionRoutes>(
+      mission_options, *impl->missions, *impl->pool, *impl->uploads,
+      [raw](const httplib::Request& req, const std::string& key, const ViewRequest& request,
+            httplib::Response& res) { raw->render_and_send(req, key, request, res); });
 
   GateOptions gate;
   gate.workers = options.threads;
@@ -585,6 +568,9 @@ Status ViewService::run() {
   return ok_status();
 }
 
-void ViewService::stop() { impl_->server->stop(); }
+void ViewService::stop() {
+  impl_->mission_routes->stop();
+  impl_->server->stop();
+}
 
 }  // namespace rgbdcast::service

@@ -22,7 +22,7 @@ struct ServeOptions {
   int port = 8080;                 // 0: any free port (the bound port is printed)
   int threads = 32;                // HTTP worker threads; a connection holds one only while a request is served
                                    // (service/connection_gate.h). Must exceed renderers + render_queue + max_uploads
-                                   // so that the queues, not the threads, are what fills up first.
+                                   // + max_event_streams so that the queues, not the threads, fill up first.
   size_t max_body_bytes = 64u << 20;  // bytes received, after any Content-Encoding is inflated
   BackendChoice backend = BackendChoice::kAuto;
   int renderers = 2;               // renderer instances: two overlap one view's render with another's readback and
@@ -40,6 +40,10 @@ struct ServeOptions {
   double header_timeout_s = 5.0;   // a new connection has this long to send its request headers
   double idle_timeout_s = 5.0;     // keep-alive connections close after this long without a request
   int max_connections = 512;
+  // Live missions' event streams (service/mission_routes.h): each open stream holds an HTTP thread.
+  int max_event_streams = 4;
+  double event_stream_max_s = 300.0;  // an SSE response ends after this long; EventSource reconnects
+  double keep_alive_s = 15.0;         // ": keep-alive" after this long without an event
 };
 
 class ViewService {

@@ -40,12 +40,15 @@ class OsmesaRenderer final : public Renderer {
   std::string backend() const override { return "osmesa"; }
   std::string device() const override { return device_; }
   Result<ResidentSceneId> upload(const Scene& scene, double* upload_ms) override;
+  Status append(ResidentSceneId id, const Scene& scene, double* upload_ms) override;
   void release(ResidentSceneId id) override;
   Result<RenderResult> render(ResidentSceneId id, const ViewCamera& camera, const RenderOptions& options) override;
 
  private:
   bool make_current() { return OSMesaMakeCurrent(ctx_, dummy_, GL_UNSIGNED_BYTE, 1, 1) == GL_TRUE; }
   void delete_nodes(std::vector<GlNode>& nodes);
+  // The scene's nodes as GL objects; on failure nothing is left allocated.
+  Result<std::vector<GlNode>> upload_nodes(const Scene& scene);
   Status ensure_target(int width, int height);
   GLuint vertex_array(GLuint vbo, GLuint ibo);
 
@@ -140,8 +143,7 @@ static GLuint make_buffer(GLenum target, const void* data, size_t bytes) {
   return b;
 }
 
-Result<ResidentSceneId> OsmesaRenderer::upload(const Scene& scene, double* upload_ms) {
-  const auto t0 = Clock::now();
+Result<std::vector<GlNode>> OsmesaRenderer::upload_nodes(const Scene& scene) {
   auto prepared = prepare_scene(scene);
   if (!prepared) return prepared.error();
   if (!make_current()) return make_error(ErrorCode::kInternal, "OSMesa: cannot make the context current");
@@ -187,10 +189,28 @@ Result<ResidentSceneId> OsmesaRenderer::upload(const Scene& scene, double* uploa
                       "OSMesa: scene upload failed (GL error " + std::to_string(e) + ")");
   }
   glFinish();
+  return nodes;
+}
+
+Result<ResidentSceneId> OsmesaRenderer::upload(const Scene& scene, double* upload_ms) {
+  const auto t0 = Clock::now();
+  auto nodes = upload_nodes(scene);
+  if (!nodes) return nodes.error();
   const ResidentSceneId id = next_id_++;
-  scenes_[id] = std::move(nodes);
+  scenes_[id] = std::move(*nodes);
   if (upload_ms) *upload_ms = ms_since(t0);
   return id;
+}
+
+Status OsmesaRenderer::append(ResidentSceneId id, const Scene& scene, double* upload_ms) {
+  const auto t0 = Clock::now();
+  auto it = scenes_.find(id);
+  if (it == scenes_.end()) return make_error(ErrorCode::kNotFound, "no resident scene " + std::to_string(id));
+  auto nodes = upload_nodes(scene);
+  if (!nodes) return nodes.error();
+  it->second.insert(it->second.end(), nodes->begin(), nodes->end());
+  if (upload_ms) *upload_ms = ms_since(t0);
+  return ok_status();
 }
 
 void OsmesaRenderer::delete_nodes(std::vector<GlNode>& nodes) {

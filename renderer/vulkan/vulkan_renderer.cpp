@@ -36,13 +36,14 @@ struct ResidentNode {
   VkDescriptorSet set = VK_NULL_HANDLE;
 };
 
+// Nodes and the descriptor pools their sets come from: one pool per upload or append (a mission grows by appends).
 struct ResidentScene {
   VkDevice device = VK_NULL_HANDLE;
-  VkDescriptorPool pool = VK_NULL_HANDLE;
+  std::vector<VkDescriptorPool> pools;
   std::vector<ResidentNode> nodes;
   ~ResidentScene() {
     nodes.clear();
-    if (pool) vkDestroyDescriptorPool(device, pool, nullptr);
+    for (VkDescriptorPool pool : pools) vkDestroyDescriptorPool(device, pool, nullptr);
   }
 };
 
@@ -61,11 +62,14 @@ class VulkanRenderer final : public Renderer {
   std::string device() const override { return ctx_->device_name(); }
   int validation_errors() const override { return ctx_->validation_errors(); }
   Result<ResidentSceneId> upload(const Scene& scene, double* upload_ms) override;
+  Status append(ResidentSceneId id, const Scene& scene, double* upload_ms) override;
   void release(ResidentSceneId id) override { scenes_.erase(id); }
   Result<RenderResult> render(ResidentSceneId id, const ViewCamera& camera, const RenderOptions& options) override;
 
  private:
   Result<VkPipeline> make_pipeline(VkPrimitiveTopology topology);
+  // Uploads the nodes of `scene` into `into` (a fresh ResidentScene: on failure the caller drops it whole).
+  Status upload_nodes(const Scene& scene, ResidentScene& into);
   Status ensure_target(int width, int height);
   void record_draws(VkCommandBuffer cmd, const ResidentScene& scene, const ViewCamera& camera,
                     const RenderOptions& options);
@@ -212,11 +216,10 @@ Result<VkPipeline> VulkanRenderer::make_pipeline(VkPrimitiveTopology topology) {
   return pipeline;
 }
 
-Result<ResidentSceneId> VulkanRenderer::upload(const Scene& scene, double* upload_ms) {
-  const auto t0 = Clock::now();
+Status VulkanRenderer::upload_nodes(const Scene& scene, ResidentScene& into) {
   auto prepared = prepare_scene(scene);
   if (!prepared) return prepared.error();
-  auto rs = std::make_unique<ResidentScene>();
+  ResidentScene* rs = &into;
   rs->device = ctx_->device();
   const uint32_t n = static_cast<uint32_t>(prepared->nodes.size());
   VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n};
@@ -224,8 +227,10 @@ Result<ResidentSceneId> VulkanRenderer::upload(const Scene& scene, double* uploa
   dpi.maxSets = n;
   dpi.poolSizeCount = 1;
   dpi.pPoolSizes = &ps;
-  if (VkResult r = vkCreateDescriptorPool(rs->device, &dpi, nullptr, &rs->pool); r != VK_SUCCESS)
+  VkDescriptorPool pool = VK_NULL_HANDLE;
+  if (VkResult r = vkCreateDescriptorPool(rs->device, &dpi, nullptr, &pool); r != VK_SUCCESS)
     return vk::vk_error(r, "vkCreateDescriptorPool");
+  rs->pools.push_back(pool);
   for (PreparedNode& pn : prepared->nodes) {
     ResidentNode rn;
     rn.to_world = pn.to_world;
@@ -258,7 +263,7 @@ Result<ResidentSceneId> VulkanRenderer::upload(const Scene& scene, double* uploa
       rn.texture = std::move(tex.value());
     }
     VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-    ai.descriptorPool = rs->pool;
+    ai.descriptorPool = pool;
     ai.descriptorSetCount = 1;
     ai.pSetLayouts = &set_layout_;
     if (VkResult r = vkAllocateDescriptorSets(rs->device, &ai, &rn.set); r != VK_SUCCESS)
@@ -274,10 +279,32 @@ Result<ResidentSceneId> VulkanRenderer::upload(const Scene& scene, double* uploa
     vkUpdateDescriptorSets(rs->device, 1, &w, 0, nullptr);
     rs->nodes.push_back(std::move(rn));
   }
+  return ok_status();
+}
+
+Result<ResidentSceneId> VulkanRenderer::upload(const Scene& scene, double* upload_ms) {
+  const auto t0 = Clock::now();
+  auto rs = std::make_unique<ResidentScene>();
+  if (auto st = upload_nodes(scene, *rs); !st) return st.error();
   const ResidentSceneId id = next_id_++;
   scenes_[id] = std::move(rs);
   if (upload_ms) *upload_ms = ms_since(t0);
   return id;
+}
+
+Status VulkanRenderer::append(ResidentSceneId id, const Scene& scene, double* upload_ms) {
+  const auto t0 = Clock::now();
+  auto it = scenes_.find(id);
+  if (it == scenes_.end()) return make_error(ErrorCode::kNotFound, "no resident scene " + std::to_string(id));
+  ResidentScene added;
+  if (auto st = upload_nodes(scene, added); !st) return st;
+  ResidentScene& rs = *it->second;
+  for (auto& node : added.nodes) rs.nodes.push_back(std::move(node));
+  rs.pools.insert(rs.pools.end(), added.pools.begin(), added.pools.end());
+  added.nodes.clear();
+  added.pools.clear();
+  if (upload_ms) *upload_ms = ms_since(t0);
+  return ok_status();
 }
 
 Status VulkanRenderer::ensure_target(int width, int height) {

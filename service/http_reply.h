@@ -1,0 +1,86 @@
+#pragma once
+// Small pieces every route file of the service uses to answer (view_service.cpp, mission_routes.cpp): the JSON
+// error and value bodies, the 503 with Retry-After, the media type of a request, the body budget and upload slots.
+// httplib.h must be compiled with the library's flags (../shared/STACK.md).
+#include <httplib.h>
+
+#include <atomic>
+#include <cctype>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "scene/result.h"
+#include "service/http_errors.h"
+
+namespace rgbdcast::service {
+
+inline void send_error(httplib::Response& res, int status, const std::string& detail) {
+  res.status = status;
+  res.set_content(error_body(status, detail), "application/json");
+}
+
+// Errors from the library may quote server paths: they are taken out.
+inline void send_error(httplib::Response& res, const Error& e) {
+  const int status = http_status_for(e.code);
+  if (status == 503) res.set_header("Retry-After", "1");
+  send_error(res, status, redact_paths(e.message));
+}
+
+inline void send_json(httplib::Response& res, int status, const nlohmann::json& body) {
+  res.status = status;
+  res.set_content(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "application/json");
+}
+
+// 503 for a full queue.
+inline void send_busy(httplib::Response& res, const std::string& detail, int retry_after_s) {
+  res.set_header("Retry-After", std::to_string(retry_after_s));
+  send_error(res, 503, detail);
+}
+
+// The media type without parameters, lower case.
+inline std::string media_type(const std::string& content_type) {
+  std::string t = content_type.substr(0, content_type.find(';'));
+  while (!t.empty() && t.back() == ' ') t.pop_back();
+  for (auto& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return t;
+}
+
+// A request body as it arrives, whatever its framing (Content-Length, chunked) and coding (gzip, br: httplib
+// inflates it): at most `limit` bytes are kept; past it the reading stops and `over` is set.
+struct BodyBudget {
+  size_t limit = 0, received = 0;
+  bool over = false;
+  bool take(size_t n) {
+    received += n;
+    over = over || received > limit;
+    return !over;
+  }
+};
+
+// Counts requests holding a slot; try_acquire fails when `limit` already do.
+class Slots {
+ public:
+  explicit Slots(int limit) : limit_(limit) {}
+  bool try_acquire() {
+    int n = used_.load();
+    do {
+      if (n >= limit_) return false;
+    } while (!used_.compare_exchange_weak(n, n + 1));
+    return true;
+  }
+  void release() { --used_; }
+  int used() const { return used_.load(); }
+
+ private:
+  const int limit_;
+  std::atomic<int> used_{0};
+};
+
+// Releases a slot when it goes out of scope.
+struct SlotRelease {
+  Slots* slots;
+  ~SlotRelease() { slots->release(); }
+};
+
+}  // namespace rgbdcast::service

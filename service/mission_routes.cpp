@@ -1,0 +1,324 @@
+#include "service/mission_routes.h"
+
+#include <algorithm>
+#include <chrono>
+#include <set>
+
+#include "gltf/gltf_io.h"
+#include "service/connection_gate.h"
+#include "service/mission_scene.h"
+#include "service/scene_ingest.h"
+
+namespace rgbdcast::service {
+namespace {
+
+double now_unix_s() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+// The mission named by the route's first capture, or a 400 answered.
+std::optional<std::string> name_or_error(const httplib::Request& req, httplib::Response& res) {
+  const std::string name = req.matches.size() > 1 ? req.matches[1].str() : std::string();
+  if (!is_valid_mission_name(name)) {
+    send_error(res, 400, "malformed mission name (expected 1..64 of A-Z a-z 0-9 _ -)");
+    return std::nullopt;
+  }
+  return name;
+}
+
+// A sequence number or event id: decimal digits, 0..2^31-1.
+std::optional<std::int64_t> parse_seq(const std::string& text) {
+  if (text.empty() || text.size() > 10) return std::nullopt;
+  if (!std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; })) return std::nullopt;
+  const std::int64_t v = std::stoll(text);
+  if (v > kMaxKeyframeSeq) return std::nullopt;
+  return v;
+}
+
+std::string event_text(const MissionKeyframe& k) {
+  return "id: " + std::to_string(k.seq) + "\nevent: keyframe\ndata: " + k.answer().dump() + "\n\n";
+}
+
+}  // namespace
+
+std::string mission_scene_key(const std::string& name) { return "mission/" + name; }
+
+MissionRoutes::MissionRoutes(MissionRouteOptions options, MissionStore& missions, RenderPool& pool, Slots& uploads,
+                             RenderView render_view)
+    : options_(options),
+      missions_(missions),
+      pool_(pool),
+      uploads_(uploads),
+      render_view_(std::move(render_view)),
+      streams_(options.max_event_streams) {}
+
+MissionRoutes::~MissionRoutes() { stop(); }
+
+void MissionRoutes::stop() {
+  stopping_ = true;
+  missions_.wake_all();
+}
+
+void MissionRoutes::install(httplib::Server& server, const Guard& guard, const GuardReader& guard_reader) {
+  using Req = const httplib::Request&;
+  using Res = httplib::Response&;
+  server.Get("/v1/missions", guard([this](Req, Res res) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const auto& m : missions_.list())
+      list.push_back({{"name", m.name}, {"keyframes", m.keyframes}, {"bytes", m.bytes}, {"updated", m.updated}});
+    send_json(res, 200, {{"count", list.size()}, {"missions", list}});
+  }));
+  server.Post(R"(/v1/missions/([^/]+)/keyframes)",
+              guard_reader([this](Req req, Res res, const httplib::ContentReader& reader) {
+                post_keyframe(req, res, reader);
+              }));
+  server.Get(R"(/v1/missions/([^/]+))", guard([this](Req req, Res res) { get_mission(req, res); }));
+  server.Delete(R"(/v1/missions/([^/]+))", guard([this](Req req, Res res) { delete_mission(req, res); }));
+  server.Get(R"(/v1/missions/([^/]+)/model\.glb)", guard([this](Req req, Res res) { get_model(req, res); }));
+  server.Get(R"(/v1/missions/([^/]+)/view)", guard([this](Req req, Res res) { get_view(req, res); }));
+  server.Post(R"(/v1/missions/([^/]+)/view)", guard([this](Req req, Res res) { get_view(req, res); }));
+  server.Get(R"(/v1/missions/([^/]+)/events)", guard([this](Req req, Res res) { get_events(req, res); }));
+}
+
+void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response& res,
+                                  const httplib::ContentReader& reader) {
+  const double received = now_unix_s();
+  // Everything the query says is checked before the body is read; a refusal closes the connection (the unread body
+  // is not taken for the next request).
+  auto refuse = [&](int status, const std::string& detail) {
+    GatedServer::close_after_response();
+    send_error(res, status, detail);
+  };
+  auto name = name_or_error(req, res);
+  if (!name) return GatedServer::close_after_response();
+  static const std::set<std::string> kKnown = {"seq", "pose", "captured"};
+  std::map<std::string, std::string> q;
+  for (const auto& [k, v] : req.params) {
+    if (!kKnown.count(k)) return refuse(400, "unknown parameter '" + k.substr(0, 40) + "' (seq, pose, captured)");
+    if (!q.emplace(k, v).second) return refuse(400, k + ": given more than once");
+  }
+  if (!q.count("seq")) return refuse(400, "seq: missing (the keyframe's sequence number, 0..2^31-1)");
+  auto seq = parse_seq(q["seq"]);
+  if (!seq) return refuse(400, "seq: must be an integer 0..2^31-1");
+  auto pose = parse_mission_pose(q.count("pose") ? q["pose"] : std::string());
+  if (!pose) return refuse(400, pose.error().message);
+  double captured = received;
+  if (q.count("captured")) {
+    auto c = parse_finite_double("captured", q["captured"]);
+    if (!c || *c < 0) return refuse(400, "captured: must be a finite number of Unix seconds");
+    captured = *c;
+  }
+  const std::string type = media_type(req.get_header_value("Content-Type"));
+  if (type != "model/gltf-binary")
+    return refuse(415, "Content-Type must be model/gltf-binary (a keyframe GLB); got '" + type.substr(0, 60) + "'");
+  if (!uploads_.try_acquire()) {
+    GatedServer::close_after_response();
+    res.set_header("Retry-After", "1");
+    return send_error(res, 503, "too many uploads at once; retry later");
+  }
+  SlotRelease release{&uploads_};
+  BodyBudget budget{options_.max_body_bytes};
+  std::vector<std::uint8_t> glb;
+  const bool read = reader([&](const char* data, size_t n) {
+    if (!budget.take(n)) return false;
+    glb.insert(glb.end(), data, data + n);
+    return true;
+  });
+  if (!read) {
+    GatedServer::close_after_response();
+    if (budget.over)
+      return send_error(res, 413, "request body over the limit of " + std::to_string(options_.max_body_bytes) +
+                                      " bytes (--max-body-mib), counted after decoding");
+    return send_error(res, 400, "request body could not be read (cut short, bad chunked framing or bad compressed "
+                                "data)");
+  }
+  auto decoded = decode_client_glb(glb);
+  if (!decoded) return send_error(res, decoded.error());
+  const size_t triangles = decoded->triangle_count();
+  auto placed = place_keyframe(std::move(*decoded), *seq, *pose);
+  if (!placed) return send_error(res, placed.error());
+
+  MissionKeyframe k;
+  k.mission = *name;
+  k.seq = *seq;
+  k.pose = *pose;
+  k.triangles = triangles;
+  k.captured = captured;
+  k.received = received;
+  k.camera = mission_camera_json(placed->cameras.front());
+  std::lock_guard lock(post_mutex_);
+  auto put = missions_.put(k, glb);
+  if (!put) return send_error(res, put.error());
+  if (put->outcome == PutOutcome::kConflict) {
+    nlohmann::json body = nlohmann::json::parse(error_body(409, "keyframe " + std::to_string(*seq) + " of mission " +
+                                                                    *name + " is stored with another body or pose"));
+    body["error"] = "conflict";
+    body["stored"] = put->keyframe.answer();
+    return send_json(res, 409, body);
+  }
+  res.set_header("Location", "/v1/missions/" + *name);
+  if (put->outcome == PutOutcome::kSame) return send_json(res, 200, put->keyframe.answer());
+  // Stored: now every renderer holding the mission uploads this keyframe alone. A failure there only costs the next
+  // view a whole upload (the renderer dropped the mission); the keyframe is stored either way.
+  auto part = std::make_shared<Scene>(std::move(*placed));
+  auto appended = pool_.append(mission_scene_key(*name), part);
+  if (!appended && appended.error().code == ErrorCode::kUnavailable)
+    return send_error(res, appended.error());  // stopping
+  const double available = now_unix_s();
+  auto marked = missions_.mark_available(*name, *seq, available);
+  if (!marked) return send_error(res, marked.error());
+  k = put->keyframe;
+  k.available = available;
+  send_json(res, 201, k.answer());
+}
+
+void MissionRoutes::get_mission(const httplib::Request& req, httplib::Response& res) {
+  auto name = name_or_error(req, res);
+  if (!name) return;
+  auto keyframes = missions_.keyframes(*name);
+  if (!keyframes) return send_error(res, 404, "no mission " + *name);
+  nlohmann::json list = nlohmann::json::array();
+  std::uint64_t bytes = 0, triangles = 0;
+  for (const auto& k : *keyframes) {
+    list.push_back(k.entry());
+    bytes += k.bytes;
+    triangles += k.triangles;
+  }
+  send_json(res, 200, {{"name", *name}, {"keyframes", list}, {"bytes", bytes}, {"triangles", triangles}});
+}
+
+void MissionRoutes::get_model(const httplib::Request& req, httplib::Response& res) {
+  auto name = name_or_error(req, res);
+  if (!name) return;
+  if (!missions_.keyframes(*name)) return send_error(res, 404, "no mission " + *name);
+  if (req.method == "HEAD") {
+    res.status = 200;
+    res.set_header("Content-Type", "model/gltf-binary");
+    return;
+  }
+  auto scene = assemble_mission(missions_, *name);
+  if (!scene) return send_error(res, scene.error());
+  auto glb = encode_glb(*scene);
+  if (!glb) return send_error(res, glb.error());
+  res.status = 200;
+  res.set_header("Cache-Control", "no-store");
+  res.set_header("Content-Disposition", "attachment; filename=\"" + *name + ".glb\"");
+  res.body.assign(glb->begin(), glb->end());
+  res.set_header("Content-Type", "model/gltf-binary");
+}
+
+void MissionRoutes::get_view(const httplib::Request& req, httplib::Response& res) {
+  auto name = name_or_error(req, res);
+  if (!name) return;
+  auto keyframes = missions_.keyframes(*name);
+  if (!keyframes) return send_error(res, 404, "no mission " + *name);
+  // pose=capture (the newest keyframe's camera) and pose=keyframe:N (that keyframe's) become a full camera; the rest
+  // is the scene view's query, parsed by its own parser.
+  QueryParams params = req.params;
+  if (req.method == "POST") params.emplace("camera", req.body);
+  std::optional<std::int64_t> keyframe_pose;
+  bool capture = false;
+  if (params.count("pose") == 1) {
+    auto it = params.find("pose");
+    if (it->second.rfind("keyframe:", 0) == 0) {
+      keyframe_pose = parse_seq(it->second.substr(9));
+      if (!keyframe_pose) return send_error(res, 400, "pose: keyframe:N needs a seq 0..2^31-1");
+      it->second = "capture";
+    }
+    capture = it->second == "capture";
+  }
+  auto request = parse_view_request(params);
+  if (!request) return send_error(res, request.error());
+  if (capture) {
+    const MissionKeyframe* k = keyframes->empty() ? nullptr : &keyframes->back();  // newest: the highest seq
+    if (keyframe_pose) {
+      k = nullptr;
+      for (const auto& kf : *keyframes)
+        if (kf.seq == *keyframe_pose) k = &kf;
+      if (!k) return send_error(res, 404, "no keyframe " + std::to_string(*keyframe_pose) + " in mission " + *name);
+    }
+    if (!k) return send_error(res, 404, "mission " + *name + " has no keyframe");
+    auto camera = mission_view_camera(*k, request->width, request->height);
+    if (!camera) return send_error(res, camera.error());
+    request->full_camera = true;
+    request->capture_pose = false;
+    request->camera = *camera;
+  }
+  render_view_(req, mission_scene_key(*name), *request, res);
+}
+
+void MissionRoutes::get_events(const httplib::Request& req, httplib::Response& res) {
+  auto name = name_or_error(req, res);
+  if (!name) return;
+  std::optional<std::int64_t> last;
+  std::string last_text = req.get_header_value("Last-Event-ID");
+  if (last_text.empty() && req.has_param("last_event_id")) last_text = req.get_param_value("last_event_id");
+  if (!last_text.empty()) {
+    last = parse_seq(last_text);
+    if (!last) return send_error(res, 400, "Last-Event-ID: must be a keyframe seq 0..2^31-1");
+  }
+  for (const auto& [k, v] : req.params)
+    if (k != "last_event_id") return send_error(res, 400, "unknown parameter '" + k.substr(0, 40) + "'");
+  auto cursor = missions_.cursor_after(*name, last);
+  if (!cursor) return send_error(res, 404, "no mission " + *name);
+  if (!streams_.try_acquire()) {
+    res.set_header("Retry-After", "5");
+    return send_error(res, 503, "too many event streams open (" + std::to_string(options_.max_event_streams) +
+                                    ", --max-event-streams); retry later");
+  }
+  struct Stream {
+    std::string name;
+    EventCursor cursor;
+    std::chrono::steady_clock::time_point ends;
+    bool first = true;
+  };
+  auto stream = std::make_shared<Stream>();
+  stream->name = *name;
+  stream->cursor = *cursor;
+  stream->ends = std::chrono::steady_clock::now() +
+                 std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                     std::chrono::duration<double>(options_.event_stream_max_s));
+  res.set_header("Cache-Control", "no-store");
+  res.set_header("X-Accel-Buffering", "no");  // a proxy in front (nginx) must not buffer the stream
+  res.set_chunked_content_provider(
+      "text/event-stream",
+      [this, stream](size_t, httplib::DataSink& sink) {
+        std::string out;
+        if (stream->first) {
+          out = "retry: 1000\n\n";  // EventSource waits 1 s before it reconnects
+          stream->first = false;
+        }
+        const auto now = std::chrono::steady_clock::now();
+        if (stopping_ || now >= stream->ends) {
+          sink.done();
+          return true;
+        }
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(stream->ends - now);
+        const auto keep_alive = std::chrono::milliseconds(static_cast<long long>(options_.keep_alive_s * 1000));
+        // Backlog first (no wait), then wait for the next keyframe.
+        EventBatch batch = missions_.wait_events(stream->name, stream->cursor,
+                                                 out.empty() ? std::min(left, keep_alive) : std::chrono::milliseconds(0));
+        if (!batch.exists) {
+          if (!out.empty()) sink.write(out.data(), out.size());
+          sink.done();  // the mission was deleted
+          return true;
+        }
+        for (const auto& k : batch.events) out += event_text(k);
+        if (out.empty() && std::chrono::steady_clock::now() < stream->ends && !stopping_) out = ": keep-alive\n\n";
+        if (!out.empty() && !sink.write(out.data(), out.size())) return false;
+        return true;
+      },
+      [this](bool) { streams_.release(); });
+}
+
+void MissionRoutes::delete_mission(const httplib::Request& req, httplib::Response& res) {
+  auto name = name_or_error(req, res);
+  if (!name) return;
+  std::lock_guard lock(post_mutex_);
+  auto st = missions_.remove(*name);
+  if (!st) return send_error(res, st.error());
+  pool_.forget(mission_scene_key(*name));
+  res.status = 204;
+}
+
+}  // namespace rgbdcast::service

@@ -1,0 +1,74 @@
+#pragma once
+// The /v1/missions routes (issue 10; wire contract in service/openapi.yaml):
+//   POST   /v1/missions/{name}/keyframes?seq=N&pose=tx,ty,tz,qx,qy,qz,qw[&captured=T]   (a keyframe GLB)
+//   GET    /v1/missions, /v1/missions/{name}, /v1/missions/{name}/model.glb, /v1/missions/{name}/view?...
+//   GET    /v1/missions/{name}/events    (Server-Sent Events)
+//   DELETE /v1/missions/{name}
+// Keyframe posts are idempotent on (name, seq) and serialized (one at a time, over every mission): each is decoded
+// (untrusted GLB) on the HTTP thread under the upload slots, stored (service/mission_store.h), appended to the mission
+// resident on every renderer (RenderPool::append), and only then answered, so "available" is when views include it.
+// Event streams: an SSE response holds an HTTP worker for as long as it is open (cpp-httplib writes chunked content
+// from the thread serving the request), so at most max_event_streams are open at once (more get 503 with
+// Retry-After), each lasts at most event_stream_max_s (then it ends and the client's EventSource reconnects with
+// Last-Event-ID, losing nothing), and a client that does not read is dropped by the gate's write timeout
+// (service/connection_gate.h). ViewService counts the streams among the threads it needs.
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+// Eigen before httplib.h: a macro of the headers httplib pulls in breaks Eigen's product kernels otherwise.
+#include "service/mission_store.h"
+#include "service/render_pool.h"
+#include "service/view_params.h"
+#include "service/http_reply.h"
+
+namespace rgbdcast::service {
+
+struct MissionRouteOptions {
+  size_t max_body_bytes = 64u << 20;
+  int max_event_streams = 4;
+  double event_stream_max_s = 300.0;  // one SSE response at most this long
+  double keep_alive_s = 15.0;         // a ": keep-alive" comment after this long without an event
+};
+
+// The key of a mission among the render pool's scenes ("mission/<name>": scene ids are hex, so never one of these).
+std::string mission_scene_key(const std::string& name);
+
+class MissionRoutes {
+ public:
+  // render_view renders and answers a parsed view of a pool scene (the scene view route's own code).
+  using RenderView = std::function<void(const httplib::Request&, const std::string& scene_key, const ViewRequest&,
+                                        httplib::Response&)>;
+  MissionRoutes(MissionRouteOptions options, MissionStore& missions, RenderPool& pool, Slots& uploads,
+                RenderView render_view);
+  ~MissionRoutes();
+  // Registers the routes; every handler runs inside `guard` (which turns anything thrown into a 500).
+  using Guard = std::function<httplib::Server::Handler(httplib::Server::Handler)>;
+  using GuardReader =
+      std::function<httplib::Server::HandlerWithContentReader(httplib::Server::HandlerWithContentReader)>;
+  void install(httplib::Server& server, const Guard& guard, const GuardReader& guard_reader);
+  // Ends every open event stream (the server is stopping).
+  void stop();
+  int open_streams() const { return streams_.used(); }
+
+ private:
+  void post_keyframe(const httplib::Request& req, httplib::Response& res, const httplib::ContentReader& reader);
+  void get_mission(const httplib::Request& req, httplib::Response& res);
+  void get_model(const httplib::Request& req, httplib::Response& res);
+  void get_view(const httplib::Request& req, httplib::Response& res);
+  void get_events(const httplib::Request& req, httplib::Response& res);
+  void delete_mission(const httplib::Request& req, httplib::Response& res);
+
+  MissionRouteOptions options_;
+  MissionStore& missions_;
+  RenderPool& pool_;
+  Slots& uploads_;
+  RenderView render_view_;
+  Slots streams_;
+  std::mutex post_mutex_;  // keyframe posts, one at a time
+  std::atomic<bool> stopping_{false};
+};
+
+}  // namespace rgbdcast::service

@@ -1,0 +1,381 @@
+#include "service/mission_store.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "service/scene_store.h"  // write_file_atomic, fsync_dir, read_text, quarantine, etag_of
+
+namespace fs = std::filesystem;
+
+namespace rgbdcast::service {
+namespace {
+
+constexpr const char* kDeletingPrefix = ".deleting-";
+
+bool is_seq_stem(const std::string& s) {
+  if (s.empty() || s.size() > 10) return false;
+  if (!std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; })) return false;
+  if (s.size() > 1 && s[0] == '0') return false;
+  return std::stoll(s) <= kMaxKeyframeSeq;
+}
+
+nlohmann::json stored_json(const MissionKeyframe& k) {
+  nlohmann::json j = k.entry();
+  j["mission"] = k.mission;
+  j["etag"] = k.etag;
+  j["camera"] = k.camera;
+  if (k.available <= 0) j.erase("available");
+  return j;
+}
+
+// A keyframe JSON file: every field present with its type, or kInvalidInput with the reason.
+Result<MissionKeyframe> parse_stored(const std::string& name, std::int64_t seq, const std::string& text) {
+  nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  auto bad = [](const std::string& why) { return make_error(ErrorCode::kInvalidInput, why); };
+  if (j.is_discarded() || !j.is_object()) return bad("keyframe metadata is not a JSON object");
+  auto number = [&](const char* key) { return j.contains(key) && j[key].is_number(); };
+  for (const char* key : {"seq", "bytes", "triangles", "captured", "received"})
+    if (!number(key)) return bad(std::string("keyframe metadata lacks the number '") + key + "'");
+  if (!j.contains("mission") || !j["mission"].is_string() || j["mission"] != name)
+    return bad("keyframe metadata names another mission");
+  if (!j["seq"].is_number_integer() || j["seq"].get<std::int64_t>() != seq)
+    return bad("keyframe metadata names another seq");
+  if (!j.contains("etag") || !j["etag"].is_string()) return bad("keyframe metadata lacks its etag");
+  if (!j.contains("camera") || !j["camera"].is_object()) return bad("keyframe metadata lacks its camera");
+  if (!j.contains("pose") || !j["pose"].is_array() || j["pose"].size() != 7) return bad("pose is not 7 numbers");
+  MissionKeyframe k;
+  for (size_t i = 0; i < 7; ++i) {
+    if (!j["pose"][i].is_number()) return bad("pose is not 7 numbers");
+    k.pose[i] = j["pose"][i].get<double>();
+    if (!std::isfinite(k.pose[i])) return bad("pose is not finite");
+  }
+  if (j.contains("available") && !j["available"].is_number()) return bad("'available' is not a number");
+  if (!j["bytes"].is_number_unsigned() || !j["triangles"].is_number_unsigned())
+    return bad("bytes and triangles must be counts");
+  k.mission = name;
+  k.seq = seq;
+  k.bytes = j["bytes"].get<std::uint64_t>();
+  k.triangles = j["triangles"].get<std::uint64_t>();
+  k.captured = j["captured"].get<double>();
+  k.received = j["received"].get<double>();
+  k.available = j.value("available", 0.0);
+  k.etag = j["etag"].get<std::string>();
+  k.camera = j["camera"];
+  return k;
+}
+
+double now_unix_s() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+Status write_json(const std::string& dir, std::int64_t seq, const MissionKeyframe& k) {
+  const std::string text = stored_json(k).dump(2);
+  return write_file_atomic(dir, std::to_string(seq) + ".json", text.data(), text.size());
+}
+
+}  // namespace
+
+bool is_valid_mission_name(std::string_view name) {
+  if (name.empty() || name.size() > 64) return false;
+  return std::all_of(name.begin(), name.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+  });
+}
+
+nlohmann::json MissionKeyframe::answer() const {
+  return {{"mission", mission}, {"seq", seq},         {"bytes", bytes},        {"triangles", triangles},
+          {"captured", captured}, {"received", received}, {"available", available}};
+}
+
+nlohmann::json MissionKeyframe::entry() const {
+  return {{"seq", seq},           {"pose", pose},         {"bytes", bytes},        {"triangles", triangles},
+          {"captured", captured}, {"received", received}, {"available", available}};
+}
+
+Result<std::unique_ptr<MissionStore>> MissionStore::open(const std::string& data_dir) {
+  if (data_dir.empty()) return make_error(ErrorCode::kInvalidArgument, "data dir is empty");
+  const std::string dir = (fs::path(data_dir) / "missions").string();
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return make_error(ErrorCode::kIo, "cannot create " + dir + ": " + ec.message());
+  std::unique_ptr<MissionStore> store(new MissionStore(data_dir, dir));
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind(kDeletingPrefix, 0) == 0) {  // a remove() that did not finish
+      fs::remove_all(entry.path(), ec);
+      store->cleaned_.push_back(name);
+    } else if (entry.is_directory() && is_valid_mission_name(name)) {
+      names.push_back(name);
+    }
+  }
+  if (ec) return make_error(ErrorCode::kIo, "cannot list " + dir + ": " + ec.message());
+  for (const auto& name : names)
+    if (auto st = store->load_mission(name); !st) return st.error();
+  return store;
+}
+
+Status MissionStore::load_mission(const std::string& name) {
+  const std::string dir = mission_dir(name);
+  std::error_code ec;
+  std::vector<fs::path> glbs;
+  std::vector<std::pair<std::string, std::string>> bad;  // stem, why
+  Mission m;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const std::string file = entry.path().filename().string();
+    if (file.rfind(kTempFilePrefix, 0) == 0) {
+      fs::remove(entry.path(), ec);
+      cleaned_.push_back(name + "/" + file);
+      continue;
+    }
+    const std::string stem = entry.path().stem().string(), ext = entry.path().extension().string();
+    if (!is_seq_stem(stem)) continue;  // not ours: left alone
+    if (ext == ".glb") {
+      glbs.push_back(entry.path());
+    } else if (ext == ".json") {
+      auto text = read_text(entry.path().string());
+      if (!text) return text.error();
+      auto k = parse_stored(name, std::stoll(stem), *text);
+      if (!k) {
+        bad.emplace_back(stem, k.error().message);
+        continue;
+      }
+      m.by_seq.emplace(k->seq, std::move(*k));
+    }
+  }
+  if (ec) return make_error(ErrorCode::kIo, "cannot list mission " + name + ": " + ec.message());
+  for (const auto& [stem, why] : bad) {
+    if (auto st = quarantine(data_dir_, dir, stem, "mission-" + name + "-"); !st) return st;
+    quarantined_.push_back("mission " + name + " keyframe " + stem + ": " + why + " (moved to quarantine/)");
+  }
+  for (const auto& glb : glbs) {  // a GLB without its JSON was never committed
+    if (!m.by_seq.count(std::stoll(glb.stem().string())) && fs::exists(glb, ec)) {
+      fs::remove(glb, ec);
+      cleaned_.push_back(name + "/" + glb.filename().string());
+    }
+  }
+  for (auto it = m.by_seq.begin(); it != m.by_seq.end();) {  // nor is a JSON without its GLB
+    const std::string stem = std::to_string(it->first);
+    if (!fs::exists(dir + "/" + stem + ".glb", ec)) {
+      fs::remove(dir + "/" + stem + ".json", ec);
+      cleaned_.push_back(name + "/" + stem + ".json");
+      it = m.by_seq.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  if (!cleaned_.empty()) {
+    if (auto st = fsync_dir(dir); !st) return st;
+  }
+  // Arrival order from the stored times. A keyframe whose "available" was not written (a crash between its commit
+  // and that write) is available from now on: views include it as soon as the server serves again.
+  const double now = now_unix_s();
+  std::vector<const MissionKeyframe*> order;
+  for (auto& [seq, k] : m.by_seq) {
+    if (k.available <= 0) k.available = now;
+    order.push_back(&k);
+  }
+  std::stable_sort(order.begin(), order.end(), [](const MissionKeyframe* a, const MissionKeyframe* b) {
+    return a->available < b->available;
+  });
+  for (const auto* k : order) m.arrival.push_back(k->seq);
+  if (m.by_seq.empty()) {  // an empty folder: what a remove() or a first put() cut short leaves
+    fs::remove_all(dir, ec);
+    return ok_status();
+  }
+  std::lock_guard lock(mutex_);
+  m.generation = next_generation_++;
+  missions_.emplace(name, std::move(m));
+  return ok_status();
+}
+
+MissionStore::~MissionStore() { wake_all(); }
+
+Result<PutResult> MissionStore::put(MissionKeyframe k, const std::vector<std::uint8_t>& glb) {
+  if (!is_valid_mission_name(k.mission))
+    return make_error(ErrorCode::kInvalidArgument, "mission name must be 1..64 of A-Z a-z 0-9 _ -");
+  if (k.seq < 0 || k.seq > kMaxKeyframeSeq) return make_error(ErrorCode::kInvalidArgument, "seq must be 0..2^31-1");
+  k.bytes = glb.size();
+  k.etag = etag_of(glb.data(), glb.size());
+  k.available = 0.0;
+  std::lock_guard writer(write_mutex_);
+  std::optional<MissionKeyframe> existing;
+  {
+    std::lock_guard lock(mutex_);
+    auto m = missions_.find(k.mission);
+    if (m != missions_.end()) {
+      auto it = m->second.by_seq.find(k.seq);
+      if (it != m->second.by_seq.end()) existing = it->second;
+    }
+  }
+  if (existing) {
+    bool same = existing->etag == k.etag && existing->pose == k.pose;
+    if (same) {  // the ETag is a 64-bit hash: the bytes decide
+      auto stored = read_glb(k.mission, k.seq);
+      same = stored && *stored == glb;
+    }
+    return PutResult{same ? PutOutcome::kSame : PutOutcome::kConflict, *existing};
+  }
+  const std::string dir = mission_dir(k.mission);
+  std::error_code ec;
+  const bool fresh_dir = !fs::exists(dir, ec);
+  fs::create_directories(dir, ec);
+  if (ec) return make_error(ErrorCode::kIo, "cannot create the folder of mission " + k.mission + ": " + ec.message());
+  if (fresh_dir) {
+    if (auto st = fsync_dir(dir_); !st) return st.error();
+  }
+  const std::string stem = std::to_string(k.seq);
+  if (auto st = write_file_atomic(dir, stem + ".glb", glb.data(), glb.size()); !st) return st.error();
+  if (auto st = write_json(dir, k.seq, k); !st) {
+    fs::remove(dir + "/" + stem + ".glb", ec);
+    return st.error();
+  }
+  std::lock_guard lock(mutex_);
+  auto [m, created] = missions_.try_emplace(k.mission);
+  if (created) m->second.generation = next_generation_++;
+  m->second.by_seq[k.seq] = k;
+  return PutResult{PutOutcome::kCreated, k};
+}
+
+Status MissionStore::mark_available(const std::string& name, std::int64_t seq, double available_unix_s) {
+  std::lock_guard writer(write_mutex_);
+  MissionKeyframe k;
+  {
+    std::lock_guard lock(mutex_);
+    auto m = missions_.find(name);
+    if (m == missions_.end() || !m->second.by_seq.count(seq))
+      return make_error(ErrorCode::kNotFound, "no keyframe " + std::to_string(seq) + " in mission " + name);
+    k = m->second.by_seq[seq];
+  }
+  if (k.available > 0) return ok_status();
+  k.available = available_unix_s;
+  // The time is kept in memory and in the events even if this write fails: the keyframe is stored either way.
+  Status st = write_json(mission_dir(name), seq, k);
+  {
+    std::lock_guard lock(mutex_);
+    auto m = missions_.find(name);
+    if (m != missions_.end()) {
+      m->second.by_seq[seq].available = available_unix_s;
+      m->second.arrival.push_back(seq);
+    }
+  }
+  changed_.notify_all();
+  return st;
+}
+
+std::vector<MissionSummary> MissionStore::list() const {
+  std::vector<MissionSummary> out;
+  std::lock_guard lock(mutex_);
+  for (const auto& [name, m] : missions_) {
+    MissionSummary s;
+    s.name = name;
+    s.keyframes = m.by_seq.size();
+    for (const auto& [seq, k] : m.by_seq) {
+      s.bytes += k.bytes;
+      s.updated = std::max(s.updated, k.received);
+    }
+    out.push_back(s);
+  }
+  return out;
+}
+
+std::optional<std::vector<MissionKeyframe>> MissionStore::keyframes(const std::string& name) const {
+  std::lock_guard lock(mutex_);
+  auto m = missions_.find(name);
+  if (m == missions_.end()) return std::nullopt;
+  std::vector<MissionKeyframe> out;
+  for (const auto& [seq, k] : m->second.by_seq) out.push_back(k);
+  return out;
+}
+
+std::optional<std::vector<MissionKeyframe>> MissionStore::arrivals(const std::string& name) const {
+  std::lock_guard lock(mutex_);
+  auto m = missions_.find(name);
+  if (m == missions_.end()) return std::nullopt;
+  std::vector<MissionKeyframe> out;
+  for (std::int64_t seq : m->second.arrival) out.push_back(m->second.by_seq.at(seq));
+  return out;
+}
+
+Result<std::vector<std::uint8_t>> MissionStore::read_glb(const std::string& name, std::int64_t seq) const {
+  if (!is_valid_mission_name(name) || seq < 0 || seq > kMaxKeyframeSeq)
+    return make_error(ErrorCode::kNotFound, "no keyframe " + std::to_string(seq) + " in mission " + name);
+  std::ifstream in(mission_dir(name) + "/" + std::to_string(seq) + ".glb", std::ios::binary);
+  if (!in) return make_error(ErrorCode::kNotFound, "no keyframe " + std::to_string(seq) + " in mission " + name);
+  return std::vector<std::uint8_t>((std::istreambuf_iterator<char>(in)), {});
+}
+
+Status MissionStore::remove(const std::string& name) {
+  if (!is_valid_mission_name(name)) return make_error(ErrorCode::kNotFound, "no mission " + name);
+  std::lock_guard writer(write_mutex_);
+  {
+    std::lock_guard lock(mutex_);
+    if (!missions_.count(name)) return make_error(ErrorCode::kNotFound, "no mission " + name);
+  }
+  // One rename takes the whole mission away; what follows only frees the space.
+  static thread_local std::mt19937_64 rng{std::random_device{}()};
+  const std::string gone = dir_ + "/" + kDeletingPrefix + name + "-" + std::to_string(rng() % 1000000000);
+  std::error_code ec;
+  fs::rename(mission_dir(name), gone, ec);
+  if (ec) return make_error(ErrorCode::kIo, "cannot delete mission " + name + ": " + ec.message());
+  if (auto st = fsync_dir(dir_); !st) return st;
+  {
+    std::lock_guard lock(mutex_);
+    missions_.erase(name);
+  }
+  changed_.notify_all();
+  fs::remove_all(gone, ec);
+  return ok_status();
+}
+
+std::optional<EventCursor> MissionStore::cursor_after(const std::string& name,
+                                                      std::optional<std::int64_t> last_event_id) const {
+  std::lock_guard lock(mutex_);
+  auto m = missions_.find(name);
+  if (m == missions_.end()) return std::nullopt;
+  EventCursor c;
+  c.generation = m->second.generation;
+  if (last_event_id) {
+    const auto& a = m->second.arrival;
+    auto it = std::find(a.begin(), a.end(), *last_event_id);
+    if (it != a.end()) c.next = static_cast<size_t>(it - a.begin()) + 1;
+  }
+  return c;
+}
+
+EventBatch MissionStore::wait_events(const std::string& name, EventCursor& cursor,
+                                     std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mutex_);
+  const std::uint64_t wakes = wakes_;
+  EventBatch batch;
+  auto ready = [&] {
+    auto m = missions_.find(name);
+    if (m == missions_.end() || m->second.generation != cursor.generation) return true;
+    return m->second.arrival.size() > cursor.next || wakes_ != wakes;
+  };
+  changed_.wait_for(lock, timeout, ready);
+  auto m = missions_.find(name);
+  if (m == missions_.end() || m->second.generation != cursor.generation) return batch;
+  batch.exists = true;
+  for (; cursor.next < m->second.arrival.size(); ++cursor.next)
+    batch.events.push_back(m->second.by_seq.at(m->second.arrival[cursor.next]));
+  return batch;
+}
+
+void MissionStore::wake_all() {
+  {
+    std::lock_guard lock(mutex_);
+    ++wakes_;
+  }
+  changed_.notify_all();
+}
+
+size_t MissionStore::count() const {
+  std::lock_guard lock(mutex_);
+  return missions_.size();
+}
+
+}  // namespace rgbdcast::service

@@ -1,0 +1,24 @@
+#pragma once
+// Keyframes for the mission tests: real frames of the 120-frame TUM fr1/xyz excerpt (../shared/data), each reduced by
+// the real CLI (`rgbdcast reduce --preset realtime --budget-kb 12`, so the tests stay fast) into a keyframe GLB in its
+// own camera frame, with its ground-truth pose relative to the first one (the mission's world frame), in the wire
+// order tx,ty,tz,qx,qy,qz,qw. Built once per test binary into a temporary folder.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace rgbdcast::test {
+
+inline constexpr const char* kMissionExcerpt = "tum/rgbd_dataset_freiburg1_xyz_200_319";
+
+struct MissionKeyframeFile {
+  int frame = 0;             // index in the excerpt
+  std::string glb;           // the GLB's bytes
+  std::string pose;          // "tx,ty,tz,qx,qy,qz,qw"
+  double captured = 0.0;     // the frame's timestamp
+};
+
+// The keyframes of `frames` (indices into the excerpt); empty with *error set when the data or the CLI fails.
+std::vector<MissionKeyframeFile> mission_keyframes(const std::vector<int>& frames, std::string* error);
+
+}  // namespace rgbdcast::test

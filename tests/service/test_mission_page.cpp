@@ -1,0 +1,97 @@
+// The operator page's mission mode in a real browser: headless Chromium (Debian's) opens /?mission=NAME on the real
+// server while the test posts keyframes (real TUM frames reduced by the CLI) one by one. The page follows the event
+// stream, re-renders after each keyframe and counts the drawn pixels of its fixed orbit view; the server ends every
+// event stream after 3 s, so the page must reconnect (EventSource, Last-Event-ID) to see the later keyframes. The
+// test asserts the drawn pixels grow, every keyframe arrived exactly once despite the reconnects, the trajectory
+// overlay was drawn, and the robot-view and follow buttons moved the view to the newest keyframe's camera.
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <fcntl.h>
+
+#include <chrono>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "tests/common/test_data.h"
+#include "tests/gltf/headless_chromium.h"
+#include "tests/gltf/static_http_server.h"
+#include "tests/service/mission_keyframes.h"
+#include "tests/service/server_process.h"
+
+extern char** environ;
+using nlohmann::json;
+
+TEST(MissionPage, HeadlessChromiumFollowsAGrowingMission) {
+  REQUIRE_DATA(rgbdcast::test::kMissionExcerpt);
+  const std::string chromium = rgbdcast::test::find_chromium();
+  if (chromium.empty()) RGBDCAST_MISSING_PREREQUISITE("no chromium (scripts/setup.sh installs it)");
+  std::string error;
+  const auto k = rgbdcast::test::mission_keyframes({0, 40, 80, 119}, &error);
+  ASSERT_EQ(k.size(), 4u) << error;
+  const std::string dir = rgbdcast::test::temp_dir("mission-page");
+  rgbdcast::test::ServerProcess server;
+  ASSERT_TRUE(server.start(dir + "/data", {"--event-stream-max-s", "3"}, &error)) << error;
+  httplib::Client c("127.0.0.1", server.port());
+  c.set_read_timeout(120, 0);
+  auto post = [&](int seq) {
+    const auto& f = k[static_cast<size_t>(seq)];
+    const std::string path = "/v1/missions/robot1/keyframes?seq=" + std::to_string(seq) + "&pose=" + f.pose;
+    auto r = c.Post(path.c_str(), f.glb, "model/gltf-binary");
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 201) << r->body;
+  };
+  post(0);
+
+  rgbdcast::test::StaticHttpServer reports(rgbdcast::test::source_path("tools"));
+  ASSERT_TRUE(reports.start());
+  const std::string url = "http://127.0.0.1:" + std::to_string(server.port()) +
+                          "/?mission=robot1&selftest=4&report=http://127.0.0.1:" + std::to_string(reports.port()) +
+                          "/result";
+  const std::string profile = dir + "/profile", log = dir + "/chromium.log";
+  std::vector<std::string> args = {chromium, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+                                   "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                                   "--hide-scrollbars", "--user-data-dir=" + profile, "--window-size=1000,600", url};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  pid_t pid = -1;
+  ASSERT_EQ(posix_spawn(&pid, chromium.c_str(), &actions, nullptr, argv.data(), environ), 0);
+  posix_spawn_file_actions_destroy(&actions);
+
+  // Keyframes arrive while the page watches: one every 2.5 s, so that at least one stream end falls between them.
+  for (int seq = 1; seq < 4; ++seq) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+    post(seq);
+  }
+  const auto posted = reports.wait_for_post({"/result"}, 90000);
+  kill(pid, SIGTERM);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(posted) << "the page reported nothing; " << rgbdcast::test::read_file(log).substr(0, 3000);
+  const json r = json::parse(posted->second, nullptr, false);
+  ASSERT_TRUE(r.is_object() && !r.contains("error")) << posted->second;
+  std::cout << "mission page: " << r.dump() << "\n";
+  EXPECT_EQ(r["seen"], json({0, 1, 2, 3}));
+  EXPECT_EQ(r["distinct"], 4);
+  EXPECT_EQ(r["received"], 4) << "a reconnect replayed keyframes the page already had";
+  EXPECT_GE(r["reconnects"].get<int>(), 1) << "the stream never dropped: the test did not test reconnecting";
+  ASSERT_EQ(r["pixels"].size(), 4u);
+  for (size_t i = 1; i < 4; ++i) EXPECT_GE(r["pixels"][i].get<int>(), r["pixels"][i - 1].get<int>()) << r["pixels"];
+  EXPECT_GT(r["pixels"][3].get<int>(), r["pixels"][0].get<int>() * 11 / 10) << r["pixels"];
+  EXPECT_GT(r["pixels"][0].get<int>(), 640 * 480 / 50) << "the first view is nearly empty";
+  // The orbit view shows the trajectory: more of it as the robot moves.
+  ASSERT_EQ(r["overlayPixels"].size(), 4u);
+  EXPECT_GT(r["overlayPixels"][3].get<int>(), r["overlayPixels"][0].get<int>()) << r["overlayPixels"];
+  EXPECT_NE(r["robotUrl"].get<std::string>().find("pose=keyframe:3"), std::string::npos) << r["robotUrl"];
+  EXPECT_NE(r["followUrl"].get<std::string>().find("pose=capture"), std::string::npos) << r["followUrl"];
+  server.stop();
+  if (!HasFailure()) rgbdcast::test::remove_tree_quietly(dir);
+}

@@ -1,0 +1,488 @@
+// Live missions (issue 10) against the real `rgbdcast serve`: keyframe GLBs reduced from real TUM fr1/xyz frames by
+// the real CLI, posted with their ground-truth poses. Idempotent re-posts and 409 conflicts, the JSON shapes of the
+// wire contract, views that grow as keyframes arrive without the mission being uploaded again, the merged model.glb
+// (validator-clean, a node and a camera per keyframe), a restart mid-mission (nothing lost or duplicated), a corrupt
+// keyframe file quarantined, Server-Sent Events read by a real socket client (backlog, live, Last-Event-ID replay,
+// keep-alive, the stream cap), bad input (each a 4xx with a JSON body and nothing stored) and auth on writes.
+// Eigen (gltf_io.h) before httplib.h: a macro of the headers httplib pulls in breaks Eigen's product kernels.
+#include "gltf/gltf_io.h"
+
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "tests/common/gltf_validator.h"
+#include "tests/common/test_data.h"
+#include "tests/service/mission_keyframes.h"
+#include "tests/service/raw_http.h"
+#include "tests/service/server_process.h"
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using rgbdcast::test::MissionKeyframeFile;
+using rgbdcast::test::ServerProcess;
+
+namespace {
+
+const std::vector<MissionKeyframeFile>& keyframes() {
+  static std::string error;
+  static const auto k = rgbdcast::test::mission_keyframes({0, 40, 80, 119}, &error);
+  if (k.empty()) ADD_FAILURE() << error;
+  return k;
+}
+
+#define REQUIRE_KEYFRAMES()                        \
+  do {                                             \
+    REQUIRE_DATA(rgbdcast::test::kMissionExcerpt); \
+    ASSERT_EQ(keyframes().size(), 4u);             \
+  } while (0)
+
+std::unique_ptr<httplib::Client> client(int port) {
+  auto c = std::make_unique<httplib::Client>("127.0.0.1", port);
+  c->set_read_timeout(120, 0);
+  return c;
+}
+
+std::string keyframe_path(const std::string& mission, int seq, const std::string& pose, double captured = 0) {
+  std::string p = "/v1/missions/" + mission + "/keyframes?seq=" + std::to_string(seq) + "&pose=" + pose;
+  if (captured > 0) p += "&captured=" + std::to_string(captured);
+  return p;
+}
+
+httplib::Result post_keyframe(httplib::Client& c, const std::string& mission, int seq, const MissionKeyframeFile& k,
+                              const httplib::Headers& headers = {}) {
+  return c.Post(keyframe_path(mission, seq, k.pose, k.captured).c_str(), headers, k.glb, "model/gltf-binary");
+}
+
+void expect_json_error(const httplib::Result& r, int status, const std::string& what) {
+  ASSERT_TRUE(r) << what << ": no response";
+  EXPECT_EQ(r->status, status) << what << ": " << r->body;
+  EXPECT_NE(r->get_header_value("Content-Type").find("application/json"), std::string::npos) << what;
+  const json body = json::parse(r->body, nullptr, false);
+  ASSERT_TRUE(body.is_object()) << what << ": " << r->body;
+  EXPECT_TRUE(body.contains("error") && body["error"].is_string()) << what << ": " << r->body;
+  EXPECT_TRUE(body.contains("detail") && body["detail"].is_string()) << what << ": " << r->body;
+}
+
+size_t files_under(const std::string& dir) {
+  if (!fs::exists(dir)) return 0;
+  size_t n = 0;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) ++n;
+  return n;
+}
+
+// Fraction of pixels of a decoded JPEG view that are not background.
+double covered(const std::string& jpeg) {
+  const cv::Mat img = cv::imdecode(cv::Mat(1, static_cast<int>(jpeg.size()), CV_8U, const_cast<char*>(jpeg.data())),
+                                   cv::IMREAD_COLOR);
+  if (img.empty()) return -1;
+  size_t n = 0;
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      const auto p = img.at<cv::Vec3b>(y, x);
+      if (std::max({p[0], p[1], p[2]}) > 8) ++n;
+    }
+  return static_cast<double>(n) / static_cast<double>(img.total());
+}
+
+// The answer JSON of the wire contract, field by field.
+void expect_answer_shape(const json& a, const std::string& mission, int seq) {
+  ASSERT_TRUE(a.is_object()) << a;
+  EXPECT_EQ(a.size(), 7u) << a;
+  EXPECT_EQ(a["mission"], mission);
+  EXPECT_EQ(a["seq"], seq);
+  EXPECT_TRUE(a["bytes"].is_number_unsigned()) << a;
+  EXPECT_TRUE(a["triangles"].is_number_unsigned()) << a;
+  EXPECT_GT(a["triangles"].get<int>(), 100) << a;
+  for (const char* t : {"captured", "received", "available"}) EXPECT_TRUE(a[t].is_number()) << t << ": " << a;
+  EXPECT_GE(a["available"].get<double>(), a["received"].get<double>()) << a;
+}
+
+// An SSE client on a raw socket: what arrived, split into events.
+struct SseEvent {
+  std::string id, event, data;
+};
+class SseClient {
+ public:
+  SseClient(int port, const std::string& path, const std::string& last_event_id = "") {
+    fd_ = rgbdcast::test::connect_loopback(port);
+    std::string req = "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+                      "\r\nAccept: text/event-stream\r\n";
+    if (!last_event_id.empty()) req += "Last-Event-ID: " + last_event_id + "\r\n";
+    req += "\r\n";
+    rgbdcast::test::send_all(fd_, req);
+  }
+  ~SseClient() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  // Reads until `pred(text)` holds or timeout; returns whether it held. The text is the raw bytes (chunk framing
+  // included: events are matched inside).
+  template <class P>
+  bool read_until(P pred, double timeout_s) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (!pred(text_)) {
+      const int left = static_cast<int>(
+          std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now()).count());
+      if (left <= 0) return false;
+      pollfd p{fd_, POLLIN, 0};
+      if (::poll(&p, 1, left) <= 0) return false;
+      char buf[8192];
+      const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
+      if (n <= 0) {
+        closed_ = true;
+        return pred(text_);
+      }
+      text_.append(buf, static_cast<size_t>(n));
+    }
+    return true;
+  }
+  std::vector<SseEvent> events() const {
+    std::vector<SseEvent> out;
+    std::regex re(R"(id: (\d+)\nevent: (\w+)\ndata: (\{[^\n]*\})\n\n)");
+    for (std::sregex_iterator it(text_.begin(), text_.end(), re), end; it != end; ++it)
+      out.push_back({(*it)[1], (*it)[2], (*it)[3]});
+    return out;
+  }
+  const std::string& text() const { return text_; }
+  bool closed() const { return closed_; }
+
+ private:
+  int fd_ = -1;
+  std::string text_;
+  bool closed_ = false;
+};
+
+std::vector<std::string> ids_of(const std::vector<SseEvent>& events) {
+  std::vector<std::string> ids;
+  for (const auto& e : events) ids.push_back(e.id);
+  return ids;
+}
+
+}  // namespace
+
+TEST(Missions, PostIsIdempotentAndConflictsAre409) {
+  REQUIRE_KEYFRAMES();
+  const auto& k = keyframes();
+  const std::string dir = rgbdcast::test::temp_dir("missions-idem");
+  ServerProcess server;
+  std::string error;
+  ASSERT_TRUE(server.start(dir, {}, &error)) << error;
+  auto c = client(server.port());
+
+  auto first = post_keyframe(*c, "corridor-1", 0, k[0]);
+  ASSERT_TRUE(first);
+  ASSERT_EQ(first->status, 201) << first->body;
+  const json a = json::parse(first->body);
+  expect_answer_shape(a, "corridor-1", 0);
+  EXPECT_EQ(a["bytes"], k[0].glb.size());
+  EXPECT_NEAR(a["captured"].get<double>(), k[0].captured, 1e-3);
+  const size_t stored_files = files_under(dir + "/missions");
+  EXPECT_EQ(stored_files, 2u);  // 0.glb + 0.json
+
+  // The same key, body and pose again: 200 and the very same JSON.
+  auto again = post_keyframe(*c, "corridor-1", 0, k[0]);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->status, 200) << again->body;
+  EXPECT_EQ(json::parse(again->body), a);
+
+  // The same key with another body, or with another pose: 409, nothing stored.
+  auto other_body = c->Post(keyframe_path("corridor-1", 0, k[0].pose).c_str(), k[1].glb, "model/gltf-binary");
+  expect_json_error(other_body, 409, "other body");
+  EXPECT_EQ(json::parse(other_body->body)["error"], "conflict");
+  auto other_pose = c->Post(keyframe_path("corridor-1", 0, k[1].pose).c_str(), k[0].glb, "model/gltf-binary");
+  expect_json_error(other_pose, 409, "other pose");
+  EXPECT_EQ(files_under(dir + "/missions"), stored_files);
+
+  auto second = post_keyframe(*c, "corridor-1", 1, k[1]);
+  ASSERT_TRUE(second);
+  ASSERT_EQ(second->status, 201) << second->body;
+
+  auto list = c->Get("/v1/missions");
+  ASSERT_TRUE(list);
+  ASSERT_EQ(list->status, 200);
+  const json l = json::parse(list->body);
+  EXPECT_EQ(l["count"], 1);
+  ASSERT_EQ(l["missions"].size(), 1u);
+  const json m = l["missions"][0];
+  EXPECT_EQ(m["name"], "corridor-1");
+  EXPECT_EQ(m["keyframes"], 2);
+  EXPECT_EQ(m["bytes"], k[0].glb.size() + k[1].glb.size());
+  EXPECT_TRUE(m["updated"].is_number());
+
+  auto one = c->Get("/v1/missions/corridor-1");
+  ASSERT_TRUE(one);
+  ASSERT_EQ(one->status, 200) << one->body;
+  const json d = json::parse(one->body);
+  EXPECT_EQ(d["name"], "corridor-1");
+  ASSERT_EQ(d["keyframes"].size(), 2u);
+  EXPECT_EQ(d["keyframes"][0]["seq"], 0);
+  EXPECT_EQ(d["keyframes"][1]["seq"], 1);
+  ASSERT_EQ(d["keyframes"][1]["pose"].size(), 7u);
+  EXPECT_EQ(d["keyframes"][0]["available"], a["available"]);
+  EXPECT_EQ(d["bytes"], m["bytes"]);
+  EXPECT_EQ(d["triangles"].get<int>(),
+            d["keyframes"][0]["triangles"].get<int>() + d["keyframes"][1]["triangles"].get<int>());
+
+  auto del = c->Delete("/v1/missions/corridor-1");
+  ASSERT_TRUE(del);
+  EXPECT_EQ(del->status, 204);
+  expect_json_error(c->Get("/v1/missions/corridor-1"), 404, "deleted mission");
+  EXPECT_EQ(files_under(dir + "/missions"), 0u);
+}
+
+TEST(Missions, ViewsGrowIncrementallyAndModelIsOneValidGlb) {
+  REQUIRE_KEYFRAMES();
+  const auto& k = keyframes();
+  const std::string dir = rgbdcast::test::temp_dir("missions-views");
+  ServerProcess server;
+  std::string error;
+  // One renderer: every view after the first is served by the worker that holds the mission, so a missing
+  // X-Upload-Ms header proves the keyframes were appended, not the mission uploaded again.
+  ASSERT_TRUE(server.start(dir, {"--renderers", "1"}, &error)) << error;
+  auto c = client(server.port());
+  // A fixed wide view from behind and above the start, looking into the room.
+  const std::string fixed = "/v1/missions/lab/view?eye=0,-0.3,-1.2&target=0,0,1.5&fov=90&width=320&height=240";
+  std::vector<double> coverage;
+  for (int i = 0; i < 4; ++i) {
+    auto r = post_keyframe(*c, "lab", i, k[static_cast<size_t>(i)]);
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 201) << r->body;
+    auto v = c->Get(fixed.c_str());
+    ASSERT_TRUE(v);
+    ASSERT_EQ(v->status, 200) << v->body;
+    if (i > 0) EXPECT_FALSE(v->has_header("X-Upload-Ms")) << "view after keyframe " << i << " uploaded the mission";
+    coverage.push_back(covered(v->body));
+  }
+  for (size_t i = 1; i < coverage.size(); ++i) EXPECT_GE(coverage[i], coverage[i - 1] - 1e-3) << i;
+  EXPECT_GT(coverage.back(), coverage.front() + 0.01) << coverage.front() << " -> " << coverage.back();
+
+  // pose=capture is the newest keyframe's camera; pose=keyframe:N a given one.
+  auto cap = c->Get("/v1/missions/lab/view?pose=capture&format=png&width=160&height=120");
+  auto kf3 = c->Get("/v1/missions/lab/view?pose=keyframe:3&format=png&width=160&height=120");
+  auto kf0 = c->Get("/v1/missions/lab/view?pose=keyframe:0&format=png&width=160&height=120");
+  ASSERT_TRUE(cap && kf3 && kf0);
+  ASSERT_EQ(cap->status, 200) << cap->body;
+  EXPECT_EQ(cap->body, kf3->body);
+  EXPECT_NE(cap->body, kf0->body);
+  expect_json_error(c->Get("/v1/missions/lab/view?pose=keyframe:9"), 404, "unknown keyframe");
+  expect_json_error(c->Get("/v1/missions/lab/view?pose=keyframe:x"), 400, "bad keyframe");
+  expect_json_error(c->Get("/v1/missions/lab/view?width=9999&pose=capture"), 400, "bad width");
+
+  auto glb = c->Get("/v1/missions/lab/model.glb");
+  ASSERT_TRUE(glb);
+  ASSERT_EQ(glb->status, 200) << glb->body;
+  EXPECT_EQ(glb->get_header_value("Content-Type"), "model/gltf-binary");
+  auto scene = rgbdcast::decode_glb(reinterpret_cast<const std::uint8_t*>(glb->body.data()), glb->body.size());
+  ASSERT_TRUE(scene) << scene.error().message;
+  EXPECT_EQ(scene->nodes.size(), 4u);
+  EXPECT_EQ(scene->cameras.size(), 4u);
+  size_t triangles = 0;
+  const json listed = json::parse(c->Get("/v1/missions/lab")->body);
+  for (const auto& f : listed["keyframes"]) triangles += f["triangles"].get<size_t>();
+  EXPECT_EQ(scene->triangle_count(), triangles);
+  // Keyframe 3's camera sits where its pose says (world frame).
+  const json pose = listed["keyframes"][3]["pose"];
+  EXPECT_NEAR(scene->cameras[3].camera_to_world(0, 3), pose[0].get<double>(), 1e-4);
+  EXPECT_NEAR(scene->cameras[3].camera_to_world(2, 3), pose[2].get<double>(), 1e-4);
+  const std::string path = dir + "/mission.glb";
+  std::ofstream(path, std::ios::binary) << glb->body;
+  EXPECT_GLTF_VALID(path);
+}
+
+TEST(Missions, RestartMidMissionLosesAndDuplicatesNothing) {
+  REQUIRE_KEYFRAMES();
+  const auto& k = keyframes();
+  const std::string dir = rgbdcast::test::temp_dir("missions-restart");
+  std::string error;
+  json before;
+  std::string answer1;
+  {
+    ServerProcess server;
+    ASSERT_TRUE(server.start(dir, {}, &error)) << error;
+    auto c = client(server.port());
+    ASSERT_EQ(post_keyframe(*c, "m", 0, k[0])->status, 201);
+    auto r1 = post_keyframe(*c, "m", 1, k[1]);
+    ASSERT_EQ(r1->status, 201);
+    answer1 = r1->body;
+    before = json::parse(c->Get("/v1/missions/m")->body);
+    server.kill9();  // no clean shutdown
+  }
+  // A corrupt keyframe file of another mission, and a leftover temporary file: quarantined and cleaned, not fatal.
+  fs::create_directories(dir + "/missions/broken");
+  std::ofstream(dir + "/missions/broken/0.json") << "{\"seq\": \"zero\"";
+  std::ofstream(dir + "/missions/broken/0.glb") << "x";
+  std::ofstream(dir + "/missions/m/.tmp-2.glb-abcd") << "half";
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {}, &error)) << error;
+  EXPECT_NE(server.output().find("quarantine"), std::string::npos) << server.output();
+  EXPECT_TRUE(fs::exists(dir + "/quarantine/mission-broken-0.json"));
+  EXPECT_FALSE(fs::exists(dir + "/missions/m/.tmp-2.glb-abcd"));
+  auto c = client(server.port());
+  EXPECT_EQ(json::parse(c->Get("/v1/missions/m")->body), before);
+  expect_json_error(c->Get("/v1/missions/broken"), 404, "quarantined mission");
+
+  // The sender, unsure whether keyframe 1 arrived, sends it again: the same answer, not a second copy.
+  auto again = post_keyframe(*c, "m", 1, k[1]);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->status, 200);
+  EXPECT_EQ(json::parse(again->body), json::parse(answer1));
+  ASSERT_EQ(post_keyframe(*c, "m", 2, k[2])->status, 201);
+  const json after = json::parse(c->Get("/v1/missions/m")->body);
+  ASSERT_EQ(after["keyframes"].size(), 3u);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(after["keyframes"][i]["seq"], i);
+  SseClient sse(server.port(), "/v1/missions/m/events");
+  ASSERT_TRUE(sse.read_until([](const std::string&) { return false; }, 1.0) || true);
+  EXPECT_EQ(ids_of(sse.events()), (std::vector<std::string>{"0", "1", "2"})) << sse.text();
+  auto glb = c->Get("/v1/missions/m/model.glb");
+  auto scene = rgbdcast::decode_glb(reinterpret_cast<const std::uint8_t*>(glb->body.data()), glb->body.size());
+  ASSERT_TRUE(scene);
+  EXPECT_EQ(scene->nodes.size(), 3u);
+}
+
+TEST(Missions, EventsReachARealClientWithReplayAndKeepAlive) {
+  REQUIRE_KEYFRAMES();
+  const auto& k = keyframes();
+  const std::string dir = rgbdcast::test::temp_dir("missions-sse");
+  ServerProcess server;
+  std::string error;
+  ASSERT_TRUE(server.start(dir, {"--keep-alive-s", "0.5", "--max-event-streams", "2", "--event-stream-max-s", "6"},
+                           &error))
+      << error;
+  auto c = client(server.port());
+  ASSERT_EQ(post_keyframe(*c, "live", 0, k[0])->status, 201);
+  ASSERT_EQ(post_keyframe(*c, "live", 1, k[1])->status, 201);
+
+  SseClient all(server.port(), "/v1/missions/live/events");
+  ASSERT_TRUE(all.read_until([](const std::string& t) { return t.find("id: 1\n") != std::string::npos; }, 10))
+      << all.text();
+  EXPECT_NE(all.text().find("Content-Type: text/event-stream"), std::string::npos) << all.text();
+  // A live keyframe arrives on the open stream.
+  ASSERT_EQ(post_keyframe(*c, "live", 2, k[2])->status, 201);
+  ASSERT_TRUE(all.read_until([](const std::string& t) { return t.find("id: 2\n") != std::string::npos; }, 10))
+      << all.text();
+  const auto events = all.events();
+  ASSERT_EQ(ids_of(events), (std::vector<std::string>{"0", "1", "2"})) << all.text();
+  for (const auto& e : events) {
+    EXPECT_EQ(e.event, "keyframe");
+    expect_answer_shape(json::parse(e.data), "live", std::stoi(e.id));
+  }
+  EXPECT_TRUE(all.read_until([](const std::string& t) { return t.find(": keep-alive\n\n") != std::string::npos; }, 5))
+      << all.text();
+
+  // Last-Event-ID (header) and ?last_event_id= replay only what came after.
+  SseClient replay(server.port(), "/v1/missions/live/events", "0");
+  ASSERT_TRUE(replay.read_until([](const std::string& t) { return t.find("id: 2\n") != std::string::npos; }, 10));
+  EXPECT_EQ(ids_of(replay.events()), (std::vector<std::string>{"1", "2"})) << replay.text();
+  // Two streams are open: a third gets 503 with Retry-After and a JSON body.
+  auto third = rgbdcast::test::raw_request(server.port(),
+                                           "GET /v1/missions/live/events?last_event_id=1 HTTP/1.1\r\nHost: 127.0.0.1:" +
+                                               std::to_string(server.port()) + "\r\n\r\n");
+  EXPECT_EQ(third.status, 503) << third.body;
+  EXPECT_TRUE(third.headers.count("retry-after"));
+  EXPECT_TRUE(json::parse(third.body, nullptr, false).is_object()) << third.body;
+  // Streams end after --event-stream-max-s; the server stays healthy (the threads came back).
+  EXPECT_TRUE(all.read_until([](const std::string& t) { return t.find("0\r\n\r\n") != std::string::npos; }, 10))
+      << all.text();
+  SseClient later(server.port(), "/v1/missions/live/events?last_event_id=1");
+  ASSERT_TRUE(later.read_until([](const std::string& t) { return t.find("id: 2\n") != std::string::npos; }, 10))
+      << later.text();
+  EXPECT_EQ(ids_of(later.events()), (std::vector<std::string>{"2"}));
+  auto health = c->Get("/healthz");
+  ASSERT_TRUE(health);
+  EXPECT_EQ(health->status, 200);
+  expect_json_error(c->Get("/v1/missions/nope/events"), 404, "events of unknown mission");
+  expect_json_error(c->Get("/v1/missions/live/events?last_event_id=abc"), 400, "bad last event id");
+}
+
+TEST(Missions, BadInputIs4xxWithJsonAndStoresNothing) {
+  REQUIRE_KEYFRAMES();
+  const auto& k = keyframes();
+  const std::string dir = rgbdcast::test::temp_dir("missions-bad");
+  ServerProcess server;
+  std::string error;
+  ASSERT_TRUE(server.start(dir, {}, &error)) << error;
+  auto c = client(server.port());
+  const std::string good_pose = k[0].pose;
+  auto post = [&](const std::string& path, const std::string& body, const std::string& type = "model/gltf-binary") {
+    return c->Post(path.c_str(), body, type.c_str());
+  };
+  struct Case {
+    std::string what, path, body, type;
+    int status;
+  };
+  const std::string g = k[0].glb;
+  const std::vector<Case> cases = {
+      {"bad name", "/v1/missions/bad.name/keyframes?seq=0&pose=" + good_pose, g, "model/gltf-binary", 400},
+      {"name too long", "/v1/missions/" + std::string(65, 'a') + "/keyframes?seq=0&pose=" + good_pose, g,
+       "model/gltf-binary", 400},
+      {"no seq", "/v1/missions/m/keyframes?pose=" + good_pose, g, "model/gltf-binary", 400},
+      {"negative seq", "/v1/missions/m/keyframes?seq=-1&pose=" + good_pose, g, "model/gltf-binary", 400},
+      {"seq over 2^31-1", "/v1/missions/m/keyframes?seq=2147483648&pose=" + good_pose, g, "model/gltf-binary", 400},
+      {"no pose", "/v1/missions/m/keyframes?seq=0", g, "model/gltf-binary", 400},
+      {"nan pose", "/v1/missions/m/keyframes?seq=0&pose=nan,0,0,0,0,0,1", g, "model/gltf-binary", 400},
+      {"inf pose", "/v1/missions/m/keyframes?seq=0&pose=0,inf,0,0,0,0,1", g, "model/gltf-binary", 400},
+      {"6 numbers", "/v1/missions/m/keyframes?seq=0&pose=0,0,0,0,0,1", g, "model/gltf-binary", 400},
+      {"8 numbers", "/v1/missions/m/keyframes?seq=0&pose=0,0,0,0,0,0,1,1", g, "model/gltf-binary", 400},
+      {"non-unit quaternion", "/v1/missions/m/keyframes?seq=0&pose=0,0,0,0,0,0,1.01", g, "model/gltf-binary", 400},
+      {"zero quaternion", "/v1/missions/m/keyframes?seq=0&pose=0,0,0,0,0,0,0", g, "model/gltf-binary", 400},
+      {"unknown parameter", "/v1/missions/m/keyframes?seq=0&pose=" + good_pose + "&x=1", g, "model/gltf-binary", 400},
+      {"captured nan", "/v1/missions/m/keyframes?seq=0&captured=nan&pose=" + good_pose, g, "model/gltf-binary", 400},
+      {"not a GLB", "/v1/missions/m/keyframes?seq=0&pose=" + good_pose, "this is not a GLB", "model/gltf-binary", 422},
+      {"truncated GLB", "/v1/missions/m/keyframes?seq=0&pose=" + good_pose, g.substr(0, g.size() / 2),
+       "model/gltf-binary", 422},
+      {"wrong type", "/v1/missions/m/keyframes?seq=0&pose=" + good_pose, g, "image/png", 415},
+  };
+  for (const auto& cs : cases) {
+    expect_json_error(post(cs.path, cs.body, cs.type), cs.status, cs.what);
+    EXPECT_EQ(files_under(dir + "/missions"), 0u) << cs.what;
+  }
+  EXPECT_EQ(json::parse(c->Get("/v1/missions")->body)["count"], 0) << "something was stored";
+  expect_json_error(c->Get("/v1/missions/nope"), 404, "unknown mission");
+  expect_json_error(c->Get("/v1/missions/nope/view?pose=capture"), 404, "view of unknown mission");
+  expect_json_error(c->Get("/v1/missions/nope/model.glb"), 404, "model of unknown mission");
+  expect_json_error(c->Delete("/v1/missions/nope"), 404, "delete unknown mission");
+  expect_json_error(c->Get("/v1/missions/bad.name"), 400, "bad name");
+  expect_json_error(c->Put("/v1/missions/m/keyframes", g, "model/gltf-binary"), 405, "PUT");
+}
+
+TEST(Missions, WritesNeedTheTokenWhenOneIsSet) {
+  REQUIRE_KEYFRAMES();
+  const auto& k = keyframes();
+  const std::string dir = rgbdcast::test::temp_dir("missions-auth");
+  std::ofstream(dir + "/token") << "s3cret-token-for-tests\n";
+  ServerProcess server;
+  std::string error;
+  ASSERT_TRUE(server.start(dir + "/data", {"--token-file", dir + "/token"}, &error)) << error;
+  auto c = client(server.port());
+  expect_json_error(post_keyframe(*c, "m", 0, k[0]), 401, "post without token");
+  expect_json_error(post_keyframe(*c, "m", 0, k[0], {{"Authorization", "Bearer wrong"}}), 401, "wrong token");
+  // A page of another origin cannot post even with the token (CSRF, DNS rebinding).
+  expect_json_error(post_keyframe(*c, "m", 0, k[0],
+                                  {{"Authorization", "Bearer s3cret-token-for-tests"}, {"Origin", "http://evil.example"}}),
+                    403, "foreign origin");
+  EXPECT_EQ(files_under(dir + "/data/missions"), 0u);
+  const httplib::Headers auth = {{"Authorization", "Bearer s3cret-token-for-tests"}};
+  auto ok = post_keyframe(*c, "m", 0, k[0], auth);
+  ASSERT_TRUE(ok);
+  EXPECT_EQ(ok->status, 201) << ok->body;
+  auto get = c->Get("/v1/missions/m");  // reads need no token
+  ASSERT_TRUE(get);
+  EXPECT_EQ(get->status, 200);
+  expect_json_error(c->Delete("/v1/missions/m"), 401, "delete without token");
+  auto del = c->Delete("/v1/missions/m", auth);
+  ASSERT_TRUE(del);
+  EXPECT_EQ(del->status, 204);
+}
