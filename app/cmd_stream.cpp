@@ -139,7 +139,7 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   if (s.resumed) std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries
                            << " outbox entries";
   std::cout << "; " << s.sender.acked << " acknowledged (" << s.sender.acked_bytes / 1000.0 << " kB this run, "
-            << s.sender.posts << " posts, " << s.sender.failures << " failed), " << s.sender.pending << " pending, "
+            << s.sender.posts << " posts, " << s.sender.failures << " failed, busy " << s.sender.busy_s << " s), " << s.sender.pending << " pending, "
             << s.sender.rejected << " rejected; link " << static_cast<int>(s.sender.estimate_kbps) << " kbit/s; "
             << static_cast<int>(s.seconds * 1000) << " ms; outbox " << outbox_dir << "\n";
   for (const auto& e : s.errors) std::cout << "  " << e << "\n";

@@ -11,8 +11,8 @@ Status LinkEstimatorParams::validate() const {
     return make_error(ErrorCode::kInvalidArgument, "--link-kbps must be a finite number >= 0 (0: no cap)");
   if (!finite_positive(initial_kbps) || !finite_positive(floor_kbps))
     return make_error(ErrorCode::kInvalidArgument, "link estimator: initial and floor rates must be > 0");
-  if (!(alpha > 0 && alpha <= 1) || !(failure_factor > 0 && failure_factor <= 1))
-    return make_error(ErrorCode::kInvalidArgument, "link estimator: alpha and failure_factor must be in (0, 1]");
+  if (!(alpha > 0 && alpha <= 1) || !(alpha_down > 0 && alpha_down <= 1) || !(failure_factor > 0 && failure_factor <= 1))
+    return make_error(ErrorCode::kInvalidArgument, "link estimator: alpha, alpha_down and failure_factor must be in (0, 1]");
   return ok_status();
 }
 
@@ -23,7 +23,8 @@ LinkEstimator::LinkEstimator(const LinkEstimatorParams& params)
 void LinkEstimator::on_ack(size_t body_bytes, double seconds) {
   const double sample_kbps = static_cast<double>(body_bytes) * 8.0 / 1000.0 / std::max(seconds, 1e-3);
   // The first sample replaces the guess; later ones are averaged in.
-  average_kbps_ = samples_ == 0 ? sample_kbps : params_.alpha * sample_kbps + (1.0 - params_.alpha) * average_kbps_;
+  const double a = sample_kbps >= average_kbps_ ? params_.alpha : params_.alpha_down;
+  average_kbps_ = samples_ == 0 ? sample_kbps : a * sample_kbps + (1.0 - a) * average_kbps_;
   average_kbps_ = std::max(average_kbps_, params_.floor_kbps);
   ++samples_;
 }

@@ -4,7 +4,8 @@
 // Estimate: an exponentially weighted moving average (EWMA) of the goodput of each acknowledged POST, i.e. the body
 // bytes divided by the seconds from the request's start to the server's answer (so it includes the round trip and the
 // server's own time: it is what the link actually delivers to an operator, not the raw line rate). A new sample has
-// weight `alpha`. Each failed attempt (timeout, connection error, 5xx) multiplies the estimate by `failure_factor`,
+// weight `alpha` when it is above the average and `alpha_down` when below (a degrading link is
+// followed faster than a recovering one, as congestion control does). Each failed attempt (timeout, connection error, 5xx) multiplies the estimate by `failure_factor`,
 // so that a dead link quickly asks for small keyframes; the first acknowledged samples after it raise it again. The
 // estimate never falls below floor_kbps and what it reports never exceeds the cap (--link-kbps): the raw average
 // is kept uncapped, so a cap that is raised again takes effect at once.
@@ -22,7 +23,8 @@ namespace rgbdcast::stream {
 struct LinkEstimatorParams {
   double cap_kbps = 0;          // --link-kbps; 0 = no cap
   double initial_kbps = 500;    // before the first acknowledgement (the cap instead, when it is lower)
-  double alpha = 0.3;           // weight of a new sample in the EWMA
+  double alpha = 0.3;           // weight of a new sample above the average
+  double alpha_down = 0.5;      // weight of a new sample below it
   double failure_factor = 0.5;  // each failed attempt multiplies the estimate by this
   double floor_kbps = 8;        // the estimate never goes below
   Status validate() const;

@@ -123,8 +123,10 @@ void Sender::run() {
       finish(glb.error().message);
       return;
     }
-    const double estimate = estimate_kbps();
-    const double transfer_s = static_cast<double>(glb->size()) * 8.0 / 1000.0 / std::max(estimate, 1.0);
+    // The wait for an answer: 3 s plus 4 x the transfer time at the estimate, but not at an estimate that failures
+    // pushed below 64 kbit/s: after an outage a blackholed request must be given up on within seconds.
+    const double estimate = std::max(estimate_kbps(), 64.0);
+    const double transfer_s = static_cast<double>(glb->size()) * 8.0 / 1000.0 / estimate;
     const double io_timeout_s = std::clamp(3.0 + 4.0 * transfer_s, 3.0, 60.0);
     const auto started = clock::now();
     PostResult r = uplink_.post_keyframe(params_.mission, *entry, *glb, io_timeout_s);
