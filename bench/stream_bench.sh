@@ -15,7 +15,9 @@ DATA=$ROOT/../shared/data
 OUT=${1:-/tmp/rgbdcast_stream_bench}
 PY=/usr/bin/python3
 REALTIME=${STREAM_BENCH_REALTIME:-}   # set to --realtime to read frames at their own timestamps
-rm -rf "$OUT" && mkdir -p "$OUT"
+# STREAM_BENCH_REUSE_BATCH=1 keeps the batch results of an earlier run in OUT (they do not depend on the link).
+if [[ -z ${STREAM_BENCH_REUSE_BATCH:-} ]]; then rm -rf "$OUT"; fi
+mkdir -p "$OUT"
 
 declare -A INPUT=([tum]=$DATA/tum/rgbd_dataset_freiburg1_xyz_200_319 [icl]=$DATA/augmented_icl_livingroom)
 declare -A GT=([tum]=$DATA/tum/rgbd_dataset_freiburg1_xyz_200_319/groundtruth.txt [icl]=$DATA/augmented_icl_livingroom/trajectory.log)
@@ -23,7 +25,6 @@ declare -A VIEWS=([tum]="10 35 65 95 115" [icl]="1 2 3 4")
 RUNS="2000 500 100 500-outage"
 port=$((20000 + RANDOM % 20000))
 
-free_port() { port=$((port + 1)); echo $port; }
 
 eval_scene() {  # eval_scene NAME GLB DATASET -> NAME.eval.jsonl (one JSON line per novel view)
   local name=$1 glb=$2 ds=$3
@@ -36,15 +37,18 @@ eval_scene() {  # eval_scene NAME GLB DATASET -> NAME.eval.jsonl (one JSON line 
 }
 
 for ds in tum icl; do
-  echo "== $ds: batch reduce --sequence --preset realtime" >&2
-  "$BIN" reduce --sequence --preset realtime --no-progress --input "${INPUT[$ds]}" --out "$OUT/$ds.batch.glb" \
-    --report "$OUT/$ds.batch.json" > "$OUT/$ds.batch.log" 2>&1
-  eval_scene "$ds.batch" "$OUT/$ds.batch.glb" "$ds"
+  if [[ -z ${STREAM_BENCH_REUSE_BATCH:-} || ! -s $OUT/$ds.batch.eval.jsonl ]]; then
+    echo "== $ds: batch reduce --sequence --preset realtime" >&2
+    "$BIN" reduce --sequence --preset realtime --no-progress --input "${INPUT[$ds]}" --out "$OUT/$ds.batch.glb" \
+      --report "$OUT/$ds.batch.json" > "$OUT/$ds.batch.log" 2>&1
+    eval_scene "$ds.batch" "$OUT/$ds.batch.glb" "$ds"
+  fi
   for run in $RUNS; do
     kbps=${run%-outage}
     name=$ds.$run
     echo "== $name" >&2
-    sport=$(free_port); rport=$(free_port)
+    rm -rf "$OUT/$name".*
+    port=$((port + 2)); sport=$port; rport=$((port + 1))   # not in a subshell: $port must advance
     "$BIN" serve --data-dir "$OUT/$name.data" --port "$sport" --allow-origin "http://127.0.0.1:$rport" > "$OUT/$name.serve.log" 2>&1 &
     serve_pid=$!
     $PY bench/stream/link_relay.py --listen-port "$rport" --target-port "$sport" --kbps "$kbps" --delay-ms 50 \
