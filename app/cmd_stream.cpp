@@ -93,10 +93,6 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   r.budget_kb = kDefaultBudgetKb;
   auto reduction = frame_options(r);
   if (!reduction) fail_stream(reduction.error());
-  // A slow link must get its budget: the realtime preset's default limits (32 sigma, half-size texture) leave about
-  // 35 kB on a TUM frame. Coarser keyframes that arrive beat faithful ones that queue.
-  reduction->budget_max_tolerance_factor = 1024;
-  reduction->budget_min_texture_scale = 0.2;
   auto sequence = sequence_params(r);
   if (!sequence) fail_stream(sequence.error());
 

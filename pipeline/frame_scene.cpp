@@ -19,6 +19,10 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 // Bytes of a GLB kept for the caller's extras (stage lists, intrinsics, capture metadata) when meeting a budget.
 constexpr double kExtrasReserveBytes = 1200;
 constexpr int kMinQuality = 20, kMaxQuality = 92;
+// Limits of what a budget may give up: the mesh's tolerance (sigma units) and the texture's resolution. A budget
+// below what they allow is not met; the report says so ("over-budget").
+constexpr double kMaxToleranceFactor = 32;
+constexpr double kMinTextureScale = 0.5;
 
 TextureMode resolve_texture(const FrameReductionOptions& o) {
   if (o.texture != TextureMode::kAuto) return o.texture;
@@ -64,9 +68,6 @@ Status FrameReductionOptions::validate() const {
     return make_error(ErrorCode::kInvalidArgument, "budget must be at least 4 kB (a GLB's headers and a texture)");
   if (!(std::isfinite(budget_geometry_share) && budget_geometry_share > 0 && budget_geometry_share < 1))
     return make_error(ErrorCode::kInvalidArgument, "the budget's geometry share must be between 0 and 1");
-  if (!(std::isfinite(budget_max_tolerance_factor) && budget_max_tolerance_factor >= 1 &&
-        std::isfinite(budget_min_texture_scale) && budget_min_texture_scale > 0 && budget_min_texture_scale <= 1))
-    return make_error(ErrorCode::kInvalidArgument, "budget limits: tolerance factor >= 1, texture scale in (0, 1]");
   if (budget_kb > 0 && params.preset != Preset::kRealtime)
     return make_error(ErrorCode::kInvalidArgument, "a byte budget needs the realtime preset (--preset realtime)");
   return ok_status();
@@ -151,8 +152,8 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
       auto tolerance_for = [&](double want) {  // the smallest tolerance >= tol0 with at most `want` triangles
         if (prepared->hierarchy.count(tol0) <= want) return tol0;
         double lo = tol0, hi = tol0;
-        while (prepared->hierarchy.count(hi) > want && hi < options.budget_max_tolerance_factor) lo = hi, hi *= 2;
-        hi = std::min(hi, options.budget_max_tolerance_factor);
+        while (prepared->hierarchy.count(hi) > want && hi < kMaxToleranceFactor) lo = hi, hi *= 2;
+        hi = std::min(hi, kMaxToleranceFactor);
         for (int i = 0; i < 20 && hi / lo > 1.01; ++i) {
           const double mid = std::sqrt(lo * hi);
           (prepared->hierarchy.count(mid) > want ? lo : hi) = mid;
@@ -190,7 +191,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
         for (;;) {
           if (auto s = encode_texture(textured->mesh, full_texture, kMinQuality, scale); !s) return s.error();
           ++b.encodes;
-          if (textured->mesh.texture_encoded.size() <= texture_target || scale * 0.7 < options.budget_min_texture_scale) break;
+          if (textured->mesh.texture_encoded.size() <= texture_target || scale * 0.7 < kMinTextureScale) break;
           scale *= 0.7;
         }
         while (q_hi - q_lo > 2) {

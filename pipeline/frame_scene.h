@@ -32,11 +32,6 @@ struct FrameReductionOptions {
   // The budget's split: the mesh keeps its tolerance while its bytes are at most this share of the budget; beyond it
   // the tolerance rises until they are. The texture gets the rest (bench/realtime_bench measures the split).
   double budget_geometry_share = 0.45;
-  // Limits of what a budget may give up: the mesh's tolerance (sigma units) and the texture's resolution. A budget
-  // below what they allow is not met; the report says so ("over-budget"). The defaults keep a keyframe faithful;
-  // a sender on a slow link (rgbdcast stream) allows coarser ones rather than miss its budget.
-  double budget_max_tolerance_factor = 32;
-  double budget_min_texture_scale = 0.5;
 
   Status validate() const;
 };
