@@ -87,15 +87,15 @@ std::string Metrics::prometheus_text(const MetricsGauges& g) const {
   out += "# HELP rgbdcast_render_rejected_total Views refused with 503 because the render queue was full.\n";
   out += "# TYPE rgbdcast_render_rejected_total counter\n";
   out += "rgbdcast_render_rejected_total " + std::to_string(g.render_rejected) + "\n";
-  out += "# HELP rgbdcast_render_queue_depth Views waiting for a renderer.\n";
-  out += "# TYPE rgbdcast_render_queue_depth gauge\n";
-  out += "rgbdcast_render_queue_depth " + std::to_string(g.render_queue_depth) + "\n";
-  out += "# HELP rgbdcast_scenes_stored Scenes in the store.\n";
-  out += "# TYPE rgbdcast_scenes_stored gauge\n";
-  out += "rgbdcast_scenes_stored " + std::to_string(g.scenes_stored) + "\n";
-  out += "# HELP rgbdcast_scene_bytes_stored Bytes of GLB in the store.\n";
-  out += "# TYPE rgbdcast_scene_bytes_stored gauge\n";
-  out += "rgbdcast_scene_bytes_stored " + std::to_string(g.bytes_stored) + "\n";
+  auto gauge = [&out](const char* name, const char* help, const std::string& value) {
+    out += std::string("# HELP ") + name + " " + help + "\n# TYPE " + name + " gauge\n" + name + " " + value + "\n";
+  };
+  gauge("rgbdcast_render_queue_depth", "Views waiting for a renderer.", std::to_string(g.render_queue_depth));
+  gauge("rgbdcast_scenes_stored", "Scenes in the store.", std::to_string(g.scenes_stored));
+  gauge("rgbdcast_scene_bytes_stored", "Bytes of GLB in the store.", std::to_string(g.bytes_stored));
+  gauge("rgbdcast_missions_stored", "Live missions in the store.", std::to_string(g.missions_stored));
+  gauge("rgbdcast_event_streams_open", "Mission event streams open (each holds an HTTP thread).",
+        std::to_string(g.event_streams_open));
   return out;
 }
 

@@ -1,7 +1,7 @@
 #pragma once
 // Prometheus text exposition (format 0.0.4) of the service's counters: requests by method, route and status,
 // request latency histogram by route, render time histogram by mode and backend, rejected renders, and gauges read
-// at scrape time (scenes stored, bytes stored, render queue depth). Routes are the API's patterns, never raw paths,
+// at scrape time (scenes stored, bytes stored, render queue depth, missions stored, event streams open). Routes are the API's patterns, never raw paths,
 // so a client cannot grow the label set. Thread-safe.
 #include <array>
 #include <cstdint>
@@ -18,6 +18,8 @@ struct MetricsGauges {
   std::uint64_t bytes_stored = 0;
   size_t render_queue_depth = 0;
   size_t render_rejected = 0;
+  size_t missions_stored = 0;
+  size_t event_streams_open = 0;
 };
 
 class Histogram {

@@ -8,6 +8,7 @@
 #include "service/connection_gate.h"
 #include "service/mission_scene.h"
 #include "service/scene_ingest.h"
+#include "service/scene_store.h"  // etag_of
 
 namespace rgbdcast::service {
 namespace {
@@ -147,6 +148,7 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   k.received = received;
   k.camera = mission_camera_json(placed->cameras.front());
   std::lock_guard lock(post_mutex_);
+  const auto t_store = std::chrono::steady_clock::now();
   auto put = missions_.put(k, glb);
   if (!put) return send_error(res, put.error());
   if (put->outcome == PutOutcome::kConflict) {
@@ -161,7 +163,12 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   // Stored: now every renderer holding the mission uploads this keyframe alone. A failure there only costs the next
   // view a whole upload (the renderer dropped the mission); the keyframe is stored either way.
   auto part = std::make_shared<Scene>(std::move(*placed));
+  const auto t_append = std::chrono::steady_clock::now();
   auto appended = pool_.append(mission_scene_key(*name), part);
+  const auto t_done = std::chrono::steady_clock::now();
+  auto ms = [](auto a, auto b) { return std::to_string(std::chrono::duration<double, std::milli>(b - a).count()); };
+  res.set_header("X-Store-Ms", ms(t_store, t_append));    // both files written and synced
+  res.set_header("X-Append-Ms", ms(t_append, t_done));    // every renderer holding the mission took the keyframe
   if (!appended && appended.error().code == ErrorCode::kUnavailable)
     return send_error(res, appended.error());  // stopping
   const double available = now_unix_s();
@@ -190,21 +197,43 @@ void MissionRoutes::get_mission(const httplib::Request& req, httplib::Response& 
 void MissionRoutes::get_model(const httplib::Request& req, httplib::Response& res) {
   auto name = name_or_error(req, res);
   if (!name) return;
-  if (!missions_.keyframes(*name)) return send_error(res, 404, "no mission " + *name);
-  if (req.method == "HEAD") {
-    res.status = 200;
-    res.set_header("Content-Type", "model/gltf-binary");
+  auto keyframes = missions_.keyframes(*name);
+  if (!keyframes) return send_error(res, 404, "no mission " + *name);
+  std::string made_of;
+  for (const auto& k : *keyframes) made_of += std::to_string(k.seq) + ":" + k.etag + " ";
+  CachedModel model;
+  {
+    std::lock_guard lock(model_mutex_);
+    auto it = models_.find(*name);
+    if (it != models_.end() && it->second.made_of == made_of) model = it->second;
+  }
+  res.set_header("X-Model-Cache", model.glb ? "hit" : "miss");
+  if (!model.glb) {
+    auto scene = assemble_mission(missions_, *name);
+    if (!scene) return send_error(res, scene.error());
+    auto glb = encode_glb(*scene);
+    if (!glb) return send_error(res, glb.error());
+    model.made_of = made_of;
+    model.etag = etag_of(glb->data(), glb->size());
+    model.glb = std::make_shared<const std::string>(glb->begin(), glb->end());
+    std::lock_guard lock(model_mutex_);
+    models_[*name] = model;  // a mission deleted meanwhile leaves one stale entry, replaced or never matched
+  }
+  res.set_header("ETag", model.etag);
+  res.set_header("Cache-Control", "no-cache");
+  const std::string inm = req.get_header_value("If-None-Match");
+  if (!inm.empty() && (inm == "*" || inm.find(model.etag) != std::string::npos)) {
+    res.status = 304;
     return;
   }
-  auto scene = assemble_mission(missions_, *name);
-  if (!scene) return send_error(res, scene.error());
-  auto glb = encode_glb(*scene);
-  if (!glb) return send_error(res, glb.error());
   res.status = 200;
-  res.set_header("Cache-Control", "no-store");
   res.set_header("Content-Disposition", "attachment; filename=\"" + *name + ".glb\"");
-  res.body.assign(glb->begin(), glb->end());
-  res.set_header("Content-Type", "model/gltf-binary");
+  // Served from the shared bytes, not copied per download.
+  auto bytes = model.glb;
+  res.set_content_provider(bytes->size(), "model/gltf-binary",
+                           [bytes](size_t offset, size_t length, httplib::DataSink& sink) {
+                             return sink.write(bytes->data() + offset, length);
+                           });
 }
 
 void MissionRoutes::get_view(const httplib::Request& req, httplib::Response& res) {

@@ -15,6 +15,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -68,6 +69,14 @@ class MissionRoutes {
   RenderView render_view_;
   Slots streams_;
   std::mutex post_mutex_;  // keyframe posts, one at a time
+  // The last model.glb encoded per mission, with the keyframes it was made of ("seq:etag ..."): encoded again only
+  // when the mission changed.
+  struct CachedModel {
+    std::string made_of, etag;
+    std::shared_ptr<const std::string> glb;
+  };
+  std::mutex model_mutex_;
+  std::map<std::string, CachedModel> models_;
   std::atomic<bool> stopping_{false};
 };
 

@@ -349,12 +349,11 @@ std::optional<EventCursor> MissionStore::cursor_after(const std::string& name,
 EventBatch MissionStore::wait_events(const std::string& name, EventCursor& cursor,
                                      std::chrono::milliseconds timeout) {
   std::unique_lock lock(mutex_);
-  const std::uint64_t wakes = wakes_;
   EventBatch batch;
   auto ready = [&] {
     auto m = missions_.find(name);
     if (m == missions_.end() || m->second.generation != cursor.generation) return true;
-    return m->second.arrival.size() > cursor.next || wakes_ != wakes;
+    return m->second.arrival.size() > cursor.next || stopped_;
   };
   changed_.wait_for(lock, timeout, ready);
   auto m = missions_.find(name);
@@ -368,7 +367,7 @@ EventBatch MissionStore::wait_events(const std::string& name, EventCursor& curso
 void MissionStore::wake_all() {
   {
     std::lock_guard lock(mutex_);
-    ++wakes_;
+    stopped_ = true;
   }
   changed_.notify_all();
 }

@@ -102,9 +102,9 @@ class MissionStore {
   // start when the id is absent or not a keyframe of the mission. nullopt for an unknown mission.
   std::optional<EventCursor> cursor_after(const std::string& name, std::optional<std::int64_t> last_event_id) const;
   // Waits up to `timeout` for events at the cursor and advances it past what it returns. Returns early, with
-  // exists = false, when the mission goes away, and with no events when wake_all() is called.
+  // exists = false, when the mission goes away; returns at once once wake_all() was called.
   EventBatch wait_events(const std::string& name, EventCursor& cursor, std::chrono::milliseconds timeout);
-  void wake_all();  // the server is stopping: every wait_events returns
+  void wake_all();  // the server is stopping: every wait_events returns, now and from now on
 
   size_t count() const;
   const std::vector<std::string>& cleaned_on_open() const { return cleaned_; }
@@ -127,7 +127,7 @@ class MissionStore {
   std::condition_variable changed_;
   std::map<std::string, Mission> missions_;
   std::uint64_t next_generation_ = 1;
-  std::uint64_t wakes_ = 0;
+  bool stopped_ = false;  // wake_all() was called
   std::vector<std::string> cleaned_;
   std::vector<std::string> quarantined_;
 };

@@ -369,6 +369,8 @@ void ViewService::Impl::routes() {
     g.bytes_stored = store->total_bytes();
     g.render_queue_depth = pool->queue_depth();
     g.render_rejected = pool->rejected();
+    g.missions_stored = missions->count();
+    g.event_streams_open = static_cast<size_t>(mission_routes->open_streams());
     res.set_content(metrics.prometheus_text(g), "text/plain; version=0.0.4; charset=utf-8");
   }));
   server->Post("/v1/scenes", guarded_reader([this](Req req, Res res, const httplib::ContentReader& reader) {

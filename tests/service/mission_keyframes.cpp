@@ -64,7 +64,13 @@ std::vector<MissionKeyframeFile> mission_keyframes(const std::vector<int>& frame
       if (std::abs(g.t - t) < std::abs(best->t - t)) best = &g;
     return pose_of(best->v);
   };
-  static const std::string cache = temp_dir("mission-keyframes");
+  // Built once per test binary and removed when it exits.
+  struct Cache {
+    std::string dir = temp_dir("mission-keyframes");
+    ~Cache() { remove_tree_quietly(dir); }
+  };
+  static const Cache cache_dir;
+  const std::string& cache = cache_dir.dir;
   const Eigen::Matrix4d world_from_first_inv = nearest(rgb.at(static_cast<size_t>(frames.front())).t).inverse();
   for (int f : frames) {
     if (f < 0 || static_cast<size_t>(f) >= rgb.size()) {

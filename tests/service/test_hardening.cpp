@@ -320,6 +320,26 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
   add("delete traversal", request(p, "DELETE", "/v1/scenes/..%2F..%2Ftmp"), 0);
   add("delete dot-dot", request(p, "DELETE", "/v1/scenes/.."), 0);
 
+  // Live missions (issue 10): the same guard, framing limits and path rules on their routes.
+  const std::string kf = "/v1/missions/m/keyframes?seq=0&pose=0,0,0,0,0,0,1";
+  add("mission: cross-site keyframe", request(p, "POST", kf, "Origin: http://attacker.example\r\n" + glb_type, glb), 403);
+  add("mission: rebinding keyframe", request(p, "POST", kf, "Host: rebind.example\r\n" + glb_type, glb), 403);
+  add("mission: cross-site delete", request(p, "DELETE", "/v1/missions/m", "Origin: http://attacker.example\r\n"), 403);
+  add("mission: rebinding events", request(p, "GET", "/v1/missions/m/events", "Host: rebind.example:" + std::to_string(p) + "\r\n"), 403);
+  add("mission: Content-Length 10 GiB", request(p, "POST", kf, glb_type + "Content-Length: 10737418240\r\n", "glTF"), 413);
+  add("mission: gzip bomb", request(p, "POST", kf, glb_type + "Content-Encoding: gzip\r\n", bomb), 413);
+  add("mission: chunked cut short", request(p, "POST", kf, glb_type + "Transfer-Encoding: chunked\r\n", "100\r\nglTF"), 400);
+  for (const auto& [method, path] : std::vector<std::pair<std::string, std::string>>{
+           {"POST", "/v1/missions"}, {"DELETE", "/v1/missions"}, {"PUT", kf}, {"GET", "/v1/missions/m/keyframes"},
+           {"POST", "/v1/missions/m"}, {"POST", "/v1/missions/m/events"}, {"DELETE", "/v1/missions/m/model.glb"}})
+    add("mission: " + method + " " + path, request(p, method, path), 405);
+  add("mission: traversal name", request(p, "GET", "/v1/missions/..%2F..%2Fetc"), 0);
+  add("mission: dot-dot delete", request(p, "DELETE", "/v1/missions/.."), 0);
+  add("mission: name with a dot", request(p, "POST", "/v1/missions/a.b/keyframes?seq=0&pose=0,0,0,0,0,0,1", glb_type, glb), 400);
+  add("mission: nan pose", request(p, "POST", "/v1/missions/m/keyframes?seq=0&pose=nan,0,0,0,0,0,1", glb_type, glb), 400);
+  add("mission: unknown", request(p, "GET", "/v1/missions/nothing-here"), 404);
+  add("mission: unknown events", request(p, "GET", "/v1/missions/nothing-here/events"), 404);
+
   // Writes on the server with a token.
   const std::string tglb = "Content-Type: model/gltf-binary\r\n";
   const std::string th = "Host: " + host_of(tp) + "\r\n";
@@ -332,6 +352,9 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
   add("token: no scheme", tpost(std::string("Authorization: ") + kToken + "\r\n"), 401, true);
   add("token: two headers", tpost(std::string("Authorization: Bearer ") + kToken + "\r\nAuthorization: Bearer x\r\n"), 401, true);
   add("token: delete", request(tp, "DELETE", "/v1/scenes/" + unknown, th), 401, true);
+  add("token: mission keyframe", request(tp, "POST", kf, th + tglb, glb), 401, true);
+  add("token: mission keyframe wrong", request(tp, "POST", kf, th + tglb + "Authorization: Bearer nope\r\n", glb), 401, true);
+  add("token: mission delete", request(tp, "DELETE", "/v1/missions/m", th), 401, true);
   add("token: multipart", request(tp, "POST", "/v1/scenes", th + mp_type, frame_parts(frame.color, frame.depth, frame.intrinsics_json)), 401, true);
 
   ASSERT_GE(cases.size(), 120u);
@@ -356,6 +379,8 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
             << worst_ms << " ms\n";
   EXPECT_EQ(files_in(dir + "/open/scenes"), files_before);
   EXPECT_EQ(files_in(dir + "/token-store/scenes"), 0u);
+  EXPECT_FALSE(fs::exists(dir + "/open/missions/m")) << "a refused keyframe was stored";
+  EXPECT_FALSE(fs::exists(dir + "/token-store/missions/m")) << "a refused keyframe was stored";
   auto list = raw_request(p, request(p, "GET", "/v1/scenes"));
   EXPECT_EQ(json::parse(list.body)["count"], 1);
 

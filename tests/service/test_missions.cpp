@@ -165,6 +165,15 @@ class SseClient {
   bool closed_ = false;
 };
 
+// A test's folder, removed at the end when the test passed (declared before the server, so removed after it stops).
+struct TestDir {
+  std::string path;
+  explicit TestDir(const std::string& tag) : path(rgbdcast::test::temp_dir(tag)) {}
+  ~TestDir() {
+    if (!::testing::Test::HasFailure()) rgbdcast::test::remove_tree_quietly(path);
+  }
+};
+
 std::vector<std::string> ids_of(const std::vector<SseEvent>& events) {
   std::vector<std::string> ids;
   for (const auto& e : events) ids.push_back(e.id);
@@ -176,7 +185,8 @@ std::vector<std::string> ids_of(const std::vector<SseEvent>& events) {
 TEST(Missions, PostIsIdempotentAndConflictsAre409) {
   REQUIRE_KEYFRAMES();
   const auto& k = keyframes();
-  const std::string dir = rgbdcast::test::temp_dir("missions-idem");
+  const TestDir test_dir("missions-idem");
+  const std::string dir = test_dir.path;
   ServerProcess server;
   std::string error;
   ASSERT_TRUE(server.start(dir, {}, &error)) << error;
@@ -246,7 +256,8 @@ TEST(Missions, PostIsIdempotentAndConflictsAre409) {
 TEST(Missions, ViewsGrowIncrementallyAndModelIsOneValidGlb) {
   REQUIRE_KEYFRAMES();
   const auto& k = keyframes();
-  const std::string dir = rgbdcast::test::temp_dir("missions-views");
+  const TestDir test_dir("missions-views");
+  const std::string dir = test_dir.path;
   ServerProcess server;
   std::string error;
   // One renderer: every view after the first is served by the worker that holds the mission, so a missing
@@ -297,6 +308,17 @@ TEST(Missions, ViewsGrowIncrementallyAndModelIsOneValidGlb) {
   const json pose = listed["keyframes"][3]["pose"];
   EXPECT_NEAR(scene->cameras[3].camera_to_world(0, 3), pose[0].get<double>(), 1e-4);
   EXPECT_NEAR(scene->cameras[3].camera_to_world(2, 3), pose[2].get<double>(), 1e-4);
+  // Encoded once per change of the mission: the same bytes from the cache, 304 for a current copy.
+  EXPECT_EQ(glb->get_header_value("X-Model-Cache"), "miss");
+  auto again = c->Get("/v1/missions/lab/model.glb");
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->get_header_value("X-Model-Cache"), "hit");
+  EXPECT_EQ(again->body, glb->body);
+  const std::string etag = glb->get_header_value("ETag");
+  ASSERT_FALSE(etag.empty());
+  auto current = c->Get("/v1/missions/lab/model.glb", {{"If-None-Match", etag}});
+  ASSERT_TRUE(current);
+  EXPECT_EQ(current->status, 304);
   const std::string path = dir + "/mission.glb";
   std::ofstream(path, std::ios::binary) << glb->body;
   EXPECT_GLTF_VALID(path);
@@ -305,7 +327,8 @@ TEST(Missions, ViewsGrowIncrementallyAndModelIsOneValidGlb) {
 TEST(Missions, RestartMidMissionLosesAndDuplicatesNothing) {
   REQUIRE_KEYFRAMES();
   const auto& k = keyframes();
-  const std::string dir = rgbdcast::test::temp_dir("missions-restart");
+  const TestDir test_dir("missions-restart");
+  const std::string dir = test_dir.path;
   std::string error;
   json before;
   std::string answer1;
@@ -355,7 +378,8 @@ TEST(Missions, RestartMidMissionLosesAndDuplicatesNothing) {
 TEST(Missions, EventsReachARealClientWithReplayAndKeepAlive) {
   REQUIRE_KEYFRAMES();
   const auto& k = keyframes();
-  const std::string dir = rgbdcast::test::temp_dir("missions-sse");
+  const TestDir test_dir("missions-sse");
+  const std::string dir = test_dir.path;
   ServerProcess server;
   std::string error;
   ASSERT_TRUE(server.start(dir, {"--keep-alive-s", "0.5", "--max-event-streams", "2", "--event-stream-max-s", "6"},
@@ -403,6 +427,14 @@ TEST(Missions, EventsReachARealClientWithReplayAndKeepAlive) {
   auto health = c->Get("/healthz");
   ASSERT_TRUE(health);
   EXPECT_EQ(health->status, 200);
+  EXPECT_EQ(json::parse(health->body)["missions"], 1);
+  auto metrics = c->Get("/metrics");
+  ASSERT_TRUE(metrics);
+  EXPECT_NE(metrics->body.find("rgbdcast_missions_stored 1\n"), std::string::npos);
+  std::smatch open_streams;
+  ASSERT_TRUE(std::regex_search(metrics->body, open_streams, std::regex("rgbdcast_event_streams_open (\\d+)\n")));
+  EXPECT_GE(std::stoi(open_streams[1]), 1) << "'later' is open";  // 'replay' too unless its 6 s are over
+  EXPECT_LE(std::stoi(open_streams[1]), 2) << "'all' ended";
   expect_json_error(c->Get("/v1/missions/nope/events"), 404, "events of unknown mission");
   expect_json_error(c->Get("/v1/missions/live/events?last_event_id=abc"), 400, "bad last event id");
 }
@@ -410,7 +442,8 @@ TEST(Missions, EventsReachARealClientWithReplayAndKeepAlive) {
 TEST(Missions, BadInputIs4xxWithJsonAndStoresNothing) {
   REQUIRE_KEYFRAMES();
   const auto& k = keyframes();
-  const std::string dir = rgbdcast::test::temp_dir("missions-bad");
+  const TestDir test_dir("missions-bad");
+  const std::string dir = test_dir.path;
   ServerProcess server;
   std::string error;
   ASSERT_TRUE(server.start(dir, {}, &error)) << error;
@@ -461,7 +494,8 @@ TEST(Missions, BadInputIs4xxWithJsonAndStoresNothing) {
 TEST(Missions, WritesNeedTheTokenWhenOneIsSet) {
   REQUIRE_KEYFRAMES();
   const auto& k = keyframes();
-  const std::string dir = rgbdcast::test::temp_dir("missions-auth");
+  const TestDir test_dir("missions-auth");
+  const std::string dir = test_dir.path;
   std::ofstream(dir + "/token") << "s3cret-token-for-tests\n";
   ServerProcess server;
   std::string error;

@@ -14,7 +14,7 @@ using namespace rgbdcast::service;
 namespace {
 
 struct Counters {
-  std::atomic<int> uploads{0}, releases{0}, renders{0}, loads{0};
+  std::atomic<int> uploads{0}, releases{0}, renders{0}, loads{0}, appended_nodes{0};
   std::atomic<int> render_sleep_ms{0};
 };
 
@@ -29,6 +29,12 @@ class StandInRenderer : public Renderer {
     ++c_->uploads;
     if (upload_ms) *upload_ms = 1.0;
     return ++next_;
+  }
+  Status append(ResidentSceneId, const Scene& scene, double*) override {
+    if (scene.nodes.empty()) return make_error(ErrorCode::kEmpty, "empty part");
+    if (scene.nodes[0].name == "bad") return make_error(ErrorCode::kInvalidInput, "bad part");
+    c_->appended_nodes += static_cast<int>(scene.nodes.size());
+    return ok_status();
   }
   void release(ResidentSceneId) override { ++c_->releases; }
   Result<RenderResult> render(ResidentSceneId id, const ViewCamera& cam, const RenderOptions&) override {
@@ -93,6 +99,45 @@ TEST(ServiceRenderPool, RendersAndKeepsScenesResident) {
   pool->forget("a");
   ASSERT_TRUE(pool->render("c", capture()).ok());
   EXPECT_EQ(c.releases, 3);
+}
+
+// A resident scene grows in place (a live mission): every worker that holds it appends the part's new nodes, nodes
+// it already has are skipped, a worker without it appends nothing, and a failed append drops the scene so that the
+// next view loads it whole.
+TEST(ServiceRenderPool, AppendGrowsResidentScenesOnEveryWorker) {
+  Counters c;
+  auto pool = make_pool(&c, {2, 4, 2});
+  ASSERT_TRUE(pool);
+  // Two views at once so that both workers hold "m".
+  c.render_sleep_ms = 200;
+  std::thread other([&] { EXPECT_TRUE(pool->render("m", capture()).ok()); });
+  ASSERT_TRUE(pool->render("m", capture()).ok());
+  other.join();
+  c.render_sleep_ms = 0;
+  ASSERT_EQ(c.loads, 2);
+  auto part = [](std::vector<std::string> names) {
+    auto s = std::make_shared<Scene>();
+    for (auto& n : names) {
+      SceneNode node;
+      node.name = n;
+      s->nodes.push_back(node);
+    }
+    s->cameras.resize(1);
+    return std::shared_ptr<const Scene>(s);
+  };
+  ASSERT_TRUE(pool->append("m", part({"keyframe_1"})));
+  EXPECT_EQ(c.appended_nodes, 2);  // one node on each of the two workers
+  ASSERT_TRUE(pool->append("m", part({"keyframe_1", "keyframe_2"})));
+  EXPECT_EQ(c.appended_nodes, 4);  // keyframe_1 skipped, keyframe_2 appended on both
+  ASSERT_TRUE(pool->append("elsewhere", part({"keyframe_1"})));
+  EXPECT_EQ(c.appended_nodes, 4);  // nobody holds it
+  for (int i = 0; i < 4; ++i) ASSERT_TRUE(pool->render("m", capture()).ok());
+  EXPECT_EQ(c.loads, 2) << "a view after an append loaded the scene again";
+  auto failed = pool->append("m", part({"bad"}));
+  ASSERT_FALSE(failed);
+  EXPECT_EQ(failed.error().code, ErrorCode::kInvalidInput);
+  ASSERT_TRUE(pool->render("m", capture()).ok());
+  EXPECT_EQ(c.loads, 3);  // dropped, then loaded whole
 }
 
 TEST(ServiceRenderPool, ErrorsPassThrough) {

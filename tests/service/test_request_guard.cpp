@@ -47,6 +47,16 @@ TEST(Routes, LabelsAndAllowedMethods) {
   EXPECT_TRUE(match_route("/v1/scenes/x").allows("DELETE"));
   EXPECT_FALSE(match_route("/v1/scenes/x/view").allows("DELETE"));
   EXPECT_FALSE(match_route("/healthz").allows("GE"));  // whole names only
+  // Live missions (issue 10).
+  EXPECT_STREQ(match_route("/v1/missions").allow, "GET, HEAD");
+  EXPECT_STREQ(match_route("/v1/missions/robot-1").allow, "GET, HEAD, DELETE");
+  EXPECT_STREQ(match_route("/v1/missions/robot-1/keyframes").allow, "POST");
+  EXPECT_STREQ(match_route("/v1/missions/robot-1/events").label, "/v1/missions/{name}/events");
+  EXPECT_STREQ(match_route("/v1/missions/robot-1/events").allow, "GET");
+  EXPECT_STREQ(match_route("/v1/missions/robot-1/view").allow, "GET, HEAD, POST");
+  EXPECT_STREQ(match_route("/v1/missions/robot-1/model.glb").allow, "GET, HEAD");
+  EXPECT_FALSE(match_route("/v1/missions/").known);
+  EXPECT_FALSE(match_route("/v1/missions/a/b").known);
 }
 
 TEST(RequestGuard, HostAndOrigin) {
