@@ -13,6 +13,7 @@ void register_eval(CLI::App& app);
 void register_eval_trajectory(CLI::App& app);
 void register_serve(CLI::App& app);
 void register_convert(CLI::App& app);
+void register_stream(CLI::App& app);
 
 // --flavor compact|compat into glb->flavor (app/cmd_convert.cpp); an unknown name is a one-line error, exit 2.
 // default_name is what the help shows; the caller's glb->flavor holds the default itself.

@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   rgbdcast::app::register_eval_trajectory(app);
   rgbdcast::app::register_serve(app);
   rgbdcast::app::register_convert(app);
+  rgbdcast::app::register_stream(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -19,6 +19,26 @@ Result<FrameReductionOptions> frame_options(const ReduceArgs& a) {
   return o;
 }
 
+Result<SequenceParams> sequence_params(const ReduceArgs& a) {
+  SequenceParams params;
+  if (a.tracking == "paper") params.tracking = TrackingParams::paper_window_only();
+  else if (a.tracking == "live") params = SequenceParams::live();
+  else if (a.tracking != "robust")
+    return make_error(ErrorCode::kInvalidArgument, "--tracking must be robust, paper or live");
+  auto features = parse_feature_type(a.features);
+  if (!features) return features.error();
+  params.odometry.features.type = *features;
+  params.keyframes.max_translation_m = a.keyframe_translation_m;
+  params.keyframes.max_rotation_deg = a.keyframe_rotation_deg;
+  params.keyframes.min_overlap = a.keyframe_overlap;
+  params.keyframes.max_frame_gap = a.keyframe_gap;
+  if (auto st = params.keyframes.validate(); !st) return st.error();
+  if (a.from < 0) return make_error(ErrorCode::kInvalidArgument, "--from must be 0 or more");
+  params.from = static_cast<size_t>(a.from);
+  if (a.to >= 0) params.to = static_cast<size_t>(a.to);
+  return params;
+}
+
 nlohmann::json intrinsics_json(const Intrinsics& k) {
   return {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"width", k.width}, {"height", k.height}};
 }

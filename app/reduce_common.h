@@ -8,6 +8,7 @@
 #include "atlas/atlas.h"
 #include "gltf/gltf_io.h"
 #include "input/frame.h"
+#include "keyframes/sequence.h"
 #include "pipeline/frame_scene.h"
 #include "reduction/pipeline.h"
 
@@ -40,6 +41,10 @@ constexpr double kDefaultBudgetKb = 40;
 
 // The frame -> scene options the arguments ask for (preset, texture mode, budget); errors name the bad option.
 Result<FrameReductionOptions> frame_options(const ReduceArgs& args);
+
+// The sequence options the arguments ask for (features, keyframe rule, range); errors name the bad option. Shared
+// by reduce --sequence and stream.
+Result<SequenceParams> sequence_params(const ReduceArgs& args);
 
 nlohmann::json intrinsics_json(const Intrinsics& k);
 nlohmann::json params_json(const ReduceArgs& args);

@@ -49,22 +49,9 @@ class Progress {
 Status run_sequence(const ReduceArgs& a, const FrameSource& source) {
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
-  SequenceParams params;
-  if (a.tracking == "paper") params.tracking = TrackingParams::paper_window_only();
-  else if (a.tracking == "live") params = SequenceParams::live();
-  else if (a.tracking != "robust")
-    return make_error(ErrorCode::kInvalidArgument, "--tracking must be robust, paper or live");
-  auto features = parse_feature_type(a.features);
-  if (!features) return features.error();
-  params.odometry.features.type = *features;
-  params.keyframes.max_translation_m = a.keyframe_translation_m;
-  params.keyframes.max_rotation_deg = a.keyframe_rotation_deg;
-  params.keyframes.min_overlap = a.keyframe_overlap;
-  params.keyframes.max_frame_gap = a.keyframe_gap;
-  if (auto st = params.keyframes.validate(); !st) return st;
-  if (a.from < 0) return make_error(ErrorCode::kInvalidArgument, "--from must be 0 or more");
-  params.from = static_cast<size_t>(a.from);
-  if (a.to >= 0) params.to = static_cast<size_t>(a.to);
+  auto sequence = sequence_params(a);
+  if (!sequence) return sequence.error();
+  const SequenceParams params = *sequence;
 
   Scene scene;
   std::vector<CoverageView> earlier;

@@ -1,0 +1,207 @@
+// rgbdcast stream: a live mission. Tracks a frame source, reduces each keyframe to a delta GLB under a byte budget
+// that follows the link, and delivers it to `rgbdcast serve`'s missions routes through an on-disk outbox (see
+// stream/keyframe_stream.h for the rules, stream/sender.h for delivery). SIGINT/SIGTERM stop it: what was not
+// delivered stays in the outbox, and running the same command again resumes.
+#include <signal.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <regex>
+
+#include "app/cli_error.h"
+#include "app/commands.h"
+#include "app/reduce_common.h"
+#include "input/frame_source.h"
+#include "stream/keyframe_stream.h"
+#include "stream/uplink.h"
+
+namespace rgbdcast::app {
+
+namespace {
+
+std::atomic<bool> g_stop{false};  // set by SIGINT/SIGTERM only
+void on_signal(int) { g_stop = true; }
+
+struct StreamArgs {
+  ReduceArgs reduce;  // input, intrinsics, features, keyframe rule, range
+  std::string server, mission, outbox, token_file;
+  bool realtime = false;
+  double link_kbps = 0, initial_kbps = 500, max_backlog_s = 2.0, progress_interval_s = 2.0;
+  unsigned seed = 0;
+};
+
+// The progress line: on a terminal one line redrawn in place; otherwise a plain line every interval.
+class ProgressLine {
+ public:
+  explicit ProgressLine(double interval_s) : tty_(::isatty(STDERR_FILENO)), interval_s_(interval_s) {}
+  void update(const stream::StreamProgress& p, bool force = false) {
+    const auto now = std::chrono::steady_clock::now();
+    const double since = std::chrono::duration<double>(now - last_).count();
+    if (!force && since < (tty_ ? 0.2 : interval_s_)) return;
+    last_ = now;
+    char line[320];
+    std::snprintf(line, sizeof line,
+                  "frames %zu/%zu  keyframes %zu (budget %.1f kB)  sent %zu, %.1f kB  link %.0f kbit/s%s  queue %zu "
+                  "(%.1f kB)%s",
+                  p.frames_done, p.frames_total, p.keyframes, p.budget_kb, p.sender.acked,
+                  p.sender.acked_bytes / 1000.0, p.sender.estimate_kbps, p.sender.link_down ? " (down)" : "",
+                  p.sender.pending, p.sender.pending_bytes / 1000.0, p.draining ? "  draining" : "");
+    if (tty_) {
+      std::fprintf(stderr, "\r%-118s", line);
+    } else {
+      std::fprintf(stderr, "rgbdcast stream: %s\n", line);
+    }
+    std::fflush(stderr);
+    drawn_ = true;
+  }
+  void finish() {
+    if (tty_ && drawn_) std::fprintf(stderr, "\n");
+  }
+
+ private:
+  bool tty_;
+  double interval_s_;
+  bool drawn_ = false;
+  std::chrono::steady_clock::time_point last_{};
+};
+
+void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
+  auto fail_stream = [](const Error& e) { fail("stream", e); };
+  static const std::regex mission_name("^[A-Za-z0-9_-]{1,64}$");
+  if (!std::regex_match(a.mission, mission_name))
+    fail_stream(make_error(ErrorCode::kInvalidArgument, "--mission must match [A-Za-z0-9_-]{1,64}"));
+  stream::LinkEstimatorParams link;
+  link.cap_kbps = a.link_kbps;
+  link.initial_kbps = a.initial_kbps;
+  if (auto st = link.validate(); !st) fail_stream(st.error());
+
+  stream::UplinkOptions uo;
+  uo.server_url = a.server;
+  if (!a.token_file.empty()) {
+    auto token = stream::read_token_file(a.token_file);
+    if (!token) fail_stream(token.error());
+    uo.token = *token;
+  }
+  auto uplink = stream::Uplink::create(uo);
+  if (!uplink) fail_stream(uplink.error());
+
+  ReduceArgs r = a.reduce;
+  r.preset = "realtime";
+  r.budget_kb = kDefaultBudgetKb;
+  auto reduction = frame_options(r);
+  if (!reduction) fail_stream(reduction.error());
+  auto sequence = sequence_params(r);
+  if (!sequence) fail_stream(sequence.error());
+
+  SourceOptions so;
+  so.rosbag = topics;
+  so.intrinsics = r.intrinsics;
+  so.associations_path = r.associations;
+  if (r.depth_scale != 0) so.depth_scale = r.depth_scale;
+  auto source = open_frame_source(r.input, so);
+  if (!source) fail_stream(source.error());
+
+  if (auto st = (*uplink)->check_reachable(); !st) fail_stream(st.error());
+  const std::string outbox_dir = a.outbox.empty() ? "rgbdcast-outbox-" + a.mission : a.outbox;
+  auto outbox = stream::Outbox::open(outbox_dir, a.mission);
+  if (!outbox) fail_stream(outbox.error());
+
+  stream::SenderParams sp;
+  sp.mission = a.mission;
+  sp.link = link;
+  sp.seed = a.seed;
+  stream::Sender sender(**outbox, **uplink, sp);
+
+  stream::StreamOptions options;
+  options.realtime = a.realtime;
+  options.reduction = *reduction;
+  options.sequence = *sequence;
+  options.max_backlog_s = a.max_backlog_s;
+
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  ProgressLine line(a.progress_interval_s);
+  auto summary = stream::run_stream(
+      **source, **outbox, sender, options, [&](const stream::StreamProgress& p) { line.update(p); },
+      [] { return g_stop.load(); });
+  line.finish();
+  if (!summary) fail_stream(summary.error());
+  const auto& s = *summary;
+  std::cout << "rgbdcast stream: " << s.frames << " frames (" << s.tracked << " tracked";
+  if (a.realtime) std::cout << ", " << s.dropped << " dropped behind the camera";
+  std::cout << "), " << s.keyframes << " new keyframes (" << s.covered << " fully covered, not sent; " << s.coarsened
+            << " coarsened)";
+  if (s.resumed) std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries
+                           << " outbox entries";
+  std::cout << "; " << s.sender.acked << " acknowledged (" << s.sender.acked_bytes / 1000.0 << " kB this run, "
+            << s.sender.posts << " posts, " << s.sender.failures << " failed, busy " << s.sender.busy_s << " s), " << s.sender.pending << " pending, "
+            << s.sender.rejected << " rejected; link " << static_cast<int>(s.sender.estimate_kbps) << " kbit/s; "
+            << static_cast<int>(s.seconds * 1000) << " ms; outbox " << outbox_dir << "\n";
+  for (const auto& e : s.errors) std::cout << "  " << e << "\n";
+  if (s.sender.rejected > 0)
+    fail("stream", make_error(ErrorCode::kInternal, std::to_string(s.sender.rejected) +
+                                                        " keyframes were rejected by the server (last: " +
+                                                        s.sender.last_error + ")"));
+  if (s.sender.pending > 0)
+    fail("stream", make_error(ErrorCode::kUnavailable, std::to_string(s.sender.pending) +
+                                                           " keyframes are still in the outbox " + outbox_dir +
+                                                           " (run the same command again to send them)"));
+}
+
+}  // namespace
+
+void register_stream(CLI::App& app) {
+  auto args = std::make_shared<StreamArgs>();
+  auto topics = std::make_shared<RosbagTopics>();
+  CLI::App* cmd = app.add_subcommand("stream", "Stream a live mission: keyframes to a server, within the link");
+  ReduceArgs& r = args->reduce;
+  cmd->add_option("--input", r.input, "Frame source: TUM folder, Redwood/ICL folder, .bag")->required();
+  cmd->add_option("--server", args->server, "The service, http://host:port")->required();
+  cmd->add_option("--mission", args->mission, "Mission name ([A-Za-z0-9_-]{1,64})")->required();
+  cmd->add_flag("--realtime", args->realtime,
+                "Read frames at their own timestamps (dropping those a newer frame has replaced)");
+  cmd->add_option("--link-kbps", args->link_kbps, "Cap of the link estimate and of the send rate, kbit/s (0: none)")
+      ->capture_default_str();
+  cmd->add_option("--initial-kbps", args->initial_kbps, "Link estimate before the first acknowledgement")
+      ->capture_default_str();
+  cmd->add_option("--outbox", args->outbox, "Outbox folder (default: ./rgbdcast-outbox-<mission>)");
+  cmd->add_option("--token-file", args->token_file, "File holding the server's bearer token");
+  cmd->add_option("--max-backlog", args->max_backlog_s,
+                  "Coarsen older queued keyframes when the queue needs more than this many seconds (at least 2 "
+                  "keyframe intervals)")
+      ->capture_default_str();
+  cmd->add_option("--progress-interval", args->progress_interval_s,
+                  "Seconds between progress lines when stderr is not a terminal")
+      ->capture_default_str();
+  cmd->add_option("--seed", args->seed, "Seed of the retry jitter (0: random)");
+  cmd->add_option("--intrinsics", r.intrinsics, "fr1|fr2|fr3|kinect|icl or a JSON file (default: guessed)");
+  cmd->add_option("--depth-scale", r.depth_scale, "Raw depth units per metre");
+  cmd->add_option("--associations", r.associations, "TUM associations file");
+  cmd->add_option("--color-topic", topics->color, "ROS bag: colour topic")->capture_default_str();
+  cmd->add_option("--depth-topic", topics->depth, "ROS bag: depth topic")->capture_default_str();
+  cmd->add_option("--camera-info-topic", topics->camera_info, "ROS bag: camera info topic")->capture_default_str();
+  cmd->add_option("--from", r.from, "First frame index");
+  cmd->add_option("--to", r.to, "Last frame index (inclusive)");
+  // Live defaults: ORB features and the live tracking setting keep up with the camera (BENCHMARKS.md, "Tracking
+  // through real motion"); reduce --sequence keeps SIFT and robust.
+  r.features = "orb";
+  r.tracking = "live";
+  cmd->add_option("--features", r.features, "sift|orb|akaze")->capture_default_str();
+  cmd->add_option("--tracking", r.tracking, "robust | paper (the window alone) | live (the fast setting of robust)")
+      ->capture_default_str();
+  cmd->add_option("--keyframe-translation", r.keyframe_translation_m, "New keyframe after this much translation (m)")
+      ->capture_default_str();
+  cmd->add_option("--keyframe-rotation", r.keyframe_rotation_deg, "... or this much rotation (deg)")
+      ->capture_default_str();
+  cmd->add_option("--keyframe-overlap", r.keyframe_overlap, "... or when overlap falls below this")
+      ->capture_default_str();
+  cmd->add_option("--keyframe-gap", r.keyframe_gap, "... or after this many frames (0 = never)")->capture_default_str();
+  cmd->callback([args, topics] { run_stream_command(*args, *topics); });
+}
+
+}  // namespace rgbdcast::app

@@ -1,0 +1,207 @@
+#include "stream/outbox.h"
+
+#include <Eigen/Geometry>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "gltf/atomic_file.h"
+
+namespace rgbdcast::stream {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::vector<std::uint8_t> text_bytes(const std::string& s) { return {s.begin(), s.end()}; }
+
+json entry_json(const OutboxEntry& e) {
+  json j = {{"seq", e.seq},           {"frame", e.frame_index}, {"timestamp", e.timestamp},
+            {"pose", e.pose},         {"captured", e.captured}, {"budget_kb", e.budget_kb},
+            {"bytes", e.bytes},       {"triangles", e.triangles}, {"coarsened", e.coarsened},
+            {"attempted", e.attempted}, {"acked", e.acked},      {"rejected", e.rejected}};
+  if (!e.ack_json.empty()) j["ack"] = json::parse(e.ack_json, nullptr, false);
+  return j;
+}
+
+Result<OutboxEntry> parse_entry(const std::string& text, const std::string& name) {
+  json j = json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return make_error(ErrorCode::kInvalidInput, "outbox entry " + name + " is not JSON");
+  try {
+    OutboxEntry e;
+    e.seq = j.at("seq").get<int>();
+    e.frame_index = j.at("frame").get<int>();
+    e.timestamp = j.at("timestamp").get<double>();
+    e.pose = j.at("pose").get<std::array<double, 7>>();
+    e.captured = j.at("captured").get<double>();
+    e.budget_kb = j.at("budget_kb").get<double>();
+    e.bytes = j.at("bytes").get<size_t>();
+    e.triangles = j.value("triangles", size_t{0});
+    e.coarsened = j.at("coarsened").get<bool>();
+    e.attempted = j.at("attempted").get<bool>();
+    e.acked = j.at("acked").get<bool>();
+    e.rejected = j.value("rejected", std::string());
+    if (j.contains("ack") && j["ack"].is_object()) e.ack_json = j["ack"].dump();
+    return e;
+  } catch (const json::exception& ex) {
+    return make_error(ErrorCode::kInvalidInput, "outbox entry " + name + ": " + ex.what());
+  }
+}
+
+Result<std::string> read_text(const std::string& path) {
+  auto bytes = glb::read_file_bytes(path, 1 << 20);
+  if (!bytes) return bytes.error();
+  return std::string(bytes->begin(), bytes->end());
+}
+
+}  // namespace
+
+Result<std::unique_ptr<Outbox>> Outbox::open(const std::string& dir, const std::string& mission) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return make_error(ErrorCode::kIo, "outbox " + dir + ": " + ec.message());
+  std::unique_ptr<Outbox> box(new Outbox(dir, mission));
+  const std::string mission_path = (fs::path(dir) / "mission.json").string();
+  if (fs::exists(mission_path)) {
+    auto text = read_text(mission_path);
+    if (!text) return text.error();
+    json j = json::parse(*text, nullptr, false);
+    if (j.is_discarded() || !j.contains("mission") || !j["mission"].is_string())
+      return make_error(ErrorCode::kInvalidInput, "outbox " + mission_path + " is not an outbox's mission.json");
+    if (j["mission"].get<std::string>() != mission)
+      return make_error(ErrorCode::kInvalidArgument, "outbox " + dir + " holds mission '" +
+                                                         j["mission"].get<std::string>() + "', not '" + mission + "'");
+  } else if (auto st = glb::write_file_atomically(mission_path, text_bytes(json{{"mission", mission}}.dump() + "\n"));
+             !st) {
+    return st.error();
+  }
+  for (const auto& item : fs::directory_iterator(dir, ec)) {
+    const std::string name = item.path().filename().string();
+    if (name.rfind("kf-", 0) != 0 || item.path().extension() != ".json") continue;
+    auto text = read_text(item.path().string());
+    if (!text) return text.error();
+    auto e = parse_entry(*text, item.path().string());
+    if (!e) return e.error();
+    if (!fs::exists(box->path(e->seq, ".glb")))
+      return make_error(ErrorCode::kInvalidInput, "outbox entry " + name + " has no GLB beside it");
+    e->bytes = fs::file_size(box->path(e->seq, ".glb"));  // a coarsening cut short between its two writes
+    box->entries_[e->seq] = std::move(*e);
+  }
+  if (ec) return make_error(ErrorCode::kIo, "outbox " + dir + ": " + ec.message());
+  // A GLB without its JSON was never sent: its seq is free again.
+  for (const auto& item : fs::directory_iterator(dir, ec)) {
+    const std::string name = item.path().filename().string();
+    if (name.rfind("kf-", 0) != 0 || item.path().extension() != ".glb") continue;
+    int seq = -1;
+    if (std::sscanf(name.c_str(), "kf-%d.glb", &seq) == 1 && !box->entries_.count(seq)) fs::remove(item.path(), ec);
+  }
+  return box;
+}
+
+std::string Outbox::path(int seq, const char* ext) const {
+  char name[32];
+  std::snprintf(name, sizeof name, "kf-%08d%s", seq, ext);
+  return (fs::path(dir_) / name).string();
+}
+
+Status Outbox::write_meta(const OutboxEntry& e) const {
+  return glb::write_file_atomically(path(e.seq, ".json"), text_bytes(entry_json(e).dump(1) + "\n"));
+}
+
+std::vector<OutboxEntry> Outbox::entries() const {
+  std::lock_guard lock(mu_);
+  std::vector<OutboxEntry> out;
+  for (const auto& [seq, e] : entries_) out.push_back(e);
+  return out;
+}
+
+std::optional<OutboxEntry> Outbox::entry(int seq) const {
+  std::lock_guard lock(mu_);
+  auto it = entries_.find(seq);
+  if (it == entries_.end()) return std::nullopt;
+  return it->second;
+}
+
+int Outbox::next_seq() const {
+  std::lock_guard lock(mu_);
+  return entries_.empty() ? 0 : entries_.rbegin()->first + 1;
+}
+
+Result<OutboxEntry> Outbox::add(OutboxEntry e, const std::vector<std::uint8_t>& glb) {
+  std::lock_guard lock(mu_);
+  e.seq = entries_.empty() ? 0 : entries_.rbegin()->first + 1;
+  e.bytes = glb.size();
+  e.attempted = e.acked = false;
+  if (auto st = glb::write_file_atomically(path(e.seq, ".glb"), glb); !st) return st.error();
+  if (auto st = write_meta(e); !st) return st.error();
+  entries_[e.seq] = e;
+  return e;
+}
+
+Status Outbox::coarsen(int seq, const std::vector<std::uint8_t>& glb, double budget_kb, size_t triangles) {
+  std::lock_guard lock(mu_);
+  auto it = entries_.find(seq);
+  if (it == entries_.end()) return make_error(ErrorCode::kNotFound, "outbox: no keyframe " + std::to_string(seq));
+  if (it->second.attempted)
+    return make_error(ErrorCode::kInvalidArgument, "outbox: keyframe " + std::to_string(seq) + " was already sent");
+  OutboxEntry e = it->second;
+  e.bytes = glb.size();
+  e.budget_kb = budget_kb;
+  e.triangles = triangles;
+  e.coarsened = true;
+  if (auto st = glb::write_file_atomically(path(seq, ".glb"), glb); !st) return st;
+  if (auto st = write_meta(e); !st) return st;
+  it->second = e;
+  return ok_status();
+}
+
+Status Outbox::update(int seq, const std::function<void(OutboxEntry&)>& change) {
+  std::lock_guard lock(mu_);
+  auto it = entries_.find(seq);
+  if (it == entries_.end()) return make_error(ErrorCode::kNotFound, "outbox: no keyframe " + std::to_string(seq));
+  OutboxEntry e = it->second;
+  change(e);
+  if (auto st = write_meta(e); !st) return st;  // the index changes only once the file did
+  it->second = e;
+  return ok_status();
+}
+
+Status Outbox::mark_attempted(int seq) {
+  if (auto e = entry(seq); e && e->attempted) return ok_status();
+  return update(seq, [](OutboxEntry& e) { e.attempted = true; });
+}
+
+Status Outbox::mark_acked(int seq, const std::string& ack_json) {
+  return update(seq, [&](OutboxEntry& e) {
+    e.attempted = e.acked = true;
+    e.ack_json = ack_json;
+  });
+}
+
+Status Outbox::mark_rejected(int seq, const std::string& reason) {
+  return update(seq, [&](OutboxEntry& e) { e.rejected = reason.empty() ? "rejected" : reason; });
+}
+
+Result<std::vector<std::uint8_t>> Outbox::read_glb(int seq) const {
+  return glb::read_file_bytes(path(seq, ".glb"), size_t{1} << 30);
+}
+
+std::array<double, 7> pose_to_tum(const double* m) {
+  const Eigen::Map<const Eigen::Matrix4d> pose(m);
+  Eigen::Quaterniond q(Eigen::Matrix3d(pose.topLeftCorner<3, 3>()));
+  q.normalize();
+  if (q.w() < 0) q.coeffs() *= -1;
+  return {pose(0, 3), pose(1, 3), pose(2, 3), q.x(), q.y(), q.z(), q.w()};
+}
+
+std::string pose_query(const std::array<double, 7>& p) {
+  std::ostringstream s;
+  s.precision(10);
+  for (size_t i = 0; i < p.size(); ++i) s << (i ? "," : "") << p[i];
+  return s.str();
+}
+
+}  // namespace rgbdcast::stream

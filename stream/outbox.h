@@ -1,0 +1,81 @@
+#pragma once
+// The sender's on-disk outbox: every keyframe is written here before it is sent, so nothing is lost when the link,
+// the server or the sender itself goes away, and a restarted sender resumes where it stopped.
+//
+// Layout of DIR: `mission.json` ({"mission": name}: an outbox serves one mission), and per keyframe
+// `kf-<seq, 8 digits>.glb` (the body exactly as posted) and `kf-<seq>.json` (its state, below). Each file is written
+// by the project's one atomic writer (gltf/atomic_file.h: temp file, fsync, rename), the GLB before its JSON: an
+// entry exists when its JSON does; a GLB without one (a crash between the two writes) was never sent and is
+// removed when the outbox is opened. Sequence numbers continue after the highest one on disk.
+//
+// States: queued -> attempted (persisted before the first POST: from then on its bytes never change, since the
+// server may already hold them; only a never-attempted entry may be coarsened) -> acked (the server's answer kept)
+// or rejected (a 4xx other than 409 that retrying cannot fix; kept with the reason, counted as lost).
+// Thread-safe: one mutex around the index; file writes happen under it (they are small and rare).
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scene/result.h"
+
+namespace rgbdcast::stream {
+
+struct OutboxEntry {
+  int seq = -1;
+  int frame_index = -1;           // in the input source
+  double timestamp = 0;           // the frame's own timestamp (s; 0 when the source has none)
+  std::array<double, 7> pose{};   // camera to world, TUM order tx ty tz qx qy qz qw
+  double captured = 0;            // Unix s
+  double budget_kb = 0;           // the budget it was reduced to (the coarser one once coarsened)
+  size_t bytes = 0;               // of the GLB on disk
+  size_t triangles = 0;
+  bool coarsened = false;
+  bool attempted = false;
+  bool acked = false;
+  std::string rejected;           // non-empty: the server refused it for good (the reason)
+  std::string ack_json;           // the server's answer (acked)
+  bool pending() const { return !acked && rejected.empty(); }
+};
+
+class Outbox {
+ public:
+  // Opens (creating when missing) DIR for `mission`. Errors: kInvalidArgument (DIR holds another mission),
+  // kInvalidInput (an unreadable entry: the file is named), kIo.
+  static Result<std::unique_ptr<Outbox>> open(const std::string& dir, const std::string& mission);
+
+  const std::string& dir() const { return dir_; }
+  std::vector<OutboxEntry> entries() const;   // by seq
+  std::optional<OutboxEntry> entry(int seq) const;
+  int next_seq() const;
+  // Writes a new entry (seq assigned: next_seq()) and returns it.
+  Result<OutboxEntry> add(OutboxEntry entry, const std::vector<std::uint8_t>& glb);
+  // Replaces a never-attempted entry's GLB by a coarser one (kInvalidArgument when it was attempted).
+  Status coarsen(int seq, const std::vector<std::uint8_t>& glb, double budget_kb, size_t triangles);
+  Status mark_attempted(int seq);
+  Status mark_acked(int seq, const std::string& ack_json);
+  Status mark_rejected(int seq, const std::string& reason);
+  Result<std::vector<std::uint8_t>> read_glb(int seq) const;
+
+ private:
+  Outbox(std::string dir, std::string mission) : dir_(std::move(dir)), mission_(std::move(mission)) {}
+  std::string path(int seq, const char* ext) const;
+  Status write_meta(const OutboxEntry& e) const;
+  Status update(int seq, const std::function<void(OutboxEntry&)>& change);
+
+  std::string dir_, mission_;
+  mutable std::mutex mu_;
+  std::map<int, OutboxEntry> entries_;
+};
+
+// The 4x4 camera-to-world matrix as TUM's 7 numbers (unit quaternion, qw >= 0), and the query text "a,b,..."
+// the missions contract asks for.
+std::array<double, 7> pose_to_tum(const double* column_major_4x4);
+std::string pose_query(const std::array<double, 7>& pose);
+
+}  // namespace rgbdcast::stream

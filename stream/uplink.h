@@ -1,0 +1,61 @@
+#pragma once
+// The sender's HTTP side: posts keyframes to the missions routes (see the contract in README, "Live missions") with
+// cpp-httplib's client over one keep-alive connection, and reads a mission back. Each answer is classified for the
+// sender's retry logic. httplib stays inside uplink.cpp. Not thread-safe: one sender thread owns it.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "scene/result.h"
+#include "stream/outbox.h"
+
+namespace rgbdcast::stream {
+
+struct UplinkOptions {
+  std::string server_url;      // http://host:port (or https://), no path
+  std::string token;           // bearer token; empty: none
+  double connect_timeout_s = 2;
+};
+
+enum class PostOutcome {
+  kStored,     // 201, or 200 (an identical re-post: the server already had it)
+  kRetry,      // no answer (connection, timeout), 5xx, 503/429 (retry_after_s may be set)
+  kConflict,   // 409: the server holds this (mission, seq) with other bytes or another pose
+  kRejected,   // any other 4xx: retrying the same bytes cannot succeed
+  kFatal,      // 401/403: the token is wrong; the sender stops
+};
+
+struct PostResult {
+  PostOutcome outcome = PostOutcome::kRetry;
+  int status = 0;              // HTTP status; 0 when no answer
+  std::string body;            // the server's JSON
+  std::string error;           // one line: why (status and error field, or the connection error)
+  double retry_after_s = -1;
+  double seconds = 0;          // from the request's start to its answer
+};
+
+class Uplink {
+ public:
+  // Errors: kInvalidArgument (a URL that is not http(s)://host[:port]).
+  static Result<std::unique_ptr<Uplink>> create(const UplinkOptions& options);
+  ~Uplink();
+
+  // GET /healthz: kUnavailable with the connection error when the server cannot be reached.
+  Status check_reachable();
+  // POST /v1/missions/{mission}/keyframes?seq=&pose=&captured=; io_timeout_s bounds the send and the wait.
+  PostResult post_keyframe(const std::string& mission, const OutboxEntry& entry, const std::vector<std::uint8_t>& glb,
+                           double io_timeout_s);
+  // GET /v1/missions/{mission}: the JSON text; kNotFound for an unknown mission, kUnavailable without an answer.
+  Result<std::string> get_mission(const std::string& mission);
+
+ private:
+  struct Impl;
+  explicit Uplink(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+// Reads a bearer token file as `rgbdcast serve` does: the whole file, whitespace trimmed, one token. Errors name the file: kNotFound (unreadable),
+// kInvalidInput (empty, or characters that cannot go in an HTTP header).
+Result<std::string> read_token_file(const std::string& path);
+
+}  // namespace rgbdcast::stream

@@ -1,0 +1,143 @@
+// The link estimate, the keyframe budget that follows it, and the retry backoff (stream/link_estimator.h,
+// stream/backoff.h).
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "stream/backoff.h"
+#include "stream/link_estimator.h"
+
+namespace rgbdcast::stream {
+namespace {
+
+// A link of `kbps` that acknowledges a POST of `bytes` after bytes / rate plus a round trip.
+double post_seconds(size_t bytes, double kbps, double rtt_s) { return bytes * 8.0 / 1000.0 / kbps + rtt_s; }
+
+TEST(LinkEstimator, StartsAtTheCapAndConvergesToTheAcknowledgedRate) {
+  LinkEstimatorParams p;
+  p.cap_kbps = 2000;
+  LinkEstimator e(p);
+  EXPECT_DOUBLE_EQ(e.estimate_kbps(), 500);  // the initial guess is below the cap
+  for (int i = 0; i < 20; ++i) e.on_ack(20000, post_seconds(20000, 400, 0.0));
+  EXPECT_NEAR(e.estimate_kbps(), 400, 1);
+  // 20 kB in 0.4 s + 0.1 s round trip: goodput 320 kbit/s, which is what the estimate reports.
+  for (int i = 0; i < 30; ++i) e.on_ack(20000, post_seconds(20000, 400, 0.1));
+  EXPECT_NEAR(e.estimate_kbps(), 320, 1);
+}
+
+TEST(LinkEstimator, EwmaWeightsANewSampleByAlpha) {
+  LinkEstimatorParams p;
+  p.alpha = 0.25;
+  LinkEstimator e(p);
+  e.on_ack(100000, 1.0);  // 800 kbit/s: the first sample replaces the guess
+  EXPECT_DOUBLE_EQ(e.estimate_kbps(), 800);
+  e.on_ack(50000, 1.0);   // 400 kbit/s: below, weighted by alpha_down
+  EXPECT_DOUBLE_EQ(e.estimate_kbps(), 0.5 * 400 + 0.5 * 800);
+  e.on_ack(200000, 1.0);  // 1600 kbit/s: above, weighted by alpha
+  EXPECT_DOUBLE_EQ(e.estimate_kbps(), 0.25 * 1600 + 0.75 * 600);
+}
+
+TEST(LinkEstimator, FailuresHalveItDownToTheFloorAndAcksRaiseItAgain) {
+  LinkEstimatorParams p;
+  p.initial_kbps = 1000;
+  LinkEstimator e(p);
+  e.on_failure();
+  EXPECT_DOUBLE_EQ(e.estimate_kbps(), 500);
+  for (int i = 0; i < 20; ++i) e.on_failure();
+  EXPECT_DOUBLE_EQ(e.estimate_kbps(), p.floor_kbps);
+  for (int i = 0; i < 15; ++i) e.on_ack(30000, post_seconds(30000, 600, 0));
+  EXPECT_GT(e.estimate_kbps(), 590);
+}
+
+TEST(KeyframeBudget, FollowsAChangedCapDownAndUp) {
+  LinkEstimatorParams p;
+  p.cap_kbps = 2000;
+  LinkEstimator e(p);
+  const double interval_s = 0.7;
+  // A fast link (10 Mbit/s) acknowledged under a 2 Mbit/s cap: the budget is the realtime ceiling.
+  for (int i = 0; i < 5; ++i) e.on_ack(40000, post_seconds(40000, 10000, 0));
+  EXPECT_DOUBLE_EQ(keyframe_budget_kb(e.estimate_kbps(), interval_s), 40);
+  // --link-kbps 100: 12.5 kB/s x 0.7 s x 0.9 headroom.
+  e.set_cap_kbps(100);
+  EXPECT_NEAR(keyframe_budget_kb(e.estimate_kbps(), interval_s), 12.5 * 0.7 * 0.9, 1e-9);
+  // --link-kbps 300, then no cap: the budget follows back up at once (the average is kept uncapped).
+  e.set_cap_kbps(300);
+  EXPECT_NEAR(keyframe_budget_kb(e.estimate_kbps(), interval_s), 37.5 * 0.7 * 0.9, 1e-9);
+  e.set_cap_kbps(0);
+  EXPECT_DOUBLE_EQ(keyframe_budget_kb(e.estimate_kbps(), interval_s), 40);
+  // A dead link: the floor.
+  for (int i = 0; i < 30; ++i) e.on_failure();
+  EXPECT_DOUBLE_EQ(keyframe_budget_kb(e.estimate_kbps(), interval_s), BudgetRule{}.floor_kb);
+}
+
+TEST(KeyframeBudget, FollowsALinkThatDegradesAndRecovers) {
+  LinkEstimator e(LinkEstimatorParams{});
+  KeyframeInterval interval;
+  double t = 0, budget = 0;
+  auto keyframe = [&](double link_kbps) {
+    t += 0.7;
+    interval.on_keyframe(t);
+    budget = keyframe_budget_kb(e.estimate_kbps(), interval.seconds());
+    e.on_ack(static_cast<size_t>(budget * 1000), post_seconds(static_cast<size_t>(budget * 1000), link_kbps, 0.05));
+  };
+  for (int i = 0; i < 10; ++i) keyframe(2000);
+  EXPECT_DOUBLE_EQ(budget, 40);
+  for (int i = 0; i < 10; ++i) keyframe(100);
+  EXPECT_LT(budget, 9);   // 100 kbit/s carries about 8 kB in 0.7 s
+  EXPECT_GT(budget, 4);
+  for (int i = 0; i < 10; ++i) keyframe(2000);
+  EXPECT_DOUBLE_EQ(budget, 40);
+}
+
+TEST(KeyframeInterval, SmoothsAndClampsTheGaps) {
+  KeyframeInterval k(1.0, 0.5, 0.25, 5.0);
+  EXPECT_DOUBLE_EQ(k.seconds(), 1.0);
+  k.on_keyframe(10.0);
+  EXPECT_DOUBLE_EQ(k.seconds(), 1.0);  // one keyframe: no gap yet
+  k.on_keyframe(10.6);
+  EXPECT_NEAR(k.seconds(), 0.6, 1e-12);
+  k.on_keyframe(100.0);                // a stall counts as max_s
+  EXPECT_NEAR(k.seconds(), 0.5 * 5.0 + 0.5 * 0.6, 1e-12);
+}
+
+TEST(Backoff, GrowsExponentiallyWithJitterUpToTheCap) {
+  BackoffParams p;  // 0.2 s x 2^n, cap 2 s, jitter 50 %
+  Backoff b(p);
+  std::mt19937 rng(7);
+  const double expected[] = {0.2, 0.4, 0.8, 1.6, 2.0, 2.0, 2.0};
+  for (double d : expected) {
+    const double got = b.next_delay_s(rng);
+    EXPECT_GE(got, 0.5 * d - 1e-12);
+    EXPECT_LE(got, d + 1e-12);
+  }
+  EXPECT_EQ(b.failures(), 7);
+  b.reset();
+  EXPECT_LE(b.next_delay_s(rng), 0.2);
+}
+
+TEST(Backoff, JitterSpreadsSendersThatFailedTogether) {
+  Backoff a(BackoffParams{}), b(BackoffParams{});
+  std::mt19937 ra(1), rb(2);
+  int differ = 0;
+  for (int i = 0; i < 6; ++i) differ += a.next_delay_s(ra) != b.next_delay_s(rb);
+  EXPECT_EQ(differ, 6);
+}
+
+TEST(Backoff, HonoursRetryAfterUpToItsLimit) {
+  Backoff b(BackoffParams{});
+  std::mt19937 rng(3);
+  EXPECT_DOUBLE_EQ(b.next_delay_s(rng, 5.0), 5.0);
+  EXPECT_DOUBLE_EQ(b.next_delay_s(rng, 1000.0), BackoffParams{}.retry_after_max_s);
+}
+
+TEST(Backoff, BadParametersAreRefused) {
+  BackoffParams p;
+  p.initial_s = 0;
+  EXPECT_FALSE(p.validate());
+  LinkEstimatorParams l;
+  l.cap_kbps = -1;
+  EXPECT_FALSE(l.validate());
+}
+
+}  // namespace
+}  // namespace rgbdcast::stream

@@ -1,0 +1,120 @@
+// The outbox on disk (stream/outbox.h): entries survive a reopen, seq numbering continues, attempted entries are
+// never rewritten, a GLB left without its JSON is removed, one outbox serves one mission.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "stream/outbox.h"
+#include "tests/common/test_data.h"
+
+namespace rgbdcast::stream {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<std::uint8_t> bytes(size_t n, std::uint8_t v) { return std::vector<std::uint8_t>(n, v); }
+
+TEST(Outbox, EntriesSurviveAReopenAndSeqContinues) {
+  const std::string dir = test::temp_dir("outbox_reopen");
+  {
+    auto box = Outbox::open(dir, "m1");
+    ASSERT_TRUE(box) << box.error().message;
+    OutboxEntry e;
+    e.frame_index = 12;
+    e.pose = {1, 2, 3, 0, 0, 0, 1};
+    e.captured = 1700000000.5;
+    e.budget_kb = 40;
+    auto a = (*box)->add(e, bytes(1000, 1));
+    ASSERT_TRUE(a);
+    EXPECT_EQ(a->seq, 0);
+    e.frame_index = 30;
+    auto b = (*box)->add(e, bytes(2000, 2));
+    ASSERT_TRUE(b);
+    EXPECT_EQ(b->seq, 1);
+    ASSERT_TRUE((*box)->mark_acked(0, R"({"seq":0,"available":1.5})"));
+    ASSERT_TRUE((*box)->mark_attempted(1));
+  }
+  auto box = Outbox::open(dir, "m1");
+  ASSERT_TRUE(box) << box.error().message;
+  const auto entries = (*box)->entries();
+  ASSERT_EQ(entries.size(), 2u);
+  EXPECT_TRUE(entries[0].acked);
+  EXPECT_EQ(entries[0].frame_index, 12);
+  EXPECT_DOUBLE_EQ(entries[0].captured, 1700000000.5);
+  EXPECT_NE(entries[0].ack_json.find("available"), std::string::npos);
+  EXPECT_TRUE(entries[1].attempted);
+  EXPECT_TRUE(entries[1].pending());
+  EXPECT_EQ(entries[1].bytes, 2000u);
+  EXPECT_EQ((*box)->next_seq(), 2);
+  auto glb = (*box)->read_glb(1);
+  ASSERT_TRUE(glb);
+  EXPECT_EQ(*glb, bytes(2000, 2));
+  test::remove_tree_quietly(dir);
+}
+
+TEST(Outbox, OnlyNeverAttemptedEntriesAreCoarsened) {
+  const std::string dir = test::temp_dir("outbox_coarsen");
+  auto box = Outbox::open(dir, "m1");
+  ASSERT_TRUE(box);
+  ASSERT_TRUE((*box)->add(OutboxEntry{}, bytes(4000, 1)));
+  ASSERT_TRUE((*box)->add(OutboxEntry{}, bytes(4000, 2)));
+  ASSERT_TRUE((*box)->coarsen(0, bytes(1000, 3), 10, 5));
+  ASSERT_TRUE((*box)->mark_attempted(1));
+  auto refused = (*box)->coarsen(1, bytes(1000, 4), 10, 5);
+  EXPECT_FALSE(refused);
+  auto e0 = (*box)->entry(0), e1 = (*box)->entry(1);
+  EXPECT_TRUE(e0->coarsened);
+  EXPECT_EQ(e0->bytes, 1000u);
+  EXPECT_DOUBLE_EQ(e0->budget_kb, 10);
+  EXPECT_EQ(e1->bytes, 4000u);
+  EXPECT_EQ(*(*box)->read_glb(1), bytes(4000, 2));
+  test::remove_tree_quietly(dir);
+}
+
+TEST(Outbox, AGlbWithoutItsJsonIsRemovedAndItsSeqReused) {
+  const std::string dir = test::temp_dir("outbox_orphan");
+  {
+    auto box = Outbox::open(dir, "m1");
+    ASSERT_TRUE(box);
+    ASSERT_TRUE((*box)->add(OutboxEntry{}, bytes(10, 1)));
+  }
+  std::ofstream(dir + "/kf-00000001.glb") << "half";  // a crash between the GLB and its JSON
+  auto box = Outbox::open(dir, "m1");
+  ASSERT_TRUE(box);
+  EXPECT_FALSE(fs::exists(dir + "/kf-00000001.glb"));
+  EXPECT_EQ((*box)->next_seq(), 1);
+  test::remove_tree_quietly(dir);
+}
+
+TEST(Outbox, OneOutboxServesOneMission) {
+  const std::string dir = test::temp_dir("outbox_mission");
+  ASSERT_TRUE(Outbox::open(dir, "alpha"));
+  auto other = Outbox::open(dir, "beta");
+  ASSERT_FALSE(other);
+  EXPECT_EQ(other.error().code, ErrorCode::kInvalidArgument);
+  EXPECT_NE(other.error().message.find("alpha"), std::string::npos);
+  std::ofstream(dir + "/kf-00000000.json") << "{not json";
+  auto corrupt = Outbox::open(dir, "alpha");
+  ASSERT_FALSE(corrupt);
+  EXPECT_EQ(corrupt.error().code, ErrorCode::kInvalidInput);
+  test::remove_tree_quietly(dir);
+}
+
+TEST(Outbox, PoseQueryIsTumOrderWithAUnitQuaternion) {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topLeftCorner<3, 3>() = Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  m.block<3, 1>(0, 3) = Eigen::Vector3d(0.1, -0.2, 0.3);
+  const auto p = pose_to_tum(m.data());
+  EXPECT_DOUBLE_EQ(p[0], 0.1);
+  EXPECT_DOUBLE_EQ(p[1], -0.2);
+  EXPECT_DOUBLE_EQ(p[2], 0.3);
+  EXPECT_NEAR(p[4], std::sin(0.25), 1e-12);
+  EXPECT_NEAR(p[6], std::cos(0.25), 1e-12);
+  EXPECT_EQ(pose_query({1, 2, 3, 0, 0, 0, 1}), "1,2,3,0,0,0,1");
+}
+
+}  // namespace
+}  // namespace rgbdcast::stream

@@ -1,0 +1,203 @@
+// The sender through an outage (stream/sender.h): the server is down, then answers 503 with Retry-After, then
+// swallows one answer (the client times out after the keyframe was stored). Every keyframe ends up stored exactly
+// once, newest first, the re-post of the stored one is answered 200, and the retries backed off. The server here is
+// a minimal httplib server with the contract's idempotency, so that the test can script the failures; the real
+// service is exercised end to end in test_stream_cli.cpp.
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <fstream>
+#include <chrono>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "stream/sender.h"
+#include "tests/common/test_data.h"
+
+namespace rgbdcast::stream {
+namespace {
+
+struct ScriptedServer {
+  httplib::Server server;
+  std::thread thread;
+  std::mutex mu;
+  std::map<int, std::string> stored;  // seq -> body
+  std::vector<int> created_order;
+  int answered_200 = 0, answered_503 = 0, swallowed = 0;
+  int fail_with_503 = 2;     // the first requests get 503 Retry-After: 1
+  int swallow_answers = 1;   // then one stored keyframe's answer never comes
+
+  void start(int port) {
+    server.Post(R"(/v1/missions/([A-Za-z0-9_-]+)/keyframes)", [this](const httplib::Request& req, httplib::Response& res) {
+      const int seq = std::stoi(req.get_param_value("seq"));
+      bool swallow = false;
+      {
+        std::lock_guard lock(mu);
+        if (fail_with_503 > 0) {
+          --fail_with_503;
+          ++answered_503;
+          res.status = 503;
+          res.set_header("Retry-After", "1");
+          res.set_content(R"({"error":"busy"})", "application/json");
+          return;
+        }
+        auto it = stored.find(seq);
+        if (it == stored.end()) {
+          stored[seq] = req.body;
+          created_order.push_back(seq);
+          res.status = 201;
+          if (swallow_answers > 0) {
+            --swallow_answers;
+            ++swallowed;
+            swallow = true;
+          }
+        } else if (it->second == req.body) {
+          res.status = 200;
+          ++answered_200;
+        } else {
+          res.status = 409;
+        }
+      }
+      if (swallow) std::this_thread::sleep_for(std::chrono::seconds(7));  // past the client's timeout (4.5 s here)
+      res.set_content("{\"seq\":" + std::to_string(seq) + "}", "application/json");
+    });
+    thread = std::thread([this, port] { server.listen("127.0.0.1", port); });
+    while (!server.is_running()) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ~ScriptedServer() {
+    server.stop();
+    if (thread.joinable()) thread.join();
+  }
+};
+
+// A port nothing listens on: bound to port 0, read back, closed.
+int free_port() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof addr;
+  if (::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0 ||
+      ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  ::close(fd);
+  return ntohs(addr.sin_port);
+}
+
+TEST(SenderOutage, EveryKeyframeIsStoredExactlyOnceAfterTheLinkReturns) {
+  const std::string dir = test::temp_dir("sender_outage");
+  auto box = Outbox::open(dir, "outage");
+  ASSERT_TRUE(box);
+  for (int i = 0; i < 3; ++i) {
+    OutboxEntry e;
+    e.frame_index = 10 * i;
+    e.pose = {0.1 * i, 0, 0, 0, 0, 0, 1};
+    ASSERT_TRUE((*box)->add(e, std::vector<std::uint8_t>(3000 + i, static_cast<std::uint8_t>(i))));
+  }
+  const int port = free_port();
+  ASSERT_GT(port, 0);
+  UplinkOptions uo;
+  uo.server_url = "http://127.0.0.1:" + std::to_string(port);
+  auto uplink = Uplink::create(uo);
+  ASSERT_TRUE(uplink);
+  SenderParams sp;
+  sp.mission = "outage";
+  sp.seed = 11;
+  Sender sender(**box, **uplink, sp);
+  sender.start();
+
+  // Down: connections refused for 1.5 s.
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  const SenderStats down = sender.stats();
+  EXPECT_GE(down.failures, 2u);          // retried, with backoff (0.2, 0.4, 0.8 s ...)
+  EXPECT_LE(down.failures, 6u);          // not a busy loop
+  EXPECT_TRUE(down.link_down);
+  EXPECT_LT(down.estimate_kbps, 500.0);  // failures lowered the estimate
+  EXPECT_EQ(down.pending, 3u);
+
+  ScriptedServer server;
+  server.start(port);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (sender.stats().pending > 0 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  sender.stop();
+
+  const SenderStats done = sender.stats();
+  EXPECT_EQ(done.pending, 0u);
+  EXPECT_EQ(done.acked, 3u);
+  EXPECT_EQ(done.rejected, 0u);
+  std::lock_guard lock(server.mu);
+  EXPECT_EQ(server.answered_503, 2);
+  EXPECT_EQ(server.swallowed, 1);
+  EXPECT_EQ(server.answered_200, 1);  // the keyframe whose answer was lost, re-posted identically
+  ASSERT_EQ(server.stored.size(), 3u);
+  ASSERT_EQ(server.created_order.size(), 3u);
+  EXPECT_EQ(server.created_order.front(), 2);  // newest first
+  for (int seq = 0; seq < 3; ++seq) {
+    EXPECT_EQ(server.stored[seq].size(), static_cast<size_t>(3000 + seq));
+    EXPECT_TRUE((*box)->entry(seq)->acked);
+  }
+  test::remove_tree_quietly(dir);
+}
+
+TEST(SenderOutage, ARefusedTokenStopsTheSender) {
+  const std::string dir = test::temp_dir("sender_token");
+  auto box = Outbox::open(dir, "auth");
+  ASSERT_TRUE(box);
+  ASSERT_TRUE((*box)->add(OutboxEntry{}, std::vector<std::uint8_t>(100, 1)));
+  httplib::Server server;
+  server.Post(R"(/v1/missions/.*)", [](const httplib::Request&, httplib::Response& res) {
+    res.status = 401;
+    res.set_content(R"({"error":"unauthorized","message":"bad token"})", "application/json");
+  });
+  const int port = server.bind_to_any_port("127.0.0.1");
+  std::thread t([&] { server.listen_after_bind(); });
+  UplinkOptions uo;
+  uo.server_url = "http://127.0.0.1:" + std::to_string(port);
+  uo.token = "wrong-token-wrong-token";
+  auto uplink = Uplink::create(uo);
+  ASSERT_TRUE(uplink);
+  SenderParams sp;
+  sp.mission = "auth";
+  Sender sender(**box, **uplink, sp);
+  sender.start();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (sender.stats().fatal.empty() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  const SenderStats s = sender.stats();
+  EXPECT_NE(s.fatal.find("HTTP 401"), std::string::npos) << s.fatal;
+  EXPECT_EQ(s.pending, 1u);  // kept in the outbox for a run with the right token
+  sender.stop();
+  server.stop();
+  t.join();
+  test::remove_tree_quietly(dir);
+}
+
+TEST(Uplink, BadUrlsAndTokenFilesGetOneLineErrors) {
+  for (const char* url : {"localhost:8080", "ftp://host", "http://host/path", "http://", ""}) {
+    UplinkOptions uo;
+    uo.server_url = url;
+    auto u = Uplink::create(uo);
+    EXPECT_FALSE(u) << url;
+    if (!u) EXPECT_EQ(u.error().message.find('\n'), std::string::npos);
+  }
+  const std::string dir = test::temp_dir("token_files");
+  EXPECT_EQ(read_token_file(dir + "/missing").error().code, ErrorCode::kNotFound);
+  std::ofstream(dir + "/empty") << "  \n";
+  EXPECT_EQ(read_token_file(dir + "/empty").error().code, ErrorCode::kInvalidInput);
+  std::ofstream(dir + "/two") << "abc def\n";
+  EXPECT_EQ(read_token_file(dir + "/two").error().code, ErrorCode::kInvalidInput);
+  std::ofstream(dir + "/good") << "  s3cret-token-0123456789\n";
+  EXPECT_EQ(*read_token_file(dir + "/good"), "s3cret-token-0123456789");
+  test::remove_tree_quietly(dir);
+}
+
+}  // namespace
+}  // namespace rgbdcast::stream

@@ -1,0 +1,218 @@
+// rgbdcast stream end to end against the real `rgbdcast serve`, on the first 41 real frames of TUM fr1/xyz 200-319:
+// - the budget follows --link-kbps (2000 vs 100 kbit/s: smaller keyframes, the acknowledged rate under the cap);
+// - a sender killed (SIGKILL) mid-mission and started again: nothing lost, nothing duplicated, the same keyframes
+//   as the uninterrupted run;
+// - bad input gets a one-line error.
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <thread>
+
+#include "tests/common/run_command.h"
+#include "tests/common/test_data.h"
+#include "tests/service/server_process.h"
+
+extern char** environ;
+
+namespace rgbdcast::test {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+const char* kSequence = "tum/rgbd_dataset_freiburg1_xyz_200_319";
+
+std::vector<json> outbox_entries(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& f : fs::directory_iterator(dir))
+    if (f.path().filename().string().rfind("kf-", 0) == 0 && f.path().extension() == ".json")
+      names.push_back(f.path().string());
+  std::sort(names.begin(), names.end());
+  std::vector<json> out;
+  for (const auto& n : names) out.push_back(json::parse(read_file(n)));
+  return out;
+}
+
+json mission(int port, const std::string& name) {
+  httplib::Client c("127.0.0.1", port);
+  auto res = c.Get(("/v1/missions/" + name).c_str());
+  if (!res || res->status != 200) return json();
+  return json::parse(res->body);
+}
+
+std::string stream_command(int port, const std::string& mission_name, const std::string& outbox, double kbps) {
+  return rgbdcast_binary() + " stream --input " + data_path(kSequence) + " --to 40 --server http://127.0.0.1:" +
+         std::to_string(port) + " --mission " + mission_name + " --outbox " + outbox + " --link-kbps " +
+         std::to_string(kbps) + " --seed 5";
+}
+
+struct MissionRun {
+  std::vector<json> outbox;
+  json mission;
+  double bytes_per_keyframe = 0;
+};
+
+MissionRun summarize(int port, const std::string& name, const std::string& outbox) {
+  MissionRun r;
+  r.outbox = outbox_entries(outbox);
+  r.mission = mission(port, name);
+  double bytes = 0;
+  for (const auto& e : r.outbox) bytes += e["bytes"].get<double>();
+  if (!r.outbox.empty()) r.bytes_per_keyframe = bytes / r.outbox.size();
+  return r;
+}
+
+// Nothing lost, nothing duplicated: the mission holds exactly the outbox's keyframes, each once, same bytes.
+void expect_mission_matches_outbox(const MissionRun& r) {
+  ASSERT_TRUE(r.mission.is_object());
+  std::map<int, size_t> on_server;
+  for (const auto& k : r.mission["keyframes"]) {
+    const int seq = k["seq"].get<int>();
+    EXPECT_FALSE(on_server.count(seq)) << "seq " << seq << " twice on the server";
+    on_server[seq] = k["bytes"].get<size_t>();
+  }
+  EXPECT_EQ(on_server.size(), r.outbox.size());
+  std::set<int> frames;
+  for (const auto& e : r.outbox) {
+    EXPECT_TRUE(e["acked"].get<bool>()) << e.dump();
+    const int seq = e["seq"].get<int>();
+    ASSERT_TRUE(on_server.count(seq)) << "seq " << seq << " lost";
+    EXPECT_EQ(on_server[seq], e["bytes"].get<size_t>());
+    EXPECT_TRUE(frames.insert(e["frame"].get<int>()).second) << "frame " << e["frame"].dump() << " sent twice";
+  }
+}
+
+std::vector<int> keyframe_frames(const MissionRun& r) {
+  std::vector<int> f;
+  for (const auto& e : r.outbox) f.push_back(e["frame"].get<int>());
+  std::sort(f.begin(), f.end());
+  return f;
+}
+
+class StreamCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    REQUIRE_DATA(kSequence);
+    dir_ = temp_dir("stream_cli");
+    std::string error;
+    ASSERT_TRUE(server_.start(dir_ + "/data", {}, &error)) << error;
+  }
+  void TearDown() override {
+    server_.stop();
+    if (!dir_.empty()) remove_tree_quietly(dir_);
+  }
+  std::string dir_;
+  ServerProcess server_;
+};
+
+TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNothing) {
+  // Uninterrupted at 2 Mbit/s.
+  const std::string fast_box = dir_ + "/fast";
+  auto fast_cmd = run_command(stream_command(server_.port(), "fast", fast_box, 2000));
+  ASSERT_EQ(fast_cmd.exit_code, 0) << fast_cmd.out << fast_cmd.err;
+  const MissionRun fast = summarize(server_.port(), "fast", fast_box);
+  ASSERT_GE(fast.outbox.size(), 2u);
+  expect_mission_matches_outbox(fast);
+
+  // At 20 kbit/s the link, not the tracking, is the bottleneck: the budgets follow it down; the keyframes do not
+  // grow, but they do not reach the budget either (the realtime reduction bottoms out near 32-47 kB on these frames
+  // within its limits of 32 sigma and a half-size texture: BENCHMARKS.md "Live missions"); the sender's pacing keeps the acknowledged rate under the cap. (On 2 busy cores keyframes come
+  // every few seconds; the budget rule clamps the interval to 5 s, so 20 kbit/s allows at most
+  // 2.5 kB/s x 5 s x 0.9 = 11.25 kB per keyframe.)
+  const std::string slow_box = dir_ + "/slow";
+  auto slow_cmd = run_command(stream_command(server_.port(), "slow", slow_box, 20));
+  ASSERT_EQ(slow_cmd.exit_code, 0) << slow_cmd.out << slow_cmd.err;
+  const MissionRun slow = summarize(server_.port(), "slow", slow_box);
+  expect_mission_matches_outbox(slow);
+  EXPECT_EQ(keyframe_frames(slow), keyframe_frames(fast));  // the link changes the bytes, not the keyframes
+  EXPECT_LE(slow.bytes_per_keyframe, 1.02 * fast.bytes_per_keyframe)
+      << slow.bytes_per_keyframe << " vs " << fast.bytes_per_keyframe;
+  for (const auto& e : fast.outbox) EXPECT_GT(e["budget_kb"].get<double>(), 11.25 + 1e-9) << e.dump();
+  for (const auto& e : slow.outbox) EXPECT_LE(e["budget_kb"].get<double>(), 11.25 + 1e-9) << e.dump();
+  // Paced: every keyframe but the last arrived no faster than the cap allows.
+  std::vector<std::pair<double, double>> arrivals;  // received, bytes
+  for (const auto& k : slow.mission["keyframes"])
+    arrivals.push_back({k["received"].get<double>(), k["bytes"].get<double>()});
+  std::sort(arrivals.begin(), arrivals.end());
+  double paced_bytes = 0;
+  for (size_t i = 0; i + 1 < arrivals.size(); ++i) paced_bytes += arrivals[i].second;
+  const double span_s = arrivals.back().first - arrivals.front().first;
+  EXPECT_LE(paced_bytes * 8 / 1000, 20 * 1.05 * span_s + 1.0) << paced_bytes << " bytes in " << span_s << " s";
+
+  // Killed mid-mission once a keyframe was acknowledged, then started again with the same outbox.
+  const std::string box = dir_ + "/restart";
+  const std::string cmd = stream_command(server_.port(), "restart", box, 300);
+  pid_t pid = -1;
+  const char* argv[] = {"/bin/sh", "-c", nullptr, nullptr};
+  const std::string exec_cmd = "exec " + cmd + " >/dev/null 2>&1";
+  argv[2] = exec_cmd.c_str();
+  ASSERT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+  bool killed_mid_mission = false;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(240);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (fs::exists(box)) {
+      const auto entries = outbox_entries(box);
+      const bool one_acked =
+          std::any_of(entries.begin(), entries.end(), [](const json& e) { return e["acked"].get<bool>(); });
+      if (one_acked) {
+        ::kill(pid, SIGKILL);
+        killed_mid_mission = true;
+        break;
+      }
+    }
+    int status = 0;
+    if (waitpid(pid, &status, WNOHANG) == pid) {
+      pid = -1;
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  if (pid > 0) waitpid(pid, nullptr, 0);
+  ASSERT_TRUE(killed_mid_mission) << "the sender finished before a keyframe was acknowledged";
+  const size_t before = outbox_entries(box).size();
+  EXPECT_LT(before, fast.outbox.size()) << "killed too late to test a resume";
+  auto again = run_command(cmd);
+  ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
+  EXPECT_NE(again.out.find("resumed at frame"), std::string::npos) << again.out;
+  const MissionRun resumed = summarize(server_.port(), "restart", box);
+  expect_mission_matches_outbox(resumed);
+  EXPECT_EQ(keyframe_frames(resumed), keyframe_frames(fast));
+  // seq numbering continued: 0..n-1, no gap.
+  for (size_t i = 0; i < resumed.outbox.size(); ++i) EXPECT_EQ(resumed.outbox[i]["seq"].get<size_t>(), i);
+}
+
+TEST_F(StreamCli, BadInputGetsAOneLineError) {
+  const std::string base = rgbdcast_binary() + " stream --input " + data_path(kSequence) + " --outbox " + dir_ + "/bad";
+  const std::string server = " --server http://127.0.0.1:" + std::to_string(server_.port());
+  struct Case {
+    std::string args, expect;
+    int exit_code;
+  } cases[] = {
+      {" --mission m --server http://127.0.0.1:1", "cannot reach", 1},  // unreachable: not the input's fault
+      {" --mission m --server 127.0.0.1:8080", "--server must be", 2},
+      {" --mission m" + server + " --token-file " + dir_ + "/nope", "token file", 2},
+      {" --mission 'bad name'" + server, "--mission must match", 2},
+  };
+  for (const Case& c : cases) {
+    auto r = run_command(base + c.args);
+    EXPECT_EQ(r.exit_code, c.exit_code) << c.args << ": " << r.err;
+    EXPECT_NE(r.err.find(c.expect), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir_ + "/bad/mission.json"));  // nothing written before the input was checked
+  auto r = run_command(rgbdcast_binary() + " stream --input " + dir_ + "/no-such-source --mission m --server http://127.0.0.1:" +
+                       std::to_string(server_.port()));
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+}  // namespace
+}  // namespace rgbdcast::test
