@@ -1,4 +1,4 @@
-# Instrumented builds, each in its own build folder (scripts/fuzz.sh, scripts/test.sh --asan):
+# Instrumented builds, each in its own build folder (scripts/fuzz.sh, scripts/sanitize.sh):
 # - RGBDCAST_SANITIZE=ON (build-asan/): every target with AddressSanitizer + UndefinedBehaviorSanitizer, so the
 #   GoogleTest suite runs sanitized. Any error aborts the test (no recovery).
 # - RGBDCAST_FUZZ=ON (build-fuzz/, clang only): the same, plus libFuzzer coverage, and the harnesses in fuzz/.
