@@ -170,6 +170,9 @@ void register_reduce(CLI::App& app) {
       ->transform(CLI::CheckedTransformer(std::map<std::string, OutlierMethod>{
           {"kdtree", OutlierMethod::kKdTree}, {"organized", OutlierMethod::kOrganized}}))
       ->capture_default_str();
+  cmd->add_option("--threads", args->params.threads,
+                  "OpenMP threads of the parallel stages (normals, outliers, depth mesh); 0 = OMP_NUM_THREADS, else "
+                  "the cores")->capture_default_str()->check(CLI::Range(0, 256));
   cmd->add_option("--outlier-k", args->params.outlier_k, "Statistical outlier removal: neighbours K")->capture_default_str();
   cmd->add_option("--outlier-std", args->params.outlier_std_mul, "Statistical outlier removal: std-dev multiplier T")
       ->capture_default_str();

@@ -42,6 +42,10 @@ void register_serve(CLI::App& app) {
   cmd->add_option("--reducers", opts->reducers, "Frame uploads reduced at once")
       ->capture_default_str()
       ->check(CLI::Range(1, 16));
+  cmd->add_option("--reduce-threads", opts->reduce_threads,
+                  "OpenMP threads per frame reduction; 0 = the cores divided among --reducers")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 256));
   cmd->add_option("--reduce-queue", opts->reduce_queue, "Frame uploads waiting for a reducer before 503")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000));

@@ -21,7 +21,7 @@ void add_camera_options(CLI::App* cmd, ViewArgs* a) {
   cmd->add_option("--eye", a->eye, "Camera position x,y,z (world = first capture camera frame, y down)");
   cmd->add_option("--target", a->target, "Point looked at x,y,z");
   cmd->add_option("--up", a->up, "Up direction x,y,z")->capture_default_str();
-  cmd->add_option("--fov", a->fov_deg, "Vertical field of view in degrees")->capture_default_str();
+  cmd->add_option("--fov", a->fov_deg, "Vertical field of view in degrees (above 0.5, at most 179)")->capture_default_str();
   cmd->add_option("--width", a->width, "Image width (default: the capture camera's)");
   cmd->add_option("--height", a->height, "Image height (default: the capture camera's)");
 }

@@ -32,6 +32,14 @@ std::uint32_t le32(const std::uint8_t* p) {
   return std::uint32_t(p[0]) | (std::uint32_t(p[1]) << 8) | (std::uint32_t(p[2]) << 16) | (std::uint32_t(p[3]) << 24);
 }
 
+// For readers that take files only (PCL, rosbag): the input bytes as a file of this process.
+bool write_file(const std::string& path, const std::uint8_t* data, size_t size) {
+  FILE* f = std::fopen(path.c_str(), "wb");
+  if (!f) return false;
+  const bool ok = std::fwrite(data, 1, size, f) == size;
+  return std::fclose(f) == 0 && ok;
+}
+
 }  // namespace
 
 // decode_glb on arbitrary bytes (the body of POST /v1/scenes). Any input must give a Scene or a one-line
@@ -131,10 +139,7 @@ void frame_upload(const std::uint8_t* data, size_t size) {
 void pcd(const std::uint8_t* data, size_t size) {
   if (!rgbdcast::check_pcd_header(data, size).ok()) return;
   static const std::string path = "/tmp/rgbdcast-fuzz-pcd-" + std::to_string(getpid()) + ".pcd";
-  FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) return;
-  std::fwrite(data, 1, size, f);
-  std::fclose(f);
+  if (!write_file(path, data, size)) return;
   rgbdcast::Intrinsics k;
   k.fx = k.fy = 525.0;
   k.width = 640;
@@ -155,6 +160,24 @@ void trajectory(const std::uint8_t* data, size_t size) {
   }
 }
 
+// a ROS 1 bag (input/rosbag_source.cpp through Debian's rosbag_storage, which reads files only: the bytes go to a
+// file first) on the default topics: open, index, then every frame up to 4. An accepted frame is consistent.
+void rosbag(const std::uint8_t* data, size_t size) {
+  static const std::string path = "/tmp/rgbdcast-fuzz-bag-" + std::to_string(getpid()) + ".bag";
+  if (!write_file(path, data, size)) return;
+  rgbdcast::SourceOptions options;
+  auto src = rgbdcast::open_frame_source(path, options);
+  if (!src.ok()) return check_error(src.error());
+  for (size_t i = 0; i < (*src)->size() && i < 4; ++i) {
+    auto frame = (*src)->frame(i);
+    if (!frame.ok()) {
+      check_error(frame.error());
+      continue;
+    }
+    if (frame->color_rgb.size() != frame->depth_m.size() || frame->depth_m.type() != CV_32FC1) std::abort();
+  }
+}
+
 // the view query parser (service/view_params.cpp) and the camera it builds. The input is a query string
 // split on '&' and the first '=' (cpp-httplib has already percent-decoded it); make_view_camera runs with no capture
 // camera and with one.
@@ -171,9 +194,12 @@ void view_query(const std::uint8_t* data, size_t size) {
     pos = amp + 1;
   }
   auto req = rgbdcast::service::parse_view_request(params);
-  // Not check_error: view_params echoes raw parameter names and values into its messages, so "%0A" makes a
-  // two-line error (reported to the service's owner); the service escapes it in its JSON body.
-  if (!req.ok()) return;
+  if (!req.ok()) {  // one printable line: what the client sent is quoted as \xNN (service/http_errors.h)
+    check_error(req.error());
+    for (unsigned char c : req.error().message)
+      if (c < 0x20 || c >= 0x7f) std::abort();
+    return;
+  }
   (void)rgbdcast::service::make_view_camera(*req, {});
   rgbdcast::CaptureCamera cam;
   cam.intrinsics.fx = cam.intrinsics.fy = 525.0;

@@ -16,5 +16,6 @@ void frame_upload(const std::uint8_t* data, size_t size);  // the multipart fram
 void pcd(const std::uint8_t* data, size_t size);           // check_pcd_header, then PCL's reader
 void trajectory(const std::uint8_t* data, size_t size);    // TUM, Redwood .log, ICL-NUIM parsers
 void view_query(const std::uint8_t* data, size_t size);    // parse_view_request, make_view_camera
+void rosbag(const std::uint8_t* data, size_t size);        // open_frame_source on a .bag, then its frames
 
 }  // namespace rgbdcast::fuzz

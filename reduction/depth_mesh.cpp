@@ -15,6 +15,7 @@
 // neighbour share that point, so they split together and the mesh has no T-junction. Levels are processed
 // finest-first over all tiles, so a midpoint on a tile border holds both tiles' errors before any parent reads it.
 #include "reduction/depth_mesh.h"
+#include "reduction/openmp_threads.h"
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -262,7 +263,7 @@ bool texture_deviates(const double px[3], const double py[3], const double z[3],
 }  // namespace
 
 Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, const cv::Mat& vertex_depth_m,
-                                                     const Intrinsics& k, const DepthMeshParams& p) {
+                                                     const Intrinsics& k, const DepthMeshParams& p, int threads) {
   if (auto st = p.validate(); !st) return st.error();
   if (depth_m.empty() || depth_m.type() != CV_32FC1)
     return make_error(ErrorCode::kInvalidArgument, "depth mesh: depth must be a non-empty CV_32FC1 image");
@@ -319,7 +320,7 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
   const std::vector<float>& D = h.depth_;
   const int GW = h.grid_w_;
 
-#pragma omp parallel
+#pragma omp parallel num_threads(openmp_threads(threads))
   {
     // Moments of the internal triangles only: a leaf owns at most one grid point, so the lowest internal level
     // sums its two leaves' pixels directly.

@@ -80,9 +80,10 @@ struct DepthMeshParams {
 class DepthMeshHierarchy {
  public:
   // depth_m: CV_32FC1 metres (0 = none), the pixels the fit is judged on; vertex_depth_m: where vertices sit (the
-  // same validity), as filter_depth leaves them; pinhole: the depth image's camera.
+  // same validity), as filter_depth leaves them; pinhole: the depth image's camera; threads: OpenMP threads
+  // (reduction/openmp_threads.h, 0 = OpenMP's default).
   static Result<DepthMeshHierarchy> build(const cv::Mat& depth_m, const cv::Mat& vertex_depth_m,
-                                          const Intrinsics& pinhole, const DepthMeshParams& params);
+                                          const Intrinsics& pinhole, const DepthMeshParams& params, int threads = 0);
 
   // The triangles at `tolerance_factor` (sigma units), as a vertex-coloured-less mesh in the camera frame (metres):
   // positions and indices only, counter-clockwise seen from the camera. `pixels` (optional) gets each vertex's

@@ -3,6 +3,7 @@
 #include <pcl/search/kdtree.h>
 #include <pcl/surface/gp3.h>
 
+#include "reduction/openmp_threads.h"
 #include "reduction/stages.h"
 
 namespace rgbdcast {
@@ -19,6 +20,7 @@ std::vector<std::uint32_t> greedy_triangulate(const Cloud::ConstPtr& cloud, cons
   ne.setSearchMethod(tree);
   ne.setKSearch(params.normal_k);
   ne.setViewPoint(0.f, 0.f, 0.f);  // the camera: normals face it
+  ne.setNumberOfThreads(openmp_threads(params.threads));  // else PCL takes every core, whatever OMP_NUM_THREADS says
   ne.compute(normals);
 
   auto with_normals = std::make_shared<pcl::PointCloud<pcl::PointXYZRGBNormal>>();

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <vector>
 
+#include "reduction/openmp_threads.h"
 #include "reduction/stages.h"
 
 namespace rgbdcast {
@@ -12,7 +13,7 @@ namespace rgbdcast {
 // the 3D nearest neighbours of a surface point are its image neighbours; across a depth edge they are not, which
 // only makes the flying pixels there look more like outliers, as they are. O(n * window^2) with no tree to build.
 std::vector<int> statistical_outliers_organized(const Cloud& cloud, const std::vector<int>& pixel_of_point, int w,
-                                                int h, int k, double std_mul) {
+                                                int h, int k, double std_mul, int threads) {
   // Window large enough to hold k valid neighbours on a fully valid image: (2r+1)^2 - 1 >= 1.6 k.
   int r = 1;
   while ((2 * r + 1) * (2 * r + 1) - 1 < static_cast<int>(1.6 * k)) ++r;
@@ -22,7 +23,7 @@ std::vector<int> statistical_outliers_organized(const Cloud& cloud, const std::v
 
   const int n = static_cast<int>(cloud.size());
   std::vector<float> mean_dist(n, INFINITY);
-#pragma omp parallel
+#pragma omp parallel num_threads(openmp_threads(threads))
   {
     std::vector<float> d;
     d.reserve((2 * r + 1) * (2 * r + 1));

@@ -31,6 +31,7 @@ Status ReductionParams::validate() const {
     if (auto st = filter.validate(); !st) return st;
   }
   auto positive = [](double v) { return std::isfinite(v) && v > 0; };
+  if (threads < 0 || threads > 256) return make_error(ErrorCode::kInvalidArgument, "threads must be 0..256 (0: OpenMP's default)");
   if (outlier_k < 1 || outlier_k > 1000) return make_error(ErrorCode::kInvalidArgument, "outlier K must be 1..1000");
   if (!positive(outlier_std_mul)) return make_error(ErrorCode::kInvalidArgument, "outlier std-dev multiplier must be > 0");
   if (!positive(voxel_size_m) || voxel_size_m > 10)
@@ -140,7 +141,7 @@ Result<RealtimeReduction> prepare_realtime(const RgbdFrame& frame, const Reducti
   if (filtered->valid == 0) return make_error(ErrorCode::kEmpty, "no valid depth in the frame");
   if (filtered->kept == 0) return make_error(ErrorCode::kEmpty, "the depth filter left no pixels");
   auto hierarchy = DepthMeshHierarchy::build(filtered->depth_m, filtered->vertex_depth_m, frame.intrinsics.pinhole(),
-                                             params.depth_mesh);
+                                             params.depth_mesh, params.threads);
   if (!hierarchy) return hierarchy.error();
   timer.done("hierarchy", "points", filtered->kept);
   RealtimeReduction r{std::move(*hierarchy), std::move(stages), 0.0};
@@ -195,7 +196,7 @@ Result<ReducedFrame> reduce_frame(const RgbdFrame& frame, const ReductionParams&
   const std::vector<int> kept =
       params.outlier_method == OutlierMethod::kOrganized
           ? statistical_outliers_organized(*valid, pixel_of_point, frame.depth_m.cols, frame.depth_m.rows,
-                                           params.outlier_k, params.outlier_std_mul)
+                                           params.outlier_k, params.outlier_std_mul, params.threads)
           : statistical_outliers_kdtree(valid, params.outlier_k, params.outlier_std_mul);
   auto inliers = std::make_shared<Cloud>(*valid, pcl::Indices(kept.begin(), kept.end()));
   timer.done("outliers", "points", inliers->size());

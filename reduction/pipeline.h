@@ -43,6 +43,9 @@ struct ReductionParams {
   int normal_k = 20;               // neighbours for normal estimation
   double perimeter_factor = 3.0;   // drop triangles with perimeter > factor * d (paper: 3)
   double simplify_error_m = 0.0;   // beyond the paper: collapse edges while the surface moves less than this (0 = off)
+  // both presets
+  int threads = 0;                 // OpenMP threads of the parallel stages (reduction/openmp_threads.h); 0 = OpenMP's
+                                   // default (OMP_NUM_THREADS, else the cores). The service sets cores / reducers.
 
   // Returns an error naming the first parameter out of range.
   Status validate() const;

@@ -19,16 +19,17 @@ Cloud::Ptr backproject_valid(const RgbdFrame& frame, std::vector<int>* pixel_of_
 std::vector<int> statistical_outliers_kdtree(const Cloud::ConstPtr& cloud, int k, double std_mul);
 
 // outliers, organized variant: the same statistic with the neighbours searched among the valid pixels of the image
-// window around each point's pixel (see organized_outlier_removal.cpp). Returns the kept indices, ascending.
+// window around each point's pixel (see organized_outlier_removal.cpp), on `threads` OpenMP threads
+// (reduction/openmp_threads.h). Returns the kept indices, ascending.
 std::vector<int> statistical_outliers_organized(const Cloud& cloud, const std::vector<int>& pixel_of_point, int width,
-                                                int height, int k, double std_mul);
+                                                int height, int k, double std_mul, int threads = 0);
 
 // voxel: PCL VoxelGrid; one point (the centroid, colours averaged) per occupied voxel of edge voxel_size_m.
 Cloud::Ptr voxel_downsample(const Cloud::ConstPtr& cloud, double voxel_size_m);
 
 // triangulate: normals from normal_k neighbours (oriented towards the camera at the origin), then PCL's
 // GreedyProjectionTriangulation (Marton et al. 2009) with search radius max_edge_m. Returns vertex indices into
-// `cloud`, three per triangle, wound counter-clockwise as seen from the camera.
+// `cloud`, three per triangle, wound counter-clockwise as seen from the camera. Normals on params.threads threads.
 std::vector<std::uint32_t> greedy_triangulate(const Cloud::ConstPtr& cloud, const ReductionParams& params);
 
 // perimeter: keeps the triangles whose perimeter is at most max_perimeter_m (paper: 3 d).

@@ -32,8 +32,8 @@ Result<ViewCamera> ViewCamera::look_at(const Eigen::Vector3d& eye, const Eigen::
   if (width < 1 || height < 1 || width > kMaxImageSize || height > kMaxImageSize)
     return make_error(ErrorCode::kInvalidArgument, "image size must be between 1 and " +
                                                        std::to_string(kMaxImageSize) + " pixels per side");
-  if (!(vertical_fov_deg > 0.5 && vertical_fov_deg < 179.0))
-    return make_error(ErrorCode::kInvalidArgument, "field of view must be between 0.5 and 179 degrees");
+  if (!(vertical_fov_deg > 0.5 && vertical_fov_deg <= kMaxVerticalFovDeg))
+    return make_error(ErrorCode::kInvalidArgument, "field of view must be above 0.5 and at most 179 degrees");
   const Eigen::Vector3d forward = target - eye;
   if (forward.norm() < 1e-9) return make_error(ErrorCode::kInvalidArgument, "eye and target are the same point");
   const Eigen::Vector3d z = forward.normalized();

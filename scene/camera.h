@@ -39,11 +39,17 @@ struct ViewCamera {
   // The capture camera's view at another image size (intrinsics scaled).
   static ViewCamera from_capture(const CaptureCamera& cam, int width, int height);
   // Looking from eye at target; up is a world direction (default -y: world up in camera convention).
-  // Fails on NaN/inf, eye == target, up parallel to the view direction, fov outside (0, 180), or a bad size.
+  // Fails on NaN/inf, eye == target, up parallel to the view direction, vertical fov outside (0.5, 179] degrees,
+  // or a bad size.
   static Result<ViewCamera> look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target,
                                     const Eigen::Vector3d& up, double vertical_fov_deg, int width, int height);
   Eigen::Matrix4d world_to_camera() const;
 };
+
+// Widest vertical field of view of a look-at camera, in degrees. A pinhole projection is defined for any angle below
+// 180 (fy = h / 2 / tan(fov / 2) stays positive and finite: 0.0044 h at 179 degrees); 179 is the whole-degree
+// maximum that the CLI (--fov), the service (fov=) and the OpenAPI document all state.
+inline constexpr double kMaxVerticalFovDeg = 179.0;
 
 // Largest image edge any renderer or service accepts.
 inline constexpr int kMaxImageSize = 8192;

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "service/http_errors.h"
+
 namespace rgbdcast::service {
 
 namespace {
@@ -58,7 +60,7 @@ Result<ViewCamera> parse_camera_json(std::string_view text, int max_size) {
   for (const auto& [key, value] : j.items()) {
     bool known = false;
     for (const char* k : kKeys) known = known || key == k;
-    if (!known) return bad("unknown key '" + (key.size() > 40 ? key.substr(0, 40) + "..." : key) + "'");
+    if (!known) return bad("unknown key '" + quote_for_error(key, 40) + "'");
   }
   ViewCamera cam;
   auto width = size_value(j["width"], "width", max_size);

@@ -58,6 +58,7 @@ Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   // The same frame -> scene function and options as `rgbdcast reduce` with its defaults.
   FrameReductionOptions options;
   options.params = reduction_preset(upload.preset);
+  options.params.threads = upload.threads;
   options.budget_kb = upload.preset == Preset::kRealtime ? upload.budget_kb : 0.0;
   auto textured = reduce_and_texture(*frame, options);
   if (!textured) return textured.error();

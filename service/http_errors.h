@@ -21,3 +21,10 @@ namespace rgbdcast::service {
 // path, "/home/x/store/scenes/.tmp-1.json") becomes "<path>". For details that quote library errors.
 std::string redact_paths(const std::string& text);
 }  // namespace rgbdcast::service
+
+namespace rgbdcast::service {
+// What a client sent, quoted in an error text: at most max_bytes of it ("..." after a cut), with every byte outside
+// printable ASCII (control characters such as a decoded %0A, DEL, backslash, bytes of UTF-8) written as \xNN, so
+// the error stays one printable line whatever the input.
+std::string quote_for_error(const std::string& text, size_t max_bytes = 40);
+}  // namespace rgbdcast::service

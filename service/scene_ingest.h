@@ -36,6 +36,7 @@ struct FrameUpload {
   Preset preset = Preset::kPaper;    // the reduction's preset (its defaults)
   double budget_kb = 40;             // realtime preset: the GLB's byte budget (0 = none)
   int max_width = 1920, max_height = 1080;  // images larger than this are refused from their header, undecoded
+  int threads = 0;                   // OpenMP threads of the reduction (ReductionParams::threads)
 };
 // Checks first, before anything is decoded or reduced: both images are PNG/JPEG no larger than max_width x
 // max_height (kInvalidInput, HTTP 422), the intrinsics parse and have finite positive focal lengths. Error texts

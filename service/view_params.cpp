@@ -5,6 +5,7 @@
 #include <set>
 
 #include "service/camera_json.h"
+#include "service/http_errors.h"
 
 namespace rgbdcast::service {
 namespace {
@@ -13,7 +14,7 @@ Error bad(const std::string& name, const std::string& what) {
   return make_error(ErrorCode::kInvalidArgument, "parameter '" + name + "': " + what);
 }
 
-std::string shorten(const std::string& s) { return s.size() > 40 ? s.substr(0, 40) + "..." : s; }
+std::string shorten(const std::string& s) { return quote_for_error(s, 40); }
 
 }  // namespace
 
@@ -102,7 +103,7 @@ Result<ViewRequest> parse_view_request(const QueryParams& params) {
     if (has("fov")) {
       auto fov = parse_finite_double("fov", one["fov"]);
       if (!fov) return fov.error();
-      if (!(*fov >= 1.0 && *fov <= kMaxFovDeg)) return bad("fov", "must be between 1 and 178 degrees");
+      if (!(*fov >= 1.0 && *fov <= kMaxFovDeg)) return bad("fov", "must be between 1 and 179 degrees");
       r.fov_deg = *fov;
     }
     if ((r.target - r.eye).norm() < 1e-9) return bad("target", "equals eye");

@@ -14,7 +14,7 @@
 namespace rgbdcast::service {
 
 inline constexpr int kMaxViewSize = 4096;  // the service's limit per image side (the renderer allows more)
-inline constexpr double kMaxFovDeg = 178.0;  // ViewCamera::look_at takes fov below 179 degrees
+inline constexpr double kMaxFovDeg = kMaxVerticalFovDeg;  // 179, as ViewCamera::look_at (scene/camera.h)
 
 enum class ImageFormat { kJpeg, kPng };
 const char* to_string(ImageFormat format);

@@ -59,6 +59,13 @@ nlohmann::json scene_summary(const StoredScene& s) {
 // Returns freed heap to the system once no reduction is running: a frame reduction peaks at hundreds of MB.
 void trim_heap() { ::malloc_trim(0); }
 
+// OpenMP threads per frame reduction: the operator's number, else the cores shared among the reducers.
+int reduce_threads(const ServeOptions& o) {
+  if (o.reduce_threads > 0) return o.reduce_threads;
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  return static_cast<int>(std::max(1u, cores / static_cast<unsigned>(std::max(1, o.reducers))));
+}
+
 }  // namespace
 
 struct ViewService::Impl {
@@ -236,6 +243,7 @@ void ViewService::Impl::post_scene(const httplib::Request& req, httplib::Respons
     up.scratch_dir = options.data_dir + "/scenes";
     up.max_width = options.max_frame_width;
     up.max_height = options.max_frame_height;
+    up.threads = reduce_threads(options);
     bool busy = false;
     ingested = reduce_frame_upload(std::move(up), res, &busy);
     if (busy) return;
@@ -419,6 +427,7 @@ Status check_options(const ServeOptions& o) {
   if (o.port < 0 || o.port > 65535) return bad("port must be 0..65535");
   if (o.threads < 1 || o.threads > 1024) return bad("threads must be 1..1024");
   if (o.max_body_bytes < 1024) return bad("body limit under 1 KiB");
+  if (o.reduce_threads < 0 || o.reduce_threads > 256) return bad("reduce threads must be 0..256 (0: cores / reducers)");
   if (o.renderers < 1 || o.render_queue < 0 || o.reducers < 1 || o.reduce_queue < 0 || o.max_uploads < 1)
     return bad("renderers, reducers and max uploads must be at least 1, queues at least 0");
   // Views waiting for a renderer and bodies being received each hold an HTTP thread: with fewer threads than

@@ -28,7 +28,9 @@ struct ServeOptions {
   int renderers = 2;               // renderer instances: two overlap one view's render with another's readback and
                                    // encoding (bench/load.sh on 2 cores: 64 -> 80 views/s on lavapipe)
   int render_queue = 16;           // views waiting beyond those rendering; more get 503
-  int reducers = 1;                // frame reductions at once (each uses OpenMP inside PCL)
+  int reducers = 1;                // frame reductions at once
+  int reduce_threads = 0;          // OpenMP threads per reduction (ReductionParams::threads); 0 = max(1, cores /
+                                   // reducers), so reductions at once never ask for more threads than cores
   int reduce_queue = 2;            // frame uploads waiting for a reducer; more get 503
   int max_uploads = 8;             // request bodies being received at once; more get 503
   int max_frame_width = 1920, max_frame_height = 1080;  // multipart frames, checked from the image headers

@@ -84,6 +84,20 @@ TEST_F(CameraCli, ALookAtCameraAsJsonReproducesEyeAndTarget) {
   EXPECT_EQ(cv::norm(a, c, cv::NORM_INF), 0.0);
 }
 
+// 179 degrees is the documented maximum of --fov (and of the service's fov=, scene/camera.h): it renders; past it,
+// one line and exit 2.
+TEST_F(CameraCli, FovRendersUpToTheDocumentedMaximum) {
+  REQUIRE_DATA(kFr1);
+  const cv::Mat wide = render("--eye 0,0,0 --target 0,0,1 --fov 179 --width 64 --height 48", "fov179");
+  ASSERT_EQ(wide.size(), cv::Size(64, 48));
+  auto r = test::run_command(test::rgbdcast_binary() + " render --scene " + dir_ +
+                             "/f0.glb --eye 0,0,0 --target 0,0,1 --fov 179.5 --out " + dir_ + "/fov179.5.png");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("at most 179 degrees"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ + "/fov179.5.png"));
+}
+
 TEST_F(CameraCli, BadCameraFilesGiveOneLineAndExit2) {
   REQUIRE_DATA(kFr1);
   ViewCamera scaled;

@@ -22,7 +22,7 @@ const std::map<std::string, Target>& targets() {
       {"intrinsics", rgbdcast::fuzz::intrinsics},
       {"frame_decode", rgbdcast::fuzz::frame_decode}, {"frame_upload", rgbdcast::fuzz::frame_upload},
       {"pcd", rgbdcast::fuzz::pcd},           {"trajectory", rgbdcast::fuzz::trajectory},
-      {"view_query", rgbdcast::fuzz::view_query}};
+      {"view_query", rgbdcast::fuzz::view_query},     {"rosbag", rgbdcast::fuzz::rosbag}};
   return t;
 }
 

@@ -294,7 +294,7 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
   for (const std::string q :
        {"", "?width=100", "?pose=robot", "?eye=1,2&target=0,0,1", "?eye=a,b,c&target=0,0,1", "?eye=0,0,0",
         "?target=0,0,1", "?eye=nan,0,0&target=0,0,1", "?eye=0,0,0&target=0,inf,1", "?eye=0,0,0&target=0,0,-inf",
-        "?eye=0,0,0&target=0,0,1&fov=NaN", "?eye=0,0,0&target=0,0,1&fov=179", "?eye=0,0,0&target=0,0,1&fov=0.5",
+        "?eye=0,0,0&target=0,0,1&fov=NaN", "?eye=0,0,0&target=0,0,1&fov=179.5", "?eye=0,0,0&target=0,0,1&fov=0.5",
         "?eye=0,0,0&target=0,0,1&fov=1e308", "?pose=capture&width=0", "?pose=capture&width=5000",
         "?pose=capture&height=4097", "?pose=capture&height=-3", "?pose=capture&width=abc", "?pose=capture&width=1e3",
         "?pose=capture&quality=0", "?pose=capture&quality=101", "?pose=capture&mode=wire", "?pose=capture&format=gif",
@@ -384,12 +384,12 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
   auto list = raw_request(p, request(p, "GET", "/v1/scenes"));
   EXPECT_EQ(json::parse(list.body)["count"], 1);
 
-  // What the battery did not refuse still works: HEAD on a view does not render, fov 178 renders, a token writes.
+  // What the battery did not refuse still works: HEAD on a view does not render, fov 179 (the documented maximum) renders, a token writes.
   auto head = raw_request(p, request(p, "HEAD", view + "?pose=capture&width=4096&height=4096"));
   EXPECT_EQ(head.status, 200);
   EXPECT_EQ(head.headers["content-type"], "image/jpeg");
   EXPECT_EQ(head.headers.count("x-render-ms"), 0u) << "HEAD rendered";
-  auto wide = raw_request(p, request(p, "GET", view + "?eye=0,0,0&target=0,0,1&fov=178&width=64&height=48"));
+  auto wide = raw_request(p, request(p, "GET", view + "?eye=0,0,0&target=0,0,1&fov=179&width=64&height=48"));
   EXPECT_EQ(wide.status, 200) << wide.body;
   auto ok = raw_request(tp, request(tp, "POST", "/v1/scenes", th + tglb + "Authorization: Bearer " + kToken + "\r\n", glb));
   EXPECT_EQ(ok.status, 201) << ok.body;

@@ -143,8 +143,8 @@ TEST(HttpErrors, PathsAreRedacted) {
   EXPECT_EQ(redact_paths("cannot create /home/u/store/scenes/.tmp-intrinsics-ab.json: Permission denied"),
             "cannot create <path>: Permission denied");
   EXPECT_EQ(redact_paths("File size mismatch : /etc/hostname, requestedBytes 1"), "File size mismatch : <path>, requestedBytes 1");
-  EXPECT_EQ(redact_paths("parameter 'fov': must be between 1 and 178 degrees"),
-            "parameter 'fov': must be between 1 and 178 degrees");
+  EXPECT_EQ(redact_paths("parameter 'fov': must be between 1 and 179 degrees"),
+            "parameter 'fov': must be between 1 and 179 degrees");
   EXPECT_EQ(redact_paths("a/b and /single stay"), "a/b and /single stay");
 }
 

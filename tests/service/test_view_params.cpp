@@ -2,6 +2,9 @@
 // kInvalidArgument (HTTP 400) naming the parameter; good queries give the numbers they say.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <nlohmann/json.hpp>
+
 #include "service/view_params.h"
 
 using rgbdcast::ErrorCode;
@@ -113,4 +116,50 @@ TEST(ServiceViewParams, CameraFromRequest) {
   auto c2 = make_view_camera(*r2, {cam});
   ASSERT_FALSE(c2.ok());
   EXPECT_EQ(c2.error().code, ErrorCode::kInvalidArgument);
+}
+
+// fov: 179 degrees is the documented maximum (scene/camera.h, openapi.yaml, --fov). It parses and makes a camera
+// with the focal length a pinhole has there, fy = h / 2 / tan(89.5 deg); anything past it is refused.
+TEST(ServiceViewParams, FovUpTo179Degrees) {
+  auto r = parse_view_request(q({{"eye", "0,0,0"}, {"target", "0,0,1"}, {"fov", "179"}, {"height", "480"}}));
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_DOUBLE_EQ(r->fov_deg, 179.0);
+  auto c = make_view_camera(*r, {});
+  ASSERT_TRUE(c.ok()) << c.error().message;
+  EXPECT_NEAR(c->fy, 240.0 / std::tan(89.5 * M_PI / 180.0), 1e-9);
+  EXPECT_GT(c->fy, 2.0);  // 2.09 px: finite, positive
+  expect_bad(q({{"eye", "0,0,0"}, {"target", "0,0,1"}, {"fov", "179.01"}}), "between 1 and 179 degrees");
+  EXPECT_FALSE(rgbdcast::ViewCamera::look_at({0, 0, 0}, {0, 0, 1}, {0, -1, 0}, 179.01, 64, 48).ok());
+}
+
+// What a client sent is quoted in at most 40 bytes, one printable line: a name or value holding a decoded %0A (or
+// any control character, DEL, a backslash, UTF-8 bytes) comes back as \xNN, never as a second line.
+TEST(ServiceViewParams, ErrorsAreOnePrintableLine) {
+  auto printable_line = [](const std::string& message) {
+    for (unsigned char c : message)
+      if (c < 0x20 || c >= 0x7f) return false;
+    return true;
+  };
+  const std::string hostile = std::string("a\nb\r\x1b[31m\x7f") + "\xc3\xa9\\" + std::string(1, '\0') + "z";
+  const QueryParams cases[] = {
+      q({{"pose", "capture"}, {hostile, "1"}}),                         // unknown name
+      q({{"pose", "capture"}, {"mode", hostile}}),                      // bad enum
+      q({{"pose", "capture"}, {"width", hostile}}),                     // bad integer
+      q({{"eye", hostile}, {"target", "0,0,1"}}),                       // bad vector
+      q({{"eye", "0,0,0"}, {"target", "0,0,1"}, {"fov", hostile}}),     // bad number
+      q({{"camera", nlohmann::json{{"fx", 1}, {"fy", 1}, {"cx", 0}, {"cy", 0}, {"width", 1}, {"height", 1},
+                                   {"pose", nlohmann::json::array()}, {hostile, 1}}.dump()}}),  // unknown camera key
+  };
+  for (const auto& params : cases) {
+    auto r = parse_view_request(params);
+    ASSERT_FALSE(r.ok());
+    EXPECT_TRUE(printable_line(r.error().message)) << r.error().message;
+    EXPECT_NE(r.error().message.find("a\\x0ab\\x0d\\x1b[31m\\x7f\\xc3\\xa9\\x5c\\x00z"), std::string::npos)
+        << r.error().message;
+  }
+  // Long input is cut at 40 bytes.
+  auto r = parse_view_request(q({{"pose", "capture"}, {"mode", std::string(1000, 'm')}}));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find(std::string(40, 'm') + "..."), std::string::npos);
+  EXPECT_EQ(r.error().message.find(std::string(41, 'm')), std::string::npos);
 }

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# The test suite under AddressSanitizer + UndefinedBehaviorSanitizer (issue 11): builds everything with
+# -DRGBDCAST_SANITIZE=ON (RelWithDebInfo) in build-asan/ and runs ctest there. Any sanitizer report fails its test:
+# UBSan does not recover, ASan aborts, LeakSanitizer reports at exit. The only suppressions are third-party leaks, each
+# with its reason, in tests/sanitizers/lsan.supp. Extra arguments go to ctest:
+#   scripts/sanitize.sh                  # the whole suite (2 cores: see BENCHMARKS.md for the time)
+#   scripts/sanitize.sh -LE render       # what CI runs: every test but those that render (see scripts/test.sh)
+#   scripts/sanitize.sh -R view_params   # one test
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$(pwd)
+jobs="${RGBDCAST_JOBS:-2}"
+if [ -n "${CCACHE_DIR:-}" ] && command -v ccache >/dev/null; then
+  launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+else
+  launcher=()
+fi
+start=$(date +%s)
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRGBDCAST_SANITIZE=ON "${launcher[@]}" >/dev/null
+cmake --build build-asan -j"$jobs"
+built=$(date +%s)
+# detect_leaks: on (the default on x86_64 Linux, stated). abort_on_error: a report kills the process, so a test
+# that spawns rgbdcast sees it fail. The same options reach every child process through the environment.
+export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=0:strict_string_checks=1${ASAN_OPTIONS:+:$ASAN_OPTIONS}"
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:suppressions=$root/tests/sanitizers/ubsan.supp${UBSAN_OPTIONS:+:$UBSAN_OPTIONS}"
+export LSAN_OPTIONS="suppressions=$root/tests/sanitizers/lsan.supp:print_suppressions=0${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
+export RGBDCAST_SANITIZED=1
+cd build-asan
+status=0
+ctest --output-on-failure --timeout 1800 "$@" || status=$?
+echo "sanitize.sh: build $((built - start)) s, tests $(($(date +%s) - built)) s"
+exit $status
