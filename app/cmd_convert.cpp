@@ -66,13 +66,14 @@ void add_flavor_option(CLI::App* cmd, GlbWriteOptions* glb, const std::string& d
       ->default_str(default_name);
 }
 
-void add_geometry_codec_option(CLI::App* cmd, GlbWriteOptions* glb) {
+void add_geometry_codec_option(CLI::App* cmd, GlbWriteOptions* glb, bool* chosen) {
   cmd->add_option_function<std::string>(
          "--geometry-codec",
-         [cmd, glb](const std::string& name) {
+         [cmd, glb, chosen](const std::string& name) {
            auto c = parse_geometry_codec(name);
            if (!c) app::fail(cmd->get_name(), c.error());
            glb->geometry_codec = *c;
+           if (chosen) *chosen = true;
          },
          "compact flavour only: meshopt (EXT_meshopt_compression + KHR_mesh_quantization) or draco "
          "(KHR_draco_mesh_compression: about half the geometry bytes; three.js DRACOLoader)")

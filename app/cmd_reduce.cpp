@@ -191,7 +191,7 @@ void register_reduce(CLI::App& app) {
   cmd->add_option("--cell-size", args->atlas.cell_size_px, "Atlas cell side in texels")->capture_default_str();
   cmd->add_option("--jpeg-quality", args->atlas.jpeg_quality, "Texture JPEG quality 1..100")->capture_default_str();
   add_flavor_option(cmd, &args->glb, "compact");
-  add_geometry_codec_option(cmd, &args->glb);
+  add_geometry_codec_option(cmd, &args->glb, &args->geometry_codec_chosen);
   cmd->add_flag("!--no-meshopt", args->glb.meshopt,
                 "Write plain quantized buffers instead of EXT_meshopt_compression (Blender and Assimp need --flavor compat)");
   cmd->add_option("--position-step", args->glb.position_quantum_m, "Position quantization step in metres")

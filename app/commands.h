@@ -19,7 +19,8 @@ void register_stream(CLI::App& app);
 // default_name is what the help shows; the caller's glb->flavor holds the default itself.
 void add_flavor_option(CLI::App* cmd, GlbWriteOptions* glb, const std::string& default_name);
 // --geometry-codec meshopt|draco into glb->geometry_codec (compact flavour); an unknown name is one line, exit 2.
-void add_geometry_codec_option(CLI::App* cmd, GlbWriteOptions* glb);
+// `chosen` (optional) is set when the option is given, for commands whose default depends on other options.
+void add_geometry_codec_option(CLI::App* cmd, GlbWriteOptions* glb, bool* chosen = nullptr);
 
 }  // namespace rgbdcast::app
 

@@ -14,6 +14,7 @@ Result<FrameReductionOptions> frame_options(const ReduceArgs& a) {
   o.texture = *mode;
   o.atlas = a.atlas;
   o.glb = a.glb;
+  if (!a.geometry_codec_chosen && *preset == Preset::kRealtime) o.glb.geometry_codec = GeometryCodec::kDraco;
   o.budget_kb = a.budget_kb >= 0 ? a.budget_kb : (*preset == Preset::kRealtime ? kDefaultBudgetKb : 0.0);
   if (auto st = o.validate(); !st) return st.error();
   return o;
@@ -64,7 +65,8 @@ nlohmann::json params_json(const ReduceArgs& a) {
           {"cell_size_px", a.atlas.cell_size_px},
           {"jpeg_quality", a.atlas.jpeg_quality},
           {"meshopt", a.glb.meshopt},
-          {"geometry_codec", to_string(a.glb.geometry_codec)},
+          {"geometry_codec", to_string(a.geometry_codec_chosen || a.preset != "realtime" ? a.glb.geometry_codec
+                                                                                        : GeometryCodec::kDraco)},
           {"position_step_m", a.glb.position_quantum_m}};
   return j;
 }

@@ -20,6 +20,9 @@ struct ReduceArgs {
   double depth_scale = 0;
   std::string preset = "paper";
   double budget_kb = -1;  // < 0: the preset's default (realtime: 40 kB; paper: none)
+  // --geometry-codec not given: the preset's default (realtime: draco, half meshopt's geometry bytes, so a frame fits
+  // 40 kB; paper: meshopt).
+  bool geometry_codec_chosen = false;
   ReductionParams params;
   AtlasOptions atlas;
   std::string texture = "auto";

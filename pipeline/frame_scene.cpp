@@ -23,9 +23,13 @@ constexpr int kMinQuality = 20, kMaxQuality = 92;
 // below what they allow is not met; the report says so ("over-budget").
 constexpr double kMaxToleranceFactor = 32;
 constexpr double kMinTextureScale = 0.5;
-// Geometry bytes per triangle of the compact GLB (meshopt + quantization) before one is measured: the median of the
-// realtime preset's meshes on the shared frames is 4.5 (bench/realtime_bench). Only the first guess depends on it.
-constexpr double kPriorBytesPerTriangle = 4.5;
+// Geometry bytes per triangle of the compact GLB before one is measured, by codec: the medians of the realtime
+// preset's meshes on the shared frames are about 4.4 with meshopt and 2.6 with Draco (bench/geometry_codec_bench).
+// Only the first guess depends on them.
+double prior_bytes_per_triangle(const GlbWriteOptions& o) {
+  if (o.flavor != GlbFlavor::kCompact) return 24.0;  // float positions and UVs
+  return o.geometry_codec == GeometryCodec::kDraco ? 2.6 : 4.4;
+}
 
 TextureMode resolve_texture(const FrameReductionOptions& o) {
   if (o.texture != TextureMode::kAuto) return o.texture;
@@ -141,7 +145,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   const double target = b.budget_bytes - kExtrasReserveBytes;
   const double geometry_cap = options.budget_geometry_share * target;
   const DepthMeshHierarchy& hierarchy = prepared->hierarchy;
-  double bytes_per_triangle = kPriorBytesPerTriangle;
+  double bytes_per_triangle = prior_bytes_per_triangle(options.glb);
   double kept = 1.0;  // triangles left after dropping those earlier views cover, over those extracted
   Result<AtlasResult> textured = make_error(ErrorCode::kInternal, "not meshed");
   GlbStats st;

@@ -154,10 +154,11 @@ TEST(GltfDraco, RealFramesRoundTripWithinTheQuantizationStep) {
     ASSERT_EQ(back->nodes.size(), 1u);
     const Mesh& d = back->nodes[0].mesh;
     EXPECT_EQ(d.triangle_count(), m.triangle_count()) << f.path;
-    // Draco's edgebreaker gives each non-manifold vertex one point per fan (17 of 6,896 on TUM frame 0): a few more
-    // points, each equal to an original one.
+    // Draco's edgebreaker gives each non-manifold vertex one point per fan: a few more points, each equal to an
+    // original one (the realtime preset's edge collapses leave vertices where two fans touch: 27 of 1,928 on
+    // ICL-NUIM frame 0).
     EXPECT_GE(d.positions.size(), m.positions.size()) << f.path;
-    EXPECT_LE(d.positions.size(), m.positions.size() + m.positions.size() / 100) << f.path;
+    EXPECT_LE(d.positions.size(), m.positions.size() + m.positions.size() / 25) << f.path;
     EXPECT_EQ(d.texture_encoded, m.texture_encoded) << "texture bytes changed";
     EXPECT_EQ(d.texture.width, m.texture.width);
     // Quantization steps after the rule (draco_buffers.h): position <= 1 mm, uv <= 0.25 texel; errors <= half.
