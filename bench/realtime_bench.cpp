@@ -53,6 +53,7 @@ double max_of(const std::vector<double>& v) { return v.empty() ? 0 : *std::max_e
 FrameReductionOptions realtime_options(double budget_kb, double geometry_share = 0.45) {
   FrameReductionOptions o;
   o.params = reduction_preset(Preset::kRealtime);
+  o.glb.geometry_codec = GeometryCodec::kDraco;  // as `rgbdcast reduce --preset realtime` (app/reduce_common.cpp)
   o.budget_kb = budget_kb;
   o.budget_geometry_share = geometry_share;
   return o;
