@@ -51,7 +51,7 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
   const Mesh& mesh = scene.nodes[0].mesh;
 
   GlbStats glb_stats;
-  auto glb = encode_glb(scene, a.glb, &glb_stats);
+  auto glb = encode_glb(scene, options->glb, &glb_stats);  // the codec the budget measured with
   if (!glb) fail(glb.error());
   stages.push_back({"export", "bytes", glb->size(), glb_stats.ms});
   if (auto st = glb::write_file_atomically(a.out, *glb); !st) fail(st.error());

@@ -89,7 +89,7 @@ Status run_sequence(const ReduceArgs& a, const FrameSource& source) {
   nlohmann::json extras = {{"rgbdcast", {{"input", a.input}, {"keyframes", keyframes}}}};
   scene.extras_json = extras.dump();
   GlbStats stats;
-  auto glb = encode_glb(scene, a.glb, &stats);
+  auto glb = encode_glb(scene, options->glb, &stats);  // the codec the budget measured with
   if (!glb) return glb.error();
   if (auto st = glb::write_file_atomically(a.out, *glb); !st) return st;
   if (!a.trajectory.empty()) {
