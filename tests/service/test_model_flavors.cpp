@@ -143,7 +143,7 @@ TEST(ServiceModelFlavors, CompatIsConvertedOnceCachedAndHasItsOwnEtag) {
 TEST(ServiceModelFlavors, DracoIsConvertedOnceAndADracoUploadIsStoredAndServed) {
   REQUIRE_DATA(kTum);
   const std::string dir = test::temp_dir("model-flavors-draco");
-  const std::string compact = reduce_tum_frame(dir, "--preset realtime");
+  const std::string compact = reduce_tum_frame(dir, "--preset realtime --geometry-codec meshopt");
   test::ServerProcess server;
   std::string error;
   ASSERT_TRUE(server.start(dir + "/data", {}, &error)) << error;
