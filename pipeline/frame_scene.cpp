@@ -162,9 +162,10 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     return ok_status();
   };
   // The smallest tolerance >= tol0 whose mesh has at most `want` triangles (bisection on the count alone).
+  const double triangles_at_tol0 = static_cast<double>(hierarchy.count(tol0));
   auto tolerance_for = [&](double want) {
     want /= kept;
-    if (hierarchy.count(tol0) <= want) return tol0;
+    if (triangles_at_tol0 <= want) return tol0;
     double lo = tol0, hi = tol0;
     while (hi < kMaxToleranceFactor && hierarchy.count(hi) > want) lo = hi, hi *= 2;
     hi = std::min(hi, kMaxToleranceFactor);

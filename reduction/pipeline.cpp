@@ -165,7 +165,7 @@ Result<ReducedFrame> extract_realtime(const RealtimeReduction& prepared, const R
   const DepthMeshParams& mp = prepared.hierarchy.params();
   if (mp.simplify_px > 0 && !out.mesh.indices.empty()) {
     simplify_image_space(out.mesh, frame.intrinsics.pinhole(), mp.noise_m_per_m2, mp.simplify_px,
-                         mp.texture_deviation_px, 0);
+                         mp.texture_deviation_px);
     timer.done("simplify", "triangles", out.mesh.triangle_count());
   }
   out.cloud.positions = out.mesh.positions;

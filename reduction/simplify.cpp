@@ -53,7 +53,7 @@ void simplify_mesh(Mesh& mesh, double max_error_m) {
 // across the image or one tolerance in depth. Borders are not locked: a staircase of one-pixel steps along a depth
 // discontinuity or a hole collapses into a few long edges that stay within max_error of it.
 size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, double max_error,
-                            double texture_limit_px, size_t target_triangles) {
+                            double texture_limit_px) {
   if (mesh.indices.size() < 3 || !(w_unit > 0)) return mesh.triangle_count();
   std::vector<float> uvw(3 * mesh.positions.size());
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
@@ -94,7 +94,7 @@ size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, doub
   if (!(scale > 0)) return mesh.triangle_count();
   std::vector<std::uint32_t> out(mesh.indices.size());
   const size_t n = meshopt_simplify(out.data(), mesh.indices.data(), mesh.indices.size(), uvw.data(),
-                                    mesh.positions.size(), 3 * sizeof(float), 3 * target_triangles,
+                                    mesh.positions.size(), 3 * sizeof(float), /*target_index_count=*/0,
                                     static_cast<float>(max_error / scale), 0, nullptr);
   out.resize(n);
   // meshoptimizer rejects collapses that flip a triangle in its own space, where the inverse depth axis makes

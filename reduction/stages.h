@@ -40,7 +40,7 @@ std::vector<std::uint32_t> filter_by_perimeter(const Cloud& cloud, const std::ve
 void simplify_mesh(Mesh& mesh, double max_error_m);
 // The realtime mesh's edge collapses in (u, v, w / w_unit) space, borders free (simplify.cpp); returns triangles.
 size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, double max_error,
-                            double texture_limit_px, size_t target_triangles);
+                            double texture_limit_px);
 
 
 }  // namespace rgbdcast
