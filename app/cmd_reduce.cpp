@@ -11,6 +11,7 @@
 #include "app/report.h"
 #include "gltf/atomic_file.h"
 #include "input/frame_source.h"
+#include "scene/frame_memory.h"
 
 namespace rgbdcast::app {
 
@@ -102,6 +103,7 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
 }
 
 void run_reduce(const ReduceArgs& a, const RosbagTopics& topics) {
+  keep_freed_frame_memory();
   SourceOptions so;
   so.rosbag = topics;
   so.intrinsics = a.intrinsics;

@@ -15,6 +15,7 @@
 #include "app/commands.h"
 #include "app/reduce_common.h"
 #include "input/frame_source.h"
+#include "scene/frame_memory.h"
 #include "stream/keyframe_stream.h"
 #include "stream/uplink.h"
 
@@ -69,6 +70,7 @@ class ProgressLine {
 };
 
 void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
+  keep_freed_frame_memory();
   auto fail_stream = [](const Error& e) { fail("stream", e); };
   static const std::regex mission_name("^[A-Za-z0-9_-]{1,64}$");
   if (!std::regex_match(a.mission, mission_name))

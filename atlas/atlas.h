@@ -66,6 +66,9 @@ struct AtlasOptions {
   // Fill texels that no triangle samples smoothly (unsampled_fill.h). Unset: on for kFootprint, off for kAtlas and
   // kFrame (their goldens predate it). For kFrame, the texels are the frame's pixels that no triangle covers.
   std::optional<bool> fill_unsampled;
+  // JPEG-encode the texture (Mesh::texture_encoded). false: the pixels only, for a caller that picks the quality
+  // itself (a byte budget), which then encodes it once.
+  bool encode = true;
 };
 
 struct AtlasResult {

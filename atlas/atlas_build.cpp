@@ -144,7 +144,8 @@ Result<AtlasResult> build_atlas(const Mesh& mesh, const cv::Mat& color_rgb, cons
   r.median_source_px = atlas_detail::median_projected_area_px(mesh, K);
   r.texels_per_triangle = 0.5 * layout.leg_px() * layout.leg_px();
   r.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  if (auto st = attach_jpeg(out, options.jpeg_quality, &r.encode_ms); !st) return st.error();
+  if (options.encode)
+    if (auto st = attach_jpeg(out, options.jpeg_quality, &r.encode_ms); !st) return st.error();
   return r;
 }
 

@@ -296,7 +296,8 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
   r.texels_per_triangle = layout.triangle_texels / static_cast<double>(tris.size());
   r.ms = ms_between(t0, Clock::now());
   r.median_source_px = median_projected_area_px(mesh, K);  // a diagnostic, not part of the texture's cost
-  if (auto st = attach_jpeg(out, options.jpeg_quality, &r.encode_ms); !st) return st.error();
+  if (options.encode)
+    if (auto st = attach_jpeg(out, options.jpeg_quality, &r.encode_ms); !st) return st.error();
   return r;
 }
 

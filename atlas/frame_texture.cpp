@@ -146,7 +146,8 @@ Result<AtlasResult> build_frame_texture(const Mesh& mesh, const cv::Mat& color_r
   r.median_source_px = median_projected_area_px(mesh, pinhole.K());
   r.texels_per_triangle = r.median_source_px;
   r.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  if (auto st = attach_jpeg(out, options.jpeg_quality, &r.encode_ms); !st) return st.error();
+  if (options.encode)
+    if (auto st = attach_jpeg(out, options.jpeg_quality, &r.encode_ms); !st) return st.error();
   return r;
 }
 

@@ -28,6 +28,7 @@
 #include "bench/transmission/fidelity.h"
 #include "gltf/gltf_io.h"
 #include "input/frame_source.h"
+#include "scene/frame_memory.h"
 #include "pipeline/frame_scene.h"
 
 using namespace rgbdcast;
@@ -299,6 +300,7 @@ void rd_case(const TestCase& tc, Renderer& renderer) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  keep_freed_frame_memory();  // as `rgbdcast reduce` and `rgbdcast stream` run
   Args args;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];

@@ -4,10 +4,13 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <thread>
 
 #include "atlas/texture_encode.h"
+#include "reduction/openmp_threads.h"
 
 namespace rgbdcast {
 
@@ -55,14 +58,26 @@ Image scaled_texture(const Image& full, double scale) {
   return image_from_rgb_mat(small);
 }
 
-// Re-encodes the node's texture from `im` at a quality.
-Status encode_texture(Mesh& mesh, const Image& im, int quality) {
-  auto jpeg = encode_jpeg(im, quality);
-  if (!jpeg) return jpeg.error();
-  mesh.texture = im;
-  mesh.texture_encoded = std::move(*jpeg);
-  mesh.texture_mime = "image/jpeg";
-  return ok_status();
+// JPEG encodes of one image at several qualities, on up to `threads` threads (plain threads, joined here).
+Result<std::vector<std::vector<std::uint8_t>>> encode_jpegs(const Image& im, const std::vector<int>& qualities,
+                                                            int threads) {
+  std::vector<Result<std::vector<std::uint8_t>>> out(qualities.size(),
+                                                     make_error(ErrorCode::kInternal, "not encoded"));
+  const int workers = std::clamp(threads, 1, static_cast<int>(qualities.size()));
+  std::atomic<size_t> next{0};
+  auto work = [&] {
+    for (size_t i; (i = next++) < qualities.size();) out[i] = encode_jpeg(im, qualities[i]);
+  };
+  std::vector<std::thread> pool;
+  for (int i = 1; i < workers; ++i) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  std::vector<std::vector<std::uint8_t>> bytes;
+  for (auto& r : out) {
+    if (!r) return r.error();
+    bytes.push_back(std::move(*r));
+  }
+  return bytes;
 }
 
 }  // namespace
@@ -97,8 +112,15 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   out.node.to_world = camera_to_world;
   AtlasOptions atlas = options.atlas;
   atlas.mode = resolve_texture(options);
+  // A budget encodes the texture once it has chosen the quality (the geometry is measured without it).
+  atlas.encode = options.budget_kb <= 0;
   // A budget starts from the best quality, so the texture is encoded once at it, not again.
   if (options.budget_kb > 0) atlas.jpeg_quality = kMaxQuality;
+  // Draco's edgebreaker orders the triangles itself: meshoptimizer's vertex-cache order (for meshopt's delta
+  // codecs) would be spent for nothing.
+  if (!atlas.reorder_triangles && options.glb.flavor == GlbFlavor::kCompact &&
+      options.glb.geometry_codec == GeometryCodec::kDraco)
+    atlas.reorder_triangles = false;
   // The realtime preset spends no texture bytes on pixels no triangle samples (they are filled smoothly).
   if (options.params.preset == Preset::kRealtime && !atlas.fill_unsampled) atlas.fill_unsampled = true;
 
@@ -138,7 +160,8 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
 
   // A budget (realtime preset, so the hierarchy is prepared). The mesh is extracted at a tolerance chosen from the
   // triangle count, which costs no encoding, and a bytes-per-triangle figure: first the codec's prior, then the one
-  // just measured. So the frame is meshed, textured and encoded once or twice, not at every step of a search.
+  // just measured. So the frame is meshed and its geometry encoded once or twice, not at every step of a search;
+  // the texture is JPEG-encoded only once the mesh is chosen (a few qualities, then the one kept).
   const auto t0 = Clock::now();
   BudgetChoice& b = out.budget;
   b.budget_bytes = options.budget_kb * 1000.0;
@@ -148,34 +171,81 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   double bytes_per_triangle = prior_bytes_per_triangle(options.glb);
   double kept = 1.0;  // triangles left after dropping those earlier views cover, over those extracted
   Result<AtlasResult> textured = make_error(ErrorCode::kInternal, "not meshed");
-  GlbStats st;
-  auto measure = [&](const Mesh& mesh) -> Status {
+  size_t rest_bytes = 0;  // the GLB's bytes besides geometry and texture: JSON, chunk headers, padding
+  // The GLB without its texture's bytes (a one-byte stand-in), which gives the geometry's bytes and the rest.
+  auto measure_geometry = [&](const Mesh& mesh) -> Status {
     SceneNode probe;
     probe.mesh = mesh;
+    probe.mesh.texture_encoded.assign(1, 0);
+    probe.mesh.texture_mime = "image/jpeg";
     probe.to_world = camera_to_world;
+    GlbStats st;
     auto glb = encode_glb(node_scene(probe, out.camera), options.glb, &st);
-    ++b.encodes;
     if (!glb) return glb.error();
     b.geometry_bytes = st.geometry_bytes;
-    b.texture_bytes = st.texture_bytes;
-    b.glb_bytes = glb->size();
+    rest_bytes = glb->size() - st.geometry_bytes - std::min(glb->size() - st.geometry_bytes, st.texture_bytes);
     return ok_status();
   };
+  auto update_total = [&] { b.glb_bytes = b.geometry_bytes + b.texture_bytes + rest_bytes; };
   // The smallest tolerance >= tol0 whose mesh has at most `want` triangles, from the counts at every tolerance
   // (one walk of the hierarchy).
   const DepthMeshHierarchy::TriangleCounts counts = hierarchy.counts(tol0);
   auto tolerance_for = [&](double want) { return counts.smallest_with_at_most(want / kept, kMaxToleranceFactor); };
+  // The mesh at a tolerance, textured (pixels only) and its geometry measured; then its texture at the best quality.
+  // JPEG encodes tried on the current mesh's texture: (quality, scale) -> bytes. A remesh changes the texture's
+  // fill, so it clears them.
+  struct Tried {
+    int quality;
+    double scale;
+    std::vector<std::uint8_t> bytes;
+  };
+  std::vector<Tried> tried;
+  const int threads = openmp_threads(options.params.threads);
+  Image half;  // the texture at kMinTextureScale, made when needed
+  auto encode_at = [&](double scale, const std::vector<int>& qualities, int workers) -> Status {
+    if (scale < 1.0 && half.data.empty()) half = scaled_texture(textured->mesh.texture, scale);
+    auto bytes = encode_jpegs(scale < 1.0 ? half : textured->mesh.texture, qualities, workers);
+    if (!bytes) return bytes.error();
+    for (size_t i = 0; i < qualities.size(); ++i) tried.push_back({qualities[i], scale, std::move((*bytes)[i])});
+    b.encodes += static_cast<int>(qualities.size());
+    return ok_status();
+  };
+  auto bytes_of = [&](int q, double scale) -> double {
+    for (const Tried& t : tried)
+      if (t.quality == q && t.scale == scale) return static_cast<double>(t.bytes.size());
+    return -1;
+  };
+  // The mesh at a tolerance, textured, its geometry measured (Draco or meshopt, in a GLB) and, beside it on a
+  // second thread when the reduction may use two, its texture at the best and the least quality (the search that
+  // may follow needs both).
   auto remesh = [&](double tolerance) -> Status {
     std::vector<StageReport> stages;
-    auto t = texture_at(tolerance, &stages);  // its texture at the best quality
+    auto t = texture_at(tolerance, &stages);
     if (!t) return t.error();
     const double extracted = static_cast<double>(counts.at(tolerance));
     const double triangles = static_cast<double>(t->mesh.triangle_count());
     kept = extracted > 0 ? std::max(0.05, triangles / extracted) : 1.0;
     textured = std::move(t);
+    ++b.meshes;
     out.stages = std::move(stages);
     b.tolerance_factor = tolerance;
-    if (auto s = measure(textured->mesh); !s) return s;
+    tried.clear();
+    half = Image{};
+    Status geometry = ok_status(), texture = ok_status();
+    auto encode_texture = [&](int workers) { texture = encode_at(1.0, {kMaxQuality, kMinQuality}, workers); };
+    if (threads > 1) {
+      std::thread side([&] { geometry = measure_geometry(textured->mesh); });
+      encode_texture(1);
+      side.join();
+    } else {
+      geometry = measure_geometry(textured->mesh);
+      encode_texture(1);
+    }
+    ++b.encodes;  // the geometry's
+    if (!geometry) return geometry;
+    if (!texture) return texture;
+    b.texture_bytes = static_cast<size_t>(bytes_of(kMaxQuality, 1.0));
+    update_total();
     bytes_per_triangle = static_cast<double>(b.geometry_bytes) / std::max(1.0, triangles);
     return ok_status();
   };
@@ -188,9 +258,9 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     if (auto s = remesh(geometry_for(geometry_cap)); !s) return s.error();
   b.rule = b.tolerance_factor > tol0 ? "geometry-capped" : "texture-fitted";
   if (b.glb_bytes <= target) {
-    // The texture at its best quality leaves bytes over: they go back to the mesh (at most three times: the bytes a
+    // The texture at its best quality leaves bytes over: they go back to the mesh (at most twice: the bytes a
     // triangle costs, and the share of triangles the collapses keep, change with the tolerance).
-    for (int round = 0; round < 3; ++round) {
+    for (int round = 0; round < 2; ++round) {
       const double left = target - static_cast<double>(b.glb_bytes);
       if (left <= 0.05 * target || b.tolerance_factor <= tol0) break;
       const double before = b.tolerance_factor;
@@ -200,58 +270,55 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     if (b.tolerance_factor <= tol0 && b.glb_bytes <= target) b.rule = "fits";
   }
   // Texture: the largest quality (at full, then half resolution) whose bytes fit what is left. JPEG bytes are close
-  // to exponential in the quality over 20..92, so the quality is interpolated on log bytes between two encodes and
-  // refined once, instead of bisected.
+  // to exponential in the quality over 20..92, so the quality is interpolated on log bytes between the two ends and
+  // refined (two encodes a step, on two threads) until within 3 % under what is left, at most three times.
   const double texture_target = target - static_cast<double>(b.glb_bytes - b.texture_bytes);
+  double scale = 1.0;
+  int q_lo = kMaxQuality;
   if (static_cast<double>(b.texture_bytes) > texture_target) {
-    const Image full_texture = textured->mesh.texture;
-    Image half;
-    auto source = [&](double scale) -> const Image& {
-      if (scale >= 1.0) return full_texture;
-      if (half.data.empty()) half = scaled_texture(full_texture, scale);
-      return half;
-    };
-    int encoded_q = kMaxQuality;
-    double encoded_scale = 1.0;
-    auto bytes_at = [&](int q, double scale) -> Result<double> {
-      if (auto s = encode_texture(textured->mesh, source(scale), q); !s) return s.error();
-      encoded_q = q, encoded_scale = scale;
-      ++b.encodes;
-      return static_cast<double>(textured->mesh.texture_encoded.size());
-    };
-    double scale = 1.0;
+    q_lo = kMinQuality;
     int q_hi = kMaxQuality;  // bytes at q_hi (at this scale) do not fit
-    double bytes_hi = static_cast<double>(b.texture_bytes);
-    int q_lo = kMinQuality;
-    auto lo = bytes_at(q_lo, scale);
-    if (!lo) return lo.error();
-    if (*lo > texture_target) {  // the least quality does not fit at full resolution: half resolution
+    if (bytes_of(q_lo, scale) > texture_target) {  // the least quality does not fit at full resolution: half
       scale = kMinTextureScale;
-      lo = bytes_at(q_lo, scale);
-      if (!lo) return lo.error();
-      if (*lo <= texture_target) {
-        auto hi = bytes_at(q_hi, scale);
-        if (!hi) return hi.error();
-        bytes_hi = *hi;
-      }
+      if (auto s = encode_at(scale, {kMinQuality, kMaxQuality}, threads); !s) return s.error();
     }
-    double bytes_lo = *lo;
-    if (bytes_lo <= texture_target && bytes_hi > texture_target) {
-      for (int step = 0; step < 3 && q_hi - q_lo > 2; ++step) {
-        const double f = std::log(texture_target / bytes_lo) / std::log(bytes_hi / bytes_lo);
-        const int q = std::clamp(static_cast<int>(std::floor(q_lo + f * (q_hi - q_lo))), q_lo + 1, q_hi - 1);
-        auto bq = bytes_at(q, scale);
-        if (!bq) return bq.error();
-        if (*bq <= texture_target) q_lo = q, bytes_lo = *bq;
-        else q_hi = q, bytes_hi = *bq;
+    if (bytes_of(q_lo, scale) <= texture_target && bytes_of(q_hi, scale) > texture_target) {
+      for (int step = 0; step < 3 && q_hi - q_lo > 2 && bytes_of(q_lo, scale) < 0.97 * texture_target; ++step) {
+        const double lo_bytes = bytes_of(q_lo, scale), hi_bytes = bytes_of(q_hi, scale);
+        const double f = std::log(texture_target / lo_bytes) / std::log(hi_bytes / lo_bytes);
+        const int guess = static_cast<int>(std::floor(q_lo + f * (q_hi - q_lo)));
+        std::vector<int> qs;
+        for (int q : {guess - 2, guess + 2}) {
+          q = std::clamp(q, q_lo + 1, q_hi - 1);
+          if (std::find(qs.begin(), qs.end(), q) == qs.end()) qs.push_back(q);
+        }
+        if (auto s = encode_at(scale, qs, threads); !s) return s.error();
+        for (int q : qs) {
+          if (bytes_of(q, scale) <= texture_target) q_lo = std::max(q_lo, q);
+          else q_hi = std::min(q_hi, q);
+        }
+        if (q_hi <= q_lo) break;  // JPEG bytes are not quite monotone in the quality: q_lo fits, which is enough
       }
+    } else if (bytes_of(q_hi, scale) <= texture_target) {
+      q_lo = q_hi;  // at half resolution the best quality fits
     }
-    if (encoded_q != q_lo || encoded_scale != scale)
-      if (auto s = encode_texture(textured->mesh, source(scale), q_lo); !s) return s.error();
-    b.jpeg_quality = q_lo;
-    b.texture_scale = scale;
-    if (auto s = measure(textured->mesh); !s) return s.error();
   }
+  for (Tried& t : tried)
+    if (t.quality == q_lo && t.scale == scale) {
+      textured->mesh.texture = scale < 1.0 ? std::move(half) : std::move(textured->mesh.texture);
+      textured->mesh.texture_encoded = std::move(t.bytes);
+      textured->mesh.texture_mime = "image/jpeg";
+      break;
+    }
+  b.jpeg_quality = q_lo;
+  b.texture_scale = scale;
+  b.texture_bytes = textured->mesh.texture_encoded.size();
+  // UVs are quantized to the texture's size, so a half-size texture changes the geometry's bytes: measured again.
+  if (scale < 1.0) {
+    if (auto s = measure_geometry(textured->mesh); !s) return s.error();
+    ++b.encodes;
+  }
+  update_total();
   if (b.glb_bytes > 1.1 * target) b.rule = "over-budget";
   out.stages.push_back({"budget", "bytes", b.glb_bytes, ms_since(t0)});
   out.node.mesh = std::move(textured->mesh);
@@ -276,6 +343,7 @@ std::string choices_json(const TexturedFrame& f) {
                    {"jpeg_quality", b.jpeg_quality},   {"texture_scale", b.texture_scale},
                    {"geometry_bytes", b.geometry_bytes}, {"texture_bytes", b.texture_bytes},
                    {"glb_bytes", b.glb_bytes},         {"encodes", b.encodes},
+                   {"meshes", b.meshes},
                    {"rule", b.rule}};
   }
   return j.dump();

@@ -42,7 +42,8 @@ struct DepthFilterParams {
 
 struct DepthFilterResult {
   cv::Mat depth_m;         // CV_32FC1, the kept depth and the filled gaps (0 where removed or invalid)
-  cv::Mat vertex_depth_m;  // CV_32FC1, depth_m smoothed within one surface: where mesh vertices sit
+  cv::Mat vertex_depth_m;  // CV_32FC1, depth_m smoothed within one surface: where mesh vertices sit (without
+                           // smoothing, depth_m itself: the same buffer)
   size_t valid = 0, flying = 0, speckles = 0, kept = 0, filled = 0;
 };
 

@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <unordered_map>
-
 
 #include "reduction/stages.h"
 
@@ -71,12 +69,13 @@ size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, doub
   constexpr double kMaxFreeLegPx = 48, kMinSlopeEdgePx = 8;
   const double g_max = texture_limit_px > 0 ? 4 * texture_limit_px / (kMaxFreeLegPx * kMaxFreeLegPx) : 1e30;
   std::vector<float> g(mesh.positions.size(), 0.f);
-  std::unordered_map<std::uint64_t, int> edge_uses;
   auto key = [](std::uint32_t a, std::uint32_t b) { return std::uint64_t(std::min(a, b)) << 32 | std::max(a, b); };
+  std::vector<std::uint64_t> edges;  // every triangle's edges, sorted: an edge used once is on the outline
+  edges.reserve(mesh.indices.size());
   for (size_t t = 0; t < mesh.indices.size(); t += 3)
     for (int e = 0; e < 3; ++e) {
       const std::uint32_t a = mesh.indices[t + e], b = mesh.indices[t + (e + 1) % 3];
-      ++edge_uses[key(a, b)];
+      edges.push_back(key(a, b));
       const double len = std::hypot(uvw[3 * a] - uvw[3 * b], uvw[3 * a + 1] - uvw[3 * b + 1]);
       if (len < kMinSlopeEdgePx) continue;  // a short edge's depth difference is mostly the sensor's noise
       const double za = mesh.positions[a].z(), zb = mesh.positions[b].z();
@@ -85,8 +84,13 @@ size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, doub
     }
   std::vector<std::uint8_t> free_vertex(mesh.positions.size(), 0);
   for (size_t i = 0; i < g.size(); ++i) free_vertex[i] = g[i] <= g_max;
-  for (const auto& [k2, uses] : edge_uses)
-    if (uses == 1) free_vertex[k2 >> 32] = free_vertex[k2 & 0xffffffffu] = 1;
+  std::sort(edges.begin(), edges.end());
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i + 1;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    if (j - i == 1) free_vertex[edges[i] >> 32] = free_vertex[edges[i] & 0xffffffffu] = 1;
+    i = j;
+  }
   const float lift = static_cast<float>(100 * std::max(1.0, max_error));
   for (size_t i = 0; i < mesh.positions.size(); ++i)
     if (!free_vertex[i]) uvw[3 * i + 2] += (i % 2 ? lift : -lift);
@@ -113,18 +117,27 @@ size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, doub
   }
   out.resize(kept);
   // A fold can also leave an edge with three triangles: the smallest of them go until two remain.
-  std::unordered_map<std::uint64_t, std::vector<size_t>> by_edge;
+  std::vector<std::pair<std::uint64_t, size_t>> by_edge;  // (edge, triangle), sorted by edge
+  by_edge.reserve(out.size());
   for (size_t t = 0; t < out.size(); t += 3)
-    for (int e = 0; e < 3; ++e) by_edge[key(out[t + e], out[t + (e + 1) % 3])].push_back(t);
+    for (int e = 0; e < 3; ++e) by_edge.push_back({key(out[t + e], out[t + (e + 1) % 3]), t});
+  std::sort(by_edge.begin(), by_edge.end());
   std::vector<bool> drop(out.size() / 3, false);
   auto image_area = [&](size_t t) {
     const float *a = &uvw[3 * out[t]], *b = &uvw[3 * out[t + 1]], *c = &uvw[3 * out[t + 2]];
     return std::abs(double(b[0] - a[0]) * (c[1] - a[1]) - double(b[1] - a[1]) * (c[0] - a[0]));
   };
-  for (auto& [edge, ts] : by_edge) {
-    if (ts.size() <= 2) continue;
-    std::sort(ts.begin(), ts.end(), [&](size_t x, size_t y) { return image_area(x) > image_area(y); });
-    for (size_t i = 2; i < ts.size(); ++i) drop[ts[i] / 3] = true;
+  std::vector<size_t> ts;
+  for (size_t i = 0; i < by_edge.size();) {
+    size_t j = i + 1;
+    while (j < by_edge.size() && by_edge[j].first == by_edge[i].first) ++j;
+    if (j - i > 2) {
+      ts.clear();
+      for (size_t k2 = i; k2 < j; ++k2) ts.push_back(by_edge[k2].second);
+      std::sort(ts.begin(), ts.end(), [&](size_t x, size_t y) { return image_area(x) > image_area(y); });
+      for (size_t k2 = 2; k2 < ts.size(); ++k2) drop[ts[k2] / 3] = true;
+    }
+    i = j;
   }
   kept = 0;
   for (size_t t = 0; t < out.size(); t += 3)
