@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <regex>
@@ -28,9 +29,9 @@ void on_signal(int) { g_stop = true; }
 
 struct StreamArgs {
   ReduceArgs reduce;  // input, intrinsics, features, keyframe rule, range
-  std::string server, mission, outbox, token_file;
+  std::string server, mission, outbox, token_file, link_kbps_file;
   bool realtime = false;
-  double link_kbps = 0, initial_kbps = 500, max_backlog_s = 2.0, progress_interval_s = 2.0;
+  double link_kbps = 0, initial_kbps = 500, latency_ms = 1000, max_backlog_s = 2.0, progress_interval_s = 2.0;
   unsigned seed = 0;
 };
 
@@ -45,10 +46,11 @@ class ProgressLine {
     last_ = now;
     char line[320];
     std::snprintf(line, sizeof line,
-                  "frames %zu/%zu  keyframes %zu (budget %.1f kB)  sent %zu, %.1f kB  link %.0f kbit/s%s  queue %zu "
+                  "frames %zu/%zu  keyframes %zu (budget %.1f kB)  sent %zu, %.1f kB  link %.0f kbit/s%s%s  queue %zu "
                   "(%.1f kB)%s",
                   p.frames_done, p.frames_total, p.keyframes, p.budget_kb, p.sender.acked,
                   p.sender.acked_bytes / 1000.0, p.sender.estimate_kbps, p.sender.link_down ? " (down)" : "",
+                  p.sender.cap_kbps > 0 ? (" cap " + std::to_string(static_cast<int>(p.sender.cap_kbps))).c_str() : "",
                   p.sender.pending, p.sender.pending_bytes / 1000.0, p.draining ? "  draining" : "");
     if (tty_) {
       std::fprintf(stderr, "\r%-118s", line);
@@ -79,6 +81,8 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   link.cap_kbps = a.link_kbps;
   link.initial_kbps = a.initial_kbps;
   if (auto st = link.validate(); !st) fail_stream(st.error());
+  if (!std::isfinite(a.latency_ms) || a.latency_ms < 0)
+    fail_stream(make_error(ErrorCode::kInvalidArgument, "--latency-ms must be a finite number >= 0 (0: off)"));
 
   stream::UplinkOptions uo;
   uo.server_url = a.server;
@@ -122,6 +126,8 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   options.reduction = *reduction;
   options.sequence = *sequence;
   options.max_backlog_s = a.max_backlog_s;
+  options.latency.target_s = a.latency_ms / 1000.0;
+  options.link_kbps_file = a.link_kbps_file;
 
   struct sigaction sa {};
   sa.sa_handler = on_signal;
@@ -138,6 +144,7 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   if (a.realtime) std::cout << ", " << s.dropped << " dropped behind the camera";
   std::cout << "), " << s.keyframes << " new keyframes (" << s.covered << " fully covered, not sent; " << s.coarsened
             << " coarsened)";
+  if (s.cap_changes > 0) std::cout << ", " << s.cap_changes << " caps read from " << a.link_kbps_file;
   if (s.resumed) std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries
                            << " outbox entries";
   std::cout << "; " << s.sender.acked << " acknowledged (" << s.sender.acked_bytes / 1000.0 << " kB this run, "
@@ -168,6 +175,13 @@ void register_stream(CLI::App& app) {
   cmd->add_flag("--realtime", args->realtime,
                 "Read frames at their own timestamps (dropping those a newer frame has replaced)");
   cmd->add_option("--link-kbps", args->link_kbps, "Cap of the link estimate and of the send rate, kbit/s (0: none)")
+      ->capture_default_str();
+  cmd->add_option("--link-kbps-file", args->link_kbps_file,
+                  "Control file holding the cap in kbit/s (one number, 0: none), re-read on every frame: write a "
+                  "new number to change the cap while streaming; it overrides --link-kbps once it holds one");
+  cmd->add_option("--latency-ms", args->latency_ms,
+                  "Capture-to-view target: each keyframe's budget is also kept to what the link estimate carries "
+                  "in this time minus the measured time before its POST (0: off)")
       ->capture_default_str();
   cmd->add_option("--initial-kbps", args->initial_kbps, "Link estimate before the first acknowledgement")
       ->capture_default_str();

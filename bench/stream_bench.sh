@@ -6,11 +6,12 @@
 # capture-to-view latency p50/p95 ("available" - "captured"), keyframes lost/duplicated (outbox vs
 # GET /v1/missions/{name}), and coverage + novel-view PSNR of the final mission against a batch
 # `reduce --sequence --preset realtime` of the same frames (rgbdcast eval with ground-truth poses).
+# Extra flags of `rgbdcast stream`: STREAM_BENCH_STREAM_ARGS (e.g. "--latency-ms 0" for the rate rule alone).
 # Usage: bash bench/stream_bench.sh [OUT_DIR]   (needs build/app/rgbdcast; about 15 min on 2 busy cores)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
-BIN=$ROOT/build/app/rgbdcast
+BIN=${RGBDCAST_BIN:-$ROOT/build/app/rgbdcast}   # RGBDCAST_BIN: another build of it (e.g. a baseline)
 DATA=$ROOT/../shared/data
 OUT=${1:-/tmp/rgbdcast_stream_bench}
 PY=/usr/bin/python3
@@ -22,7 +23,8 @@ mkdir -p "$OUT"
 declare -A INPUT=([tum]=$DATA/tum/rgbd_dataset_freiburg1_xyz_200_319 [icl]=$DATA/augmented_icl_livingroom)
 declare -A GT=([tum]=$DATA/tum/rgbd_dataset_freiburg1_xyz_200_319/groundtruth.txt [icl]=$DATA/augmented_icl_livingroom/trajectory.log)
 declare -A VIEWS=([tum]="10 35 65 95 115" [icl]="1 2 3 4")
-RUNS="2000 500 100 500-outage"
+RUNS=${STREAM_BENCH_RUNS:-"2000 500 100 500-outage"}   # a subset, e.g. STREAM_BENCH_RUNS=500
+DATASETS=${STREAM_BENCH_INPUTS:-"tum icl"}
 port=$((20000 + RANDOM % 20000))
 
 
@@ -36,7 +38,7 @@ eval_scene() {  # eval_scene NAME GLB DATASET -> NAME.eval.jsonl (one JSON line 
   done
 }
 
-for ds in tum icl; do
+for ds in $DATASETS; do
   if [[ -z ${STREAM_BENCH_REUSE_BATCH:-} || ! -s $OUT/$ds.batch.eval.jsonl ]]; then
     echo "== $ds: batch reduce --sequence --preset realtime" >&2
     "$BIN" reduce --sequence --preset realtime --no-progress --input "${INPUT[$ds]}" --out "$OUT/$ds.batch.glb" \
@@ -65,7 +67,7 @@ for ds in tum icl; do
     fi
     start=$(date +%s.%N)
     "$BIN" stream --input "${INPUT[$ds]}" --server "http://127.0.0.1:$rport" --mission "$ds$kbps" $REALTIME \
-      --outbox "$OUT/$name.outbox" --link-kbps "$kbps" --progress-interval 5 \
+      --outbox "$OUT/$name.outbox" --link-kbps "$kbps" --progress-interval 5 ${STREAM_BENCH_STREAM_ARGS:-} \
       > "$OUT/$name.stream.log" 2> "$OUT/$name.stream.err" || echo "stream exited $?" >> "$OUT/$name.stream.err"
     end=$(date +%s.%N)
     echo "{\"start\": $start, \"end\": $end}" > "$OUT/$name.times.json"

@@ -7,6 +7,7 @@
 #include "gltf/gltf_io.h"
 #include "service/connection_gate.h"
 #include "service/mission_scene.h"
+#include "service/model_flavors.h"
 #include "service/scene_ingest.h"
 #include "service/scene_store.h"  // etag_of
 
@@ -187,7 +188,15 @@ void MissionRoutes::get_mission(const httplib::Request& req, httplib::Response& 
   nlohmann::json list = nlohmann::json::array();
   std::uint64_t bytes = 0, triangles = 0;
   for (const auto& k : *keyframes) {
-    list.push_back(k.entry());
+    nlohmann::json e = k.entry();
+    // The keyframe's own intrinsics (its capture camera): the operator page projects its overlay with them.
+    if (k.camera.is_object()) {
+      nlohmann::json intrinsics = nlohmann::json::object();
+      for (const char* key : {"fx", "fy", "cx", "cy", "width", "height"})
+        if (k.camera.contains(key)) intrinsics[key] = k.camera[key];
+      e["intrinsics"] = intrinsics;
+    }
+    list.push_back(e);
     bytes += k.bytes;
     triangles += k.triangles;
   }
@@ -197,43 +206,34 @@ void MissionRoutes::get_mission(const httplib::Request& req, httplib::Response& 
 void MissionRoutes::get_model(const httplib::Request& req, httplib::Response& res) {
   auto name = name_or_error(req, res);
   if (!name) return;
+  // ?flavor=compact|compat|draco as for scenes (service/model_flavors.h); none: compact, as before.
+  std::optional<ModelFlavor> asked;
+  if (!read_flavor_param(req, res, &asked)) return;
+  const ModelFlavor flavor = asked.value_or(ModelFlavor::kCompact);
   auto keyframes = missions_.keyframes(*name);
   if (!keyframes) return send_error(res, 404, "no mission " + *name);
   std::string made_of;
   for (const auto& k : *keyframes) made_of += std::to_string(k.seq) + ":" + k.etag + " ";
+  const std::string cache_key = *name + "?" + to_string(flavor);
   CachedModel model;
   {
     std::lock_guard lock(model_mutex_);
-    auto it = models_.find(*name);
+    auto it = models_.find(cache_key);
     if (it != models_.end() && it->second.made_of == made_of) model = it->second;
   }
   res.set_header("X-Model-Cache", model.glb ? "hit" : "miss");
   if (!model.glb) {
     auto scene = assemble_mission(missions_, *name);
     if (!scene) return send_error(res, scene.error());
-    auto glb = encode_glb(*scene);
+    auto glb = encode_glb(*scene, flavor_write_options(flavor));
     if (!glb) return send_error(res, glb.error());
     model.made_of = made_of;
     model.etag = etag_of(glb->data(), glb->size());
-    model.glb = std::make_shared<const std::string>(glb->begin(), glb->end());
+    model.glb = std::make_shared<const std::vector<std::uint8_t>>(std::move(*glb));
     std::lock_guard lock(model_mutex_);
-    models_[*name] = model;  // a mission deleted meanwhile leaves one stale entry, replaced or never matched
+    models_[cache_key] = model;  // a mission deleted meanwhile leaves one stale entry, replaced or never matched
   }
-  res.set_header("ETag", model.etag);
-  res.set_header("Cache-Control", "no-cache");
-  const std::string inm = req.get_header_value("If-None-Match");
-  if (!inm.empty() && (inm == "*" || inm.find(model.etag) != std::string::npos)) {
-    res.status = 304;
-    return;
-  }
-  res.status = 200;
-  res.set_header("Content-Disposition", "attachment; filename=\"" + *name + ".glb\"");
-  // Served from the shared bytes, not copied per download.
-  auto bytes = model.glb;
-  res.set_content_provider(bytes->size(), "model/gltf-binary",
-                           [bytes](size_t offset, size_t length, httplib::DataSink& sink) {
-                             return sink.write(bytes->data() + offset, length);
-                           });
+  send_model(req, res, model.glb, model.etag, asked ? *name + "-" + to_string(flavor) + ".glb" : *name + ".glb");
 }
 
 void MissionRoutes::get_view(const httplib::Request& req, httplib::Response& res) {

@@ -17,6 +17,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <vector>
 #include <string>
 
 // Eigen before httplib.h: a macro of the headers httplib pulls in breaks Eigen's product kernels otherwise.
@@ -69,11 +70,12 @@ class MissionRoutes {
   RenderView render_view_;
   Slots streams_;
   std::mutex post_mutex_;  // keyframe posts, one at a time
-  // The last model.glb encoded per mission, with the keyframes it was made of ("seq:etag ..."): encoded again only
-  // when the mission changed.
+  // The last model.glb encoded per mission and flavour (key "name?flavour"; ?flavor= as for scenes,
+  // service/model_flavors.h), with the keyframes it was made of ("seq:etag ..."): encoded again only when the
+  // mission changed.
   struct CachedModel {
     std::string made_of, etag;
-    std::shared_ptr<const std::string> glb;
+    std::shared_ptr<const std::vector<std::uint8_t>> glb;
   };
   std::mutex model_mutex_;
   std::map<std::string, CachedModel> models_;

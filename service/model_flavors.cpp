@@ -32,10 +32,7 @@ Result<FlavoredModel> make_flavor(const StoredScene& scene, ModelFlavor flavor, 
   if ((flavor == ModelFlavor::kCompact && uses_extension(*stored, "EXT_meshopt_compression")) ||
       (flavor == ModelFlavor::kDraco && uses_extension(*stored, "KHR_draco_mesh_compression")))
     return FlavoredModel{std::make_shared<const std::vector<std::uint8_t>>(std::move(*stored)), scene.etag, true};
-  GlbWriteOptions options;
-  options.flavor = flavor == ModelFlavor::kCompat ? GlbFlavor::kCompat : GlbFlavor::kCompact;
-  options.geometry_codec = flavor == ModelFlavor::kDraco ? GeometryCodec::kDraco : GeometryCodec::kMeshopt;
-  auto out = convert_glb(stored->data(), stored->size(), options);
+  auto out = convert_glb(stored->data(), stored->size(), flavor_write_options(flavor));
   if (!out)
     return make_error(ErrorCode::kInternal, "stored scene " + scene.id + " does not convert to " +
                                                 to_string(flavor) + ": " + out.error().message);
@@ -67,6 +64,50 @@ Result<ModelFlavor> parse_model_flavor(std::string_view name) {
                     "unknown GLB flavor '" + std::string(name) + "' (compact: meshopt + quantized, for three.js, "
                     "Babylon.js, Foxglove; draco: KHR_draco_mesh_compression, for three.js with DRACOLoader; "
                     "compat: plain floats, for Blender, Assimp and every viewer)");
+}
+
+GlbWriteOptions flavor_write_options(ModelFlavor flavor) {
+  GlbWriteOptions options;
+  options.flavor = flavor == ModelFlavor::kCompat ? GlbFlavor::kCompat : GlbFlavor::kCompact;
+  options.geometry_codec = flavor == ModelFlavor::kDraco ? GeometryCodec::kDraco : GeometryCodec::kMeshopt;
+  return options;
+}
+
+bool read_flavor_param(const httplib::Request& req, httplib::Response& res, std::optional<ModelFlavor>* flavor) {
+  *flavor = std::nullopt;
+  if (!req.has_param("flavor")) return true;
+  if (req.get_param_value_count("flavor") != 1) {
+    send_error(res, 400, "flavor given more than once");
+    return false;
+  }
+  auto parsed = parse_model_flavor(req.get_param_value("flavor"));
+  if (!parsed) {
+    send_error(res, 400, parsed.error().message);
+    return false;
+  }
+  *flavor = *parsed;
+  return true;
+}
+
+void send_model(const httplib::Request& req, httplib::Response& res,
+                std::shared_ptr<const std::vector<std::uint8_t>> bytes, const std::string& etag,
+                const std::string& filename) {
+  res.set_header("ETag", etag);
+  res.set_header("Cache-Control", "no-cache");
+  const std::string inm = req.get_header_value("If-None-Match");
+  if (!inm.empty() && (inm == "*" || inm.find(etag) != std::string::npos)) {
+    res.status = 304;
+    return;
+  }
+  res.status = 200;
+  res.set_header("Content-Disposition", "attachment; filename=\"" + filename + "\"");
+  const size_t size = bytes->size();
+  res.set_content_provider(size, "model/gltf-binary",
+                           [bytes = std::move(bytes)](size_t offset, size_t length, httplib::DataSink& sink) {
+                             if (offset >= bytes->size()) return false;
+                             length = std::min(length, bytes->size() - offset);
+                             return sink.write(reinterpret_cast<const char*>(bytes->data()) + offset, length);
+                           });
 }
 
 Result<FlavoredModel> ModelFlavors::get(const StoredScene& scene, ModelFlavor flavor, const SceneStore& store,
@@ -159,39 +200,16 @@ size_t ModelFlavors::conversions() const {
 bool ModelFlavors::serve(const httplib::Request& req, httplib::Response& res, const StoredScene& scene,
                          const SceneStore& store) {
   if (!req.has_param("flavor")) return false;
-  if (req.get_param_value_count("flavor") != 1) {
-    send_error(res, 400, "flavor given more than once");
-    return true;
-  }
-  auto flavor = parse_model_flavor(req.get_param_value("flavor"));
-  if (!flavor) {
-    send_error(res, 400, flavor.error().message);
-    return true;
-  }
+  std::optional<ModelFlavor> flavor;
+  if (!read_flavor_param(req, res, &flavor)) return true;
   bool converted_now = false;
   auto model = get(scene, *flavor, store, &converted_now);
   if (!model) {
     send_error(res, http_status_for(model.error().code), model.error().message);
     return true;
   }
-  res.set_header("ETag", model->etag);
-  res.set_header("Cache-Control", "no-cache");
   res.set_header("X-Flavor-Cache", model->stored_file ? "stored" : converted_now ? "miss" : "hit");
-  const std::string inm = req.get_header_value("If-None-Match");
-  if (!inm.empty() && (inm == "*" || inm.find(model->etag) != std::string::npos)) {
-    res.status = 304;
-    return true;
-  }
-  res.status = 200;
-  res.set_header("Content-Disposition",
-                 "attachment; filename=\"" + scene.id + "-" + to_string(*flavor) + ".glb\"");
-  auto bytes = model->bytes;  // the cached file is shared with the response, not copied
-  res.set_content_provider(bytes->size(), "model/gltf-binary",
-                           [bytes](size_t offset, size_t length, httplib::DataSink& sink) {
-                             if (offset >= bytes->size()) return false;
-                             length = std::min(length, bytes->size() - offset);
-                             return sink.write(reinterpret_cast<const char*>(bytes->data()) + offset, length);
-                           });
+  send_model(req, res, model->bytes, model->etag, scene.id + "-" + to_string(*flavor) + ".glb");
   return true;
 }
 

@@ -17,6 +17,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -37,6 +38,17 @@ enum class ModelFlavor { kCompact, kCompat, kDraco };
 const char* to_string(ModelFlavor flavor);  // "compact", "compat", "draco"
 // kInvalidArgument naming the three for anything else.
 Result<ModelFlavor> parse_model_flavor(std::string_view name);
+// The GLB write options of a flavour: the conversion of a stored scene and the encoding of a mission's model.glb
+// (service/mission_routes.h) use the same.
+GlbWriteOptions flavor_write_options(ModelFlavor flavor);
+// The request's ?flavor=: nullopt in *flavor when absent. A bad or repeated one is answered here (400 with a JSON
+// body) and false is returned: the caller sends nothing more.
+bool read_flavor_param(const httplib::Request& req, httplib::Response& res, std::optional<ModelFlavor>* flavor);
+// Sends a model.glb download from shared bytes (not copied): strong ETag, Cache-Control no-cache, If-None-Match ->
+// 304, else 200 with Content-Disposition `filename`.
+void send_model(const httplib::Request& req, httplib::Response& res,
+                std::shared_ptr<const std::vector<std::uint8_t>> bytes, const std::string& etag,
+                const std::string& filename);
 
 struct FlavoredModel {
   std::shared_ptr<const std::vector<std::uint8_t>> bytes;

@@ -131,6 +131,23 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
 
   KeyframeInterval interval;
   FrameReductionOptions reduction = options.reduction;
+  SmoothedDuration reduce_s(0.3);  // a keyframe's reduction time: mean + 2 deviations
+
+  // --link-kbps-file: a changed value becomes the cap at once (the next budget and the sender's pacing follow it).
+  std::optional<CapFile> cap_file;
+  if (!options.link_kbps_file.empty()) cap_file.emplace(options.link_kbps_file);
+  auto poll_cap = [&] {
+    if (!cap_file) return;
+    auto changed = cap_file->poll();
+    if (!changed) {
+      summary.errors.push_back(changed.error().message);
+      return;
+    }
+    if (!*changed) return;
+    sender.set_cap_kbps(**changed);
+    ++summary.cap_changes;
+  };
+  poll_cap();
 
   auto coarsen_backlog = [&](int newest) {
     const double estimate = std::max(sender.estimate_kbps(), 1.0);
@@ -167,9 +184,16 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     if (summary.resumed && static_cast<int>(record.index) == summary.resumed_at_frame) return ok_status();
     const Eigen::Matrix4d pose = anchor * record.pose;
     interval.on_keyframe(std::chrono::duration<double>(steady::now() - t_start).count());
-    const double budget_kb = keyframe_budget_kb(sender.estimate_kbps(), interval.seconds(), options.budget);
+    const double tracked = unix_now();
+    const double overhead_s = std::max(0.0, tracked - captured) + reduce_s.value() + sender.queue_wait_s() +
+                              (sender.acknowledged_posts() == 0 ? options.latency.first_post_fixed_s : 0.0);
+    const double budget_kb = next_keyframe_budget_kb(sender.estimate_kbps(), interval.seconds(), overhead_s,
+                                                     options.latency, options.budget);
     const int seq = outbox.next_seq();
+    const auto t_reduce = steady::now();
     auto encoded = encode_keyframe(frame, reduction, budget_kb, pose, earlier_than(seq));
+    const double took = std::chrono::duration<double>(steady::now() - t_reduce).count();
+    reduce_s.on_sample(took);
     if (!encoded) {
       if (encoded.error().code == ErrorCode::kEmpty) {
         ++summary.covered;
@@ -186,6 +210,8 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     e.captured = captured;
     e.budget_kb = budget_kb;
     e.triangles = encoded->triangles;
+    e.tracked = tracked;
+    e.reduced = unix_now();
     auto added = outbox.add(e, encoded->glb);
     if (!added) {
       ++summary.failed;
@@ -197,11 +223,13 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     progress.keyframes = summary.keyframes;
     progress.budget_kb = budget_kb;
     progress.interval_s = interval.seconds();
+    progress.overhead_s = overhead_s;
     sender.notify();
     coarsen_backlog(added->seq);
     return ok_status();
   };
   auto on_frame = [&](const FrameRecord& r, size_t done, size_t total) {
+    poll_cap();
     progress.frames_done = done;
     progress.frames_total = total;
     progress.tracking = r.tracked ? (r.icp_used ? "tracked (ICP)" : "tracked") : r.message;
@@ -220,6 +248,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   // Drain: until the sender has nothing pending, stops for good, or stop is asked.
   progress.draining = true;
   for (;;) {
+    poll_cap();
     progress.sender = sender.stats();
     if (on_progress) on_progress(progress);
     if (progress.sender.pending == 0 || !progress.sender.fatal.empty()) break;

@@ -14,6 +14,13 @@
 // driver would replace it (the record says "dropped"). "captured" is the due time (Unix s); without realtime it is
 // the time the frame was read.
 //
+// Budget: the smaller of the rate rule and the latency rule (stream/link_estimator.h). The latency rule's overhead
+// is what is known when the keyframe's pose is: the seconds since its capture (reading, tracking), plus the
+// earlier keyframes' reduction time (SmoothedDuration: mean + 2 mean deviations; 0.3 s before the first, about what
+// one took on 2 busy cores) and their smoothed wait in the outbox (Sender::queue_wait_s); until a POST was
+// acknowledged, also LatencyRule::first_post_fixed_s (the initial estimate knows no round trip). Each outbox entry keeps its times (tracked, reduced, post_started) so a benchmark can
+// say where a keyframe's latency went.
+//
 // Backlog rule (the link cannot carry what is queued): after each new keyframe, when the pending bytes need more
 // than max(max_backlog_s, 2 x the keyframe interval) at the current estimate, the older never-attempted keyframes
 // are coarsened, oldest first, until the backlog fits: each is re-reduced once (same frame, same coverage views,
@@ -43,6 +50,8 @@ struct StreamOptions {
   FrameReductionOptions reduction;  // the realtime preset; budget_kb is set per keyframe
   SequenceParams sequence;
   BudgetRule budget;
+  LatencyRule latency;              // --latency-ms: the budget is also kept to what reaches the view in time
+  std::string link_kbps_file;       // --link-kbps-file: re-read on every frame (and while draining); empty: none
   double max_backlog_s = 2.0;
   double coarse_factor = 0.25;
 };
@@ -52,6 +61,7 @@ struct StreamProgress {
   size_t keyframes = 0;          // added to the outbox by this run
   double budget_kb = 0;          // of the last keyframe
   double interval_s = 0;         // keyframe interval estimate
+  double overhead_s = 0;         // of the last keyframe: the latency rule's time before its POST (estimated)
   std::string tracking;          // the last frame's tracking note
   bool draining = false;         // every frame read; waiting for the sender
   SenderStats sender;
@@ -62,6 +72,7 @@ struct StreamSummary {
   size_t keyframes = 0;       // new outbox entries of this run
   size_t covered = 0;         // keyframes with nothing new (not sent)
   size_t coarsened = 0;
+  size_t cap_changes = 0;     // values taken from --link-kbps-file
   size_t failed = 0;          // keyframes whose reduction or outbox write failed (message in errors)
   bool resumed = false;
   int resumed_at_frame = -1;

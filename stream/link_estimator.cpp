@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 
 namespace rgbdcast::stream {
 
@@ -57,6 +59,52 @@ double keyframe_budget_kb(double estimate_kbps, double interval_s, const BudgetR
   const double kb = estimate_kbps / 8.0 * interval_s * rule.headroom;  // kbit/s / 8 = kB/s
   if (!std::isfinite(kb)) return rule.floor_kb;
   return std::clamp(kb, rule.floor_kb, rule.ceiling_kb);
+}
+
+void SmoothedDuration::on_sample(double seconds) {
+  if (!std::isfinite(seconds)) return;
+  seconds = std::max(seconds, 0.0);
+  if (samples_ == 0) {
+    mean_ = seconds;
+    deviation_ = seconds / 2;
+  } else {
+    deviation_ = 0.75 * deviation_ + 0.25 * std::abs(seconds - mean_);
+    mean_ = 0.875 * mean_ + 0.125 * seconds;
+  }
+  ++samples_;
+}
+
+double SmoothedDuration::value() const { return samples_ == 0 ? initial_s_ : mean_ + k_ * deviation_; }
+
+double latency_budget_kb(double estimate_kbps, double overhead_s, const LatencyRule& latency, const BudgetRule& rule) {
+  if (!(latency.target_s > 0)) return rule.ceiling_kb;
+  const double post_s = std::max(latency.target_s - std::max(overhead_s, 0.0), latency.min_post_share * latency.target_s);
+  const double kb = estimate_kbps / 8.0 * post_s * rule.headroom;
+  if (!std::isfinite(kb)) return rule.floor_kb;
+  return std::clamp(kb, rule.floor_kb, rule.ceiling_kb);
+}
+
+double next_keyframe_budget_kb(double estimate_kbps, double interval_s, double overhead_s, const LatencyRule& latency,
+                               const BudgetRule& rule) {
+  return std::min(keyframe_budget_kb(estimate_kbps, interval_s, rule),
+                  latency_budget_kb(estimate_kbps, overhead_s, latency, rule));
+}
+
+Result<std::optional<double>> CapFile::poll() {
+  std::ifstream in(path_, std::ios::binary);
+  if (!in) return std::optional<double>();
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (last_text_ && *last_text_ == text.str()) return std::optional<double>();
+  last_text_ = text.str();
+  std::istringstream parse(text.str());
+  double kbps = 0;
+  std::string rest;
+  if (!(parse >> kbps) || (parse >> rest) || !std::isfinite(kbps) || kbps < 0)
+    return make_error(ErrorCode::kInvalidInput, "--link-kbps-file " + path_ +
+                                                    ": must hold one number of kbit/s >= 0 (0: no cap); the cap "
+                                                    "stays as it was");
+  return std::optional<double>(kbps);
 }
 
 }  // namespace rgbdcast::stream

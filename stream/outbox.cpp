@@ -23,6 +23,9 @@ json entry_json(const OutboxEntry& e) {
             {"pose", e.pose},         {"captured", e.captured}, {"budget_kb", e.budget_kb},
             {"bytes", e.bytes},       {"triangles", e.triangles}, {"coarsened", e.coarsened},
             {"attempted", e.attempted}, {"acked", e.acked},      {"rejected", e.rejected}};
+  if (e.tracked > 0) j["tracked"] = e.tracked;
+  if (e.reduced > 0) j["reduced"] = e.reduced;
+  if (e.post_started > 0) j["post_started"] = e.post_started;
   if (!e.ack_json.empty()) j["ack"] = json::parse(e.ack_json, nullptr, false);
   return j;
 }
@@ -40,6 +43,9 @@ Result<OutboxEntry> parse_entry(const std::string& text, const std::string& name
     e.budget_kb = j.at("budget_kb").get<double>();
     e.bytes = j.at("bytes").get<size_t>();
     e.triangles = j.value("triangles", size_t{0});
+    e.tracked = j.value("tracked", 0.0);
+    e.reduced = j.value("reduced", 0.0);
+    e.post_started = j.value("post_started", 0.0);
     e.coarsened = j.at("coarsened").get<bool>();
     e.attempted = j.at("attempted").get<bool>();
     e.acked = j.at("acked").get<bool>();
@@ -169,9 +175,12 @@ Status Outbox::update(int seq, const std::function<void(OutboxEntry&)>& change) 
   return ok_status();
 }
 
-Status Outbox::mark_attempted(int seq) {
+Status Outbox::mark_attempted(int seq, double post_started) {
   if (auto e = entry(seq); e && e->attempted) return ok_status();
-  return update(seq, [](OutboxEntry& e) { e.attempted = true; });
+  return update(seq, [&](OutboxEntry& e) {
+    e.attempted = true;
+    if (e.post_started <= 0) e.post_started = post_started;
+  });
 }
 
 Status Outbox::mark_acked(int seq, const std::string& ack_json) {

@@ -32,6 +32,10 @@ struct OutboxEntry {
   double timestamp = 0;           // the frame's own timestamp (s; 0 when the source has none)
   std::array<double, 7> pose{};   // camera to world, TUM order tx ty tz qx qy qz qw
   double captured = 0;            // Unix s
+  // Where the time of a keyframe goes (Unix s; 0 when not known, e.g. an outbox written before they were kept):
+  double tracked = 0;             // the tracker had its pose (its budget was chosen then)
+  double reduced = 0;             // its GLB was ready (written to the outbox)
+  double post_started = 0;        // its first POST started
   double budget_kb = 0;           // the budget it was reduced to (the coarser one once coarsened)
   size_t bytes = 0;               // of the GLB on disk
   size_t triangles = 0;
@@ -57,7 +61,8 @@ class Outbox {
   Result<OutboxEntry> add(OutboxEntry entry, const std::vector<std::uint8_t>& glb);
   // Replaces a never-attempted entry's GLB by a coarser one (kInvalidArgument when it was attempted).
   Status coarsen(int seq, const std::vector<std::uint8_t>& glb, double budget_kb, size_t triangles);
-  Status mark_attempted(int seq);
+  // Persisted before the first POST; post_started (Unix s) is kept from the first attempt.
+  Status mark_attempted(int seq, double post_started = 0);
   Status mark_acked(int seq, const std::string& ack_json);
   Status mark_rejected(int seq, const std::string& reason);
   Result<std::vector<std::uint8_t>> read_glb(int seq) const;

@@ -7,6 +7,12 @@ namespace rgbdcast::stream {
 
 using clock = std::chrono::steady_clock;
 
+namespace {
+double unix_now() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+}  // namespace
+
 Sender::Sender(Outbox& outbox, Uplink& uplink, const SenderParams& params)
     : outbox_(outbox),
       uplink_(uplink),
@@ -54,6 +60,16 @@ double Sender::estimate_kbps() const {
   return estimator_.estimate_kbps();
 }
 
+double Sender::queue_wait_s() const {
+  std::lock_guard lock(mu_);
+  return queue_wait_s_.value_or(0.0);
+}
+
+size_t Sender::acknowledged_posts() const {
+  std::lock_guard lock(mu_);
+  return estimator_.samples();
+}
+
 void Sender::set_cap_kbps(double cap_kbps) {
   std::lock_guard lock(mu_);
   estimator_.set_cap_kbps(cap_kbps);
@@ -72,6 +88,7 @@ SenderStats Sender::stats() const {
     }
   }
   s.estimate_kbps = estimator_.estimate_kbps();
+  s.cap_kbps = estimator_.cap_kbps();
   return s;
 }
 
@@ -114,7 +131,13 @@ void Sender::run() {
       finish("outbox: keyframe " + std::to_string(seq) + " vanished");
       return;
     }
-    if (Status st = outbox_.mark_attempted(seq); !st) {
+    const double post_started = unix_now();
+    if (!entry->attempted && entry->reduced > 0) {
+      const double wait = std::max(0.0, post_started - entry->reduced);
+      std::lock_guard lock(mu_);
+      queue_wait_s_ = queue_wait_s_ ? 0.3 * wait + 0.7 * *queue_wait_s_ : wait;
+    }
+    if (Status st = outbox_.mark_attempted(seq, post_started); !st) {
       finish(st.error().message);
       return;
     }

@@ -14,6 +14,7 @@
 #include <condition_variable>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <set>
 #include <string>
@@ -39,6 +40,7 @@ struct SenderStats {
   size_t acked_bytes = 0;     // acknowledged by this run
   size_t posts = 0, failures = 0;
   double estimate_kbps = 0;
+  double cap_kbps = 0;        // the cap now (--link-kbps, or --link-kbps-file's last value); 0: none
   double busy_s = 0;          // seconds this run had a POST in flight
   bool link_down = false;     // the last attempt failed
   std::string last_error;     // of the last failed attempt
@@ -60,6 +62,10 @@ class Sender {
   bool claim(int seq);
   void release(int seq);
   double estimate_kbps() const;
+  // How long a keyframe waits in the outbox before its first POST starts (pacing, a POST in flight), smoothed
+  // (EWMA, weight 0.3; 0 before the first): part of the overhead the latency rule subtracts (link_estimator.h).
+  double queue_wait_s() const;
+  size_t acknowledged_posts() const;  // samples of the link estimate so far (0: it is still the initial guess)
   void set_cap_kbps(double cap_kbps);
   SenderStats stats() const;
 
@@ -80,6 +86,7 @@ class Sender {
   std::set<int> claimed_;
   int in_flight_ = -1;
   std::chrono::steady_clock::time_point not_before_{};  // backoff or pacing
+  std::optional<double> queue_wait_s_;
   SenderStats stats_;
 };
 

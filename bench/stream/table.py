@@ -50,6 +50,8 @@ for ds in ("tum", "icl"):
     batch = evals(f"{out}/{ds}.batch.eval.jsonl")
     for run in runs:
         name = f"{out}/{ds}.{run}"
+        if not os.path.exists(f"{name}.times.json"):
+            continue  # not run (STREAM_BENCH_INPUTS / STREAM_BENCH_RUNS)
         kbps = float(run.split("-")[0])
         mission = load(f"{name}.mission.json", {}) or {}
         kfs = mission.get("keyframes", [])
@@ -81,3 +83,37 @@ for ds in ("tum", "icl"):
               f"{goodput:.0f} | {percentile(lat, 0.5):.2f} / {percentile(lat, 0.95):.2f} | {lost} / {dup} | "
               f"{median_of(ev, 'coverage'):.3f} / {median_of(batch, 'coverage'):.3f} | "
               f"{median_of(ev, 'psnr_valid_db'):.2f} / {median_of(batch, 'psnr_valid_db'):.2f} | {run_s:.0f} |")
+
+# Where a keyframe's latency goes: medians over the keyframes of each stage (ms), from the outbox entries' times
+# (tracked, reduced, post_started: kept by rgbdcast stream) and the server's answer (received: the request's
+# headers were read; available: stored and appended to the resident mission, so it includes the body's time on the
+# line). "-" where the outbox predates those fields.
+print()
+print("| input | link | keyframes | capture -> tracked ms | tracked -> reduced ms | reduced -> POST start ms | "
+      "POST start -> received ms | received -> available ms | budget kB (median) | latency p95 s |")
+print("|---|---|---|---|---|---|---|---|---|---|")
+stages = [("captured", "tracked"), ("tracked", "reduced"), ("reduced", "post_started"), ("post_started", "received"),
+          ("received", "available")]
+for ds in ("tum", "icl"):
+    for run in runs:
+        name = f"{out}/{ds}.{run}"
+        if not os.path.exists(f"{name}.times.json"):
+            continue  # not run (STREAM_BENCH_INPUTS / STREAM_BENCH_RUNS)
+        outbox = [load(p) for p in sorted(glob.glob(f"{name}.outbox/kf-*.json"))]
+        rows = []
+        for e in outbox:
+            if not e or not isinstance(e.get("ack"), dict):
+                continue
+            t = dict(e)
+            t["received"] = e["ack"].get("received")
+            t["available"] = e["ack"].get("available")
+            rows.append(t)
+        cells = []
+        for a, b in stages:
+            d = [1000 * (r[b] - r[a]) for r in rows if isinstance(r.get(a), (int, float)) and
+                 isinstance(r.get(b), (int, float))]
+            cells.append(f"{statistics.median(d):.0f}" if d else "-")
+        lat = [r["available"] - r["captured"] for r in rows if isinstance(r.get("available"), (int, float))]
+        budgets = [r["budget_kb"] for r in rows]
+        print(f"| {ds} | {run.replace('-outage', ' + 10 s outage')} kbit/s | {len(rows)} | " + " | ".join(cells) +
+              f" | {statistics.median(budgets) if budgets else float('nan'):.1f} | {percentile(lat, 0.95):.2f} |")

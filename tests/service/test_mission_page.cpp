@@ -3,7 +3,8 @@
 // stream, re-renders after each keyframe and counts the drawn pixels of its fixed orbit view; the server ends every
 // event stream after 3 s, so the page must reconnect (EventSource, Last-Event-ID) to see the later keyframes. The
 // test asserts the drawn pixels grow, every keyframe arrived exactly once despite the reconnects, the trajectory
-// overlay was drawn, and the robot-view and follow buttons moved the view to the newest keyframe's camera.
+// overlay was drawn, the robot-view and follow buttons moved the view to the newest keyframe's camera, and the
+// overlay then projects with that keyframe's own intrinsics (fr1: fx 517.3), not a fixed 525.
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <signal.h>
@@ -12,6 +13,7 @@
 #include <fcntl.h>
 
 #include <chrono>
+#include <cmath>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -92,6 +94,22 @@ TEST(MissionPage, HeadlessChromiumFollowsAGrowingMission) {
   EXPECT_GT(r["overlayPixels"][3].get<int>(), r["overlayPixels"][0].get<int>()) << r["overlayPixels"];
   EXPECT_NE(r["robotUrl"].get<std::string>().find("pose=keyframe:3"), std::string::npos) << r["robotUrl"];
   EXPECT_NE(r["followUrl"].get<std::string>().find("pose=capture"), std::string::npos) << r["followUrl"];
+  // In robot view the overlay projects with keyframe 3's own intrinsics (as listed by the service, scaled to the
+  // 640x480 view as ViewCamera::from_capture scales them), not with a fixed focal length.
+  {
+    httplib::Client c("127.0.0.1", server.port());
+    auto listed = c.Get("/v1/missions/robot1");
+    ASSERT_TRUE(listed && listed->status == 200);
+    const json k = json::parse(listed->body)["keyframes"][3]["intrinsics"];
+    ASSERT_TRUE(k.is_object()) << listed->body;
+    const double sx = 640.0 / k["width"].get<double>(), sy = 480.0 / k["height"].get<double>();
+    ASSERT_TRUE(r["robotCamera"].is_object()) << r.dump();
+    EXPECT_NEAR(r["robotCamera"]["fx"].get<double>(), k["fx"].get<double>() * sx, 1e-6) << r["robotCamera"];
+    EXPECT_NEAR(r["robotCamera"]["fy"].get<double>(), k["fy"].get<double>() * sy, 1e-6) << r["robotCamera"];
+    EXPECT_NEAR(r["robotCamera"]["cx"].get<double>(), (k["cx"].get<double>() + 0.5) * sx - 0.5, 1e-6);
+    EXPECT_NEAR(r["robotCamera"]["cy"].get<double>(), (k["cy"].get<double>() + 0.5) * sy - 0.5, 1e-6);
+    EXPECT_GT(std::abs(k["fx"].get<double>() * sx - 525.0), 1.0) << "these keyframes' fx is 525 anyway";
+  }
   server.stop();
   if (!HasFailure()) rgbdcast::test::remove_tree_quietly(dir);
 }

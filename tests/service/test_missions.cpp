@@ -322,6 +322,38 @@ TEST(Missions, ViewsGrowIncrementallyAndModelIsOneValidGlb) {
   const std::string path = dir + "/mission.glb";
   std::ofstream(path, std::ios::binary) << glb->body;
   EXPECT_GLTF_VALID(path);
+
+  // ?flavor=compat, as for scenes: plain floats (no meshopt), the same nodes, cameras and triangles; cached on its
+  // own; a bad flavour is a 400 with a JSON body.
+  auto compat = c->Get("/v1/missions/lab/model.glb?flavor=compat");
+  ASSERT_TRUE(compat);
+  ASSERT_EQ(compat->status, 200) << compat->body;
+  EXPECT_EQ(compat->get_header_value("X-Model-Cache"), "miss");
+  EXPECT_EQ(compat->body.find("EXT_meshopt_compression"), std::string::npos);
+  EXPECT_NE(glb->body.find("EXT_meshopt_compression"), std::string::npos);
+  EXPECT_NE(compat->get_header_value("ETag"), etag);
+  EXPECT_NE(compat->get_header_value("Content-Disposition").find("lab-compat.glb"), std::string::npos);
+  auto compat_scene =
+      rgbdcast::decode_glb(reinterpret_cast<const std::uint8_t*>(compat->body.data()), compat->body.size());
+  ASSERT_TRUE(compat_scene) << compat_scene.error().message;
+  EXPECT_EQ(compat_scene->nodes.size(), 4u);
+  EXPECT_EQ(compat_scene->cameras.size(), 4u);
+  EXPECT_EQ(compat_scene->triangle_count(), triangles);
+  auto compat_again = c->Get("/v1/missions/lab/model.glb?flavor=compat");
+  ASSERT_TRUE(compat_again);
+  EXPECT_EQ(compat_again->get_header_value("X-Model-Cache"), "hit");
+  const std::string compat_path = dir + "/mission-compat.glb";
+  std::ofstream(compat_path, std::ios::binary) << compat->body;
+  EXPECT_GLTF_VALID(compat_path);
+  expect_json_error(c->Get("/v1/missions/lab/model.glb?flavor=png"), 400, "unknown flavor");
+
+  // Each listed keyframe carries its capture camera's intrinsics (the operator page's overlay projects with them).
+  for (const auto& f : listed["keyframes"]) {
+    ASSERT_TRUE(f.contains("intrinsics")) << f.dump();
+    EXPECT_GT(f["intrinsics"]["fx"].get<double>(), 100) << f.dump();
+    EXPECT_GT(f["intrinsics"]["width"].get<int>(), 0) << f.dump();
+    EXPECT_GT(f["intrinsics"]["cx"].get<double>(), 0) << f.dump();
+  }
 }
 
 TEST(Missions, RestartMidMissionLosesAndDuplicatesNothing) {

@@ -2,7 +2,11 @@
 // stream/backoff.h).
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <random>
+
+#include "tests/common/test_data.h"
 
 #include "stream/backoff.h"
 #include "stream/link_estimator.h"
@@ -87,6 +91,85 @@ TEST(KeyframeBudget, FollowsALinkThatDegradesAndRecovers) {
   EXPECT_GT(budget, 4);
   for (int i = 0; i < 10; ++i) keyframe(2000);
   EXPECT_DOUBLE_EQ(budget, 40);
+}
+
+TEST(LatencyBudget, KeepsAKeyframeToWhatTheLinkCarriesInTheTargetMinusTheOverhead) {
+  LatencyRule latency;  // 1 s
+  // 500 kbit/s = 62.5 kB/s; 0.4 s before the POST leaves 0.6 s: 62.5 x 0.6 x 0.9 = 33.75 kB.
+  EXPECT_NEAR(latency_budget_kb(500, 0.4, latency), 62.5 * 0.6 * 0.9, 1e-9);
+  // The rate rule alone would give the 40 kB ceiling with a keyframe every 2 s; the latency rule is the smaller.
+  EXPECT_DOUBLE_EQ(keyframe_budget_kb(500, 2.0), 40);
+  EXPECT_NEAR(next_keyframe_budget_kb(500, 2.0, 0.4, latency), 33.75, 1e-9);
+  // A short interval makes the rate rule the smaller one: 62.5 x 0.3 x 0.9.
+  EXPECT_NEAR(next_keyframe_budget_kb(500, 0.3, 0.4, latency), 62.5 * 0.3 * 0.9, 1e-9);
+  // An overhead beyond the target: the POST keeps a quarter of the target, not less.
+  EXPECT_NEAR(latency_budget_kb(500, 3.0, latency), 62.5 * 0.25 * 0.9, 1e-9);
+  // Fast links reach the ceiling, dead ones the floor; target 0 turns the rule off.
+  EXPECT_DOUBLE_EQ(latency_budget_kb(10000, 0.4, latency), 40);
+  EXPECT_DOUBLE_EQ(latency_budget_kb(8, 0.4, latency), BudgetRule{}.floor_kb);
+  EXPECT_DOUBLE_EQ(latency_budget_kb(500, 0.4, LatencyRule{0.0, 0.25}), 40);
+}
+
+TEST(LatencyBudget, ConvergesToPostsThatTakeTheirShareOnALinkWithAFixedCostPerPost) {
+  // A 500 kbit/s line with 0.15 s per POST for the round trip and the server: the goodput estimate of a budget-sized
+  // POST feeds the next budget. The fixed point is a POST of (target - overhead) x headroom seconds.
+  LinkEstimatorParams p;
+  p.cap_kbps = 500;
+  LinkEstimator e(p);
+  LatencyRule latency;
+  const double overhead_s = 0.3, fixed_s = 0.15;
+  double budget = 0, post_s = 0;
+  for (int i = 0; i < 40; ++i) {
+    budget = next_keyframe_budget_kb(e.estimate_kbps(), 5.0, overhead_s, latency);
+    post_s = post_seconds(static_cast<size_t>(budget * 1000), 500, fixed_s);
+    e.on_ack(static_cast<size_t>(budget * 1000), post_s);
+  }
+  EXPECT_NEAR(post_s, (1.0 - overhead_s) * 0.9, 0.01);
+  EXPECT_LE(overhead_s + post_s, 1.0);
+  EXPECT_NEAR(budget, 62.5 * ((1.0 - overhead_s) * 0.9 - fixed_s), 0.5);
+}
+
+TEST(SmoothedDuration, IsTheMeanPlusTwoDeviationsAndStaysHighAfterASpike) {
+  SmoothedDuration d(0.15);
+  EXPECT_DOUBLE_EQ(d.value(), 0.15);  // before the first sample
+  d.on_sample(0.2);                   // mean 0.2, deviation 0.1
+  EXPECT_NEAR(d.value(), 0.2 + 2 * 0.1, 1e-12);
+  for (int i = 0; i < 60; ++i) d.on_sample(0.2);  // steady: the deviation decays towards 0
+  EXPECT_NEAR(d.value(), 0.2, 0.01);
+  d.on_sample(0.6);  // one slow reduction: the deviation jumps by a quarter of the miss, the mean by an eighth
+  EXPECT_NEAR(d.value(), (0.875 * 0.2 + 0.125 * 0.6) + 2 * 0.25 * 0.4, 0.01);
+  EXPECT_GT(d.value(), 0.4);
+}
+
+TEST(CapFile, ReportsANewValueOnlyWhenTheTextChangesAndRefusesGarbage) {
+  const std::string dir = rgbdcast::test::temp_dir("cap_file");
+  const std::string path = dir + "/link_kbps";
+  auto write = [&](const std::string& text) { std::ofstream(path, std::ios::trunc) << text; };
+  CapFile f(path);
+  auto missing = f.poll();
+  ASSERT_TRUE(missing);
+  EXPECT_FALSE(*missing);  // not there yet: nothing to change
+  write("500\n");
+  auto v = f.poll();
+  ASSERT_TRUE(v);
+  ASSERT_TRUE(*v);
+  EXPECT_DOUBLE_EQ(**v, 500);
+  auto same = f.poll();
+  ASSERT_TRUE(same);
+  EXPECT_FALSE(*same);
+  write("100");
+  v = f.poll();
+  ASSERT_TRUE(v && *v);
+  EXPECT_DOUBLE_EQ(**v, 100);
+  for (const char* bad : {"fast", "-5", "100 200", "nan", ""}) {
+    write(bad);
+    EXPECT_FALSE(f.poll()) << "'" << bad << "'";
+  }
+  write("0");  // no cap
+  v = f.poll();
+  ASSERT_TRUE(v && *v);
+  EXPECT_DOUBLE_EQ(**v, 0);
+  rgbdcast::test::remove_tree_quietly(dir);
 }
 
 TEST(KeyframeInterval, SmoothsAndClampsTheGaps) {

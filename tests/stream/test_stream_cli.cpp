@@ -2,6 +2,7 @@
 // - the budget follows --link-kbps (2000 vs 100 kbit/s: smaller keyframes, the acknowledged rate under the cap);
 // - a sender killed (SIGKILL) mid-mission and started again: nothing lost, nothing duplicated, the same keyframes
 //   as the uninterrupted run;
+// - the budget follows a --link-kbps changed while streaming (--link-kbps-file);
 // - bad input gets a one-line error.
 #include <gtest/gtest.h>
 #include <httplib.h>
@@ -187,6 +188,64 @@ TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNoth
   EXPECT_EQ(keyframe_frames(resumed), keyframe_frames(fast));
   // seq numbering continued: 0..n-1, no gap.
   for (size_t i = 0; i < resumed.outbox.size(); ++i) EXPECT_EQ(resumed.outbox[i]["seq"].get<size_t>(), i);
+}
+
+TEST_F(StreamCli, TheBudgetFollowsALinkKbpsChangedWhileStreaming) {
+  // Streams 61 frames at a 2 Mbit/s cap; once the first keyframe is in the outbox the control file says 50 kbit/s.
+  // Keyframes reduced before: budgets of at least 14 kB (the first one's estimate is the 500 kbit/s initial guess,
+  // and the latency rule leaves its POST at least a quarter of 1 s: 62.5 kB/s x 0.25 s x 0.9). After: at most
+  // 6.25 kB/s x 1 s x 0.9 = 5.6 kB (both rules scale with the capped estimate).
+  const std::string box = dir_ + "/live", control = dir_ + "/link_kbps";
+  { std::ofstream(control) << "2000\n"; }
+  const std::string cmd = rgbdcast_binary() + " stream --input " + data_path(kSequence) +
+                          " --to 60 --server http://127.0.0.1:" + std::to_string(server_.port()) +
+                          " --mission live --outbox " + box + " --link-kbps 2000 --link-kbps-file " + control +
+                          " --seed 5";
+  pid_t pid = -1;
+  const std::string exec_cmd = "exec " + cmd + " >" + dir_ + "/live.out 2>" + dir_ + "/live.err";
+  const char* argv[] = {"/bin/sh", "-c", exec_cmd.c_str(), nullptr};
+  ASSERT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+  double changed_at = 0;
+  int status = -1;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(400);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (changed_at == 0 && fs::exists(box) && !outbox_entries(box).empty()) {
+      changed_at = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+      std::ofstream(control, std::ios::trunc) << "50\n";
+    }
+    if (waitpid(pid, &status, WNOHANG) == pid) {
+      pid = -1;
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  if (pid > 0) {
+    ::kill(pid, SIGKILL);
+    waitpid(pid, nullptr, 0);
+    FAIL() << "the sender did not finish within 400 s";
+  }
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << read_file(dir_ + "/live.err");
+  ASSERT_GT(changed_at, 0) << "the stream finished before its first keyframe was seen";
+  const std::string out = read_file(dir_ + "/live.out");
+  EXPECT_NE(out.find("2 caps read from"), std::string::npos) << out;
+  const MissionRun run = summarize(server_.port(), "live", box);
+  expect_mission_matches_outbox(run);
+  // The first keyframe was made before the change. A keyframe whose pose came 2 s after it (the file is re-read
+  // after every frame, and a frame takes well under 2 s) must have the low budget.
+  ASSERT_FALSE(run.outbox.empty());
+  EXPECT_GE(run.outbox.front()["budget_kb"].get<double>(), 14.0) << run.outbox.front().dump();
+  size_t after = 0;
+  for (const auto& e : run.outbox) {
+    ASSERT_TRUE(e.contains("tracked")) << e.dump();
+    if (e["tracked"].get<double>() < changed_at + 2.0) continue;
+    ++after;
+    EXPECT_LE(e["budget_kb"].get<double>(), 6.25 * 0.9 + 1e-9) << e.dump();
+    // Where its time went, in order.
+    EXPECT_LE(e["captured"].get<double>(), e["tracked"].get<double>());
+    EXPECT_LE(e["tracked"].get<double>(), e["reduced"].get<double>());
+    EXPECT_LE(e["reduced"].get<double>(), e["post_started"].get<double>());
+  }
+  EXPECT_GE(after, 1u) << "no keyframe was made after the change; " << run.outbox.size() << " keyframes";
 }
 
 TEST_F(StreamCli, BadInputGetsAOneLineError) {
