@@ -48,11 +48,12 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
                              {"intrinsics", intrinsics_json(frame->intrinsics)},
                              {"reduction", choices},
                              {"stages", stages_json(stages)}}}};
+  const GlbWriteOptions glb_options = write_options(*textured, options->glb);  // the codec the budget measured with
   Scene scene = frame_scene(std::move(*textured), extras.dump());
   const Mesh& mesh = scene.nodes[0].mesh;
 
   GlbStats glb_stats;
-  auto glb = encode_glb(scene, options->glb, &glb_stats);  // the codec the budget measured with
+  auto glb = encode_glb(scene, glb_options, &glb_stats);
   if (!glb) fail(glb.error());
   stages.push_back({"export", "bytes", glb->size(), glb_stats.ms});
   if (auto st = glb::write_file_atomically(a.out, *glb); !st) fail(st.error());

@@ -69,7 +69,8 @@ FrameReductionOptions paper_options() {
 Result<Bytes> encode(const RgbdFrame& frame, const FrameReductionOptions& o) {
   auto textured = reduce_and_texture(frame, o);
   if (!textured) return textured.error();
-  return encode_glb(frame_scene(std::move(*textured), ""), o.glb);
+  const GlbWriteOptions glb = write_options(*textured, o.glb);
+  return encode_glb(frame_scene(std::move(*textured), ""), glb);
 }
 
 // One frame as it comes off the sensor: decoded images in memory, not yet undistorted.

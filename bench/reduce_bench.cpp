@@ -49,7 +49,8 @@ static int realtime_stages(const RgbdFrame& frame, const std::string& input, int
     const std::vector<StageReport> stages = textured->stages;
     encodes = textured->budget.encodes;
     meshes = textured->budget.meshes;
-    auto glb = encode_glb(frame_scene(std::move(*textured), ""), o.glb);
+    const GlbWriteOptions glb_options = write_options(*textured, o.glb);
+    auto glb = encode_glb(frame_scene(std::move(*textured), ""), glb_options);
     if (!glb) return std::fprintf(stderr, "reduce_bench: %s\n", glb.error().message.c_str()), 1;
     wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     bytes = glb->size();

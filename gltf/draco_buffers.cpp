@@ -152,7 +152,64 @@ json keep_referenced_views(json& doc, const std::vector<std::uint8_t>& in_bin, s
   return kept;
 }
 
+
+// FNV-1a over everything that decides a primitive's Draco bitstream.
+std::uint64_t cache_key(const draco_codec::MeshIn& m, const std::vector<std::vector<std::uint8_t>>& data) {
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&](const void* p, size_t n) {
+    const auto* b = static_cast<const std::uint8_t*>(p);
+    for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+  };
+  auto mix_int = [&](long long v) { mix(&v, sizeof v); };
+  mix_int(static_cast<long long>(m.num_points)), mix_int(m.encode_speed), mix_int(m.decode_speed);
+  for (size_t k = 0; k < m.attributes.size(); ++k) {
+    const auto& a = m.attributes[k];
+    mix_int(static_cast<int>(a.semantic)), mix_int(a.component_type), mix_int(a.components);
+    mix_int(a.normalized), mix_int(a.quantization_bits);
+    mix_int(static_cast<long long>(data[k].size()));
+    mix(data[k].data(), data[k].size());
+  }
+  mix_int(static_cast<long long>(m.num_indices));
+  mix(m.indices, m.num_indices * sizeof(std::uint32_t));
+  return h;
+}
+
+// Encodes one primitive and decodes it once: the accessors get the counts and POSITION bounds of what a reader
+// will see.
+Result<std::shared_ptr<const DracoCache::Entry>> compress_primitive(const draco_codec::MeshIn& mesh_in,
+                                                                    const std::vector<std::string>& names) {
+  std::string error;
+  draco_codec::Encoded enc = draco_codec::encode_mesh(mesh_in, &error);
+  if (enc.bytes.empty()) return make_error(ErrorCode::kInternal, error);
+  std::vector<draco_codec::AttributeRequest> requests;
+  for (size_t k = 0; k < names.size(); ++k)
+    requests.push_back({enc.attribute_ids[k], mesh_in.attributes[k].component_type, mesh_in.attributes[k].components});
+  draco_codec::Decoded dec;
+  if (!draco_codec::decode_mesh(enc.bytes.data(), enc.bytes.size(), requests, 3 * mesh_in.num_indices,
+                                mesh_in.num_indices / 3, &dec, &error))
+    return make_error(ErrorCode::kInternal, "draco compress: own output does not decode: " + error);
+  if (dec.indices.size() != mesh_in.num_indices)
+    return make_error(ErrorCode::kInternal, "draco compress: the encoder changed the triangle count");
+  auto e = std::make_shared<DracoCache::Entry>();
+  e->num_points = dec.num_points;
+  e->num_indices = dec.indices.size();
+  for (size_t k = 0; k < names.size(); ++k)
+    if (names[k] == "POSITION" && mesh_in.attributes[k].component_type == 5126) {
+      const float* p = reinterpret_cast<const float*>(dec.attributes[k].data());
+      e->position_min.assign(3, std::numeric_limits<double>::infinity());
+      e->position_max.assign(3, -std::numeric_limits<double>::infinity());
+      for (size_t i = 0; i < dec.num_points; ++i)
+        for (int c = 0; c < 3; ++c)
+          e->position_min[c] = std::min<double>(e->position_min[c], p[3 * i + c]),
+          e->position_max[c] = std::max<double>(e->position_max[c], p[3 * i + c]);
+    }
+  e->bytes = std::move(enc.bytes);
+  e->attribute_ids = std::move(enc.attribute_ids);
+  return std::shared_ptr<const DracoCache::Entry>(std::move(e));
+}
+
 }  // namespace
+
 
 bool uses_draco(const GlbChunks& in) { return in.json.find(kExt) != std::string::npos; }
 
@@ -225,39 +282,30 @@ Result<GlbChunks> draco_compress(const GlbChunks& in, const DracoOptions& option
         }
         mesh_in.indices = indices.data();
         mesh_in.num_indices = indices.size();
-        std::string error;
-        draco_codec::Encoded enc = draco_codec::encode_mesh(mesh_in, &error);
-        if (enc.bytes.empty()) return make_error(ErrorCode::kInternal, error);
-        // Decode once: the accessors get the counts and POSITION bounds of what a reader will see.
-        std::vector<draco_codec::AttributeRequest> requests;
-        for (size_t k = 0; k < names.size(); ++k)
-          requests.push_back({enc.attribute_ids[k], mesh_in.attributes[k].component_type, mesh_in.attributes[k].components});
-        draco_codec::Decoded dec;
-        if (!draco_codec::decode_mesh(enc.bytes.data(), enc.bytes.size(), requests, 3 * indices.size(),
-                                      indices.size() / 3, &dec, &error))
-          return make_error(ErrorCode::kInternal, "draco compress: own output does not decode: " + error);
-        if (dec.indices.size() != indices.size())
-          return make_error(ErrorCode::kInternal, "draco compress: the encoder changed the triangle count");
+        const std::uint64_t key = cache_key(mesh_in, data);
+        std::shared_ptr<const DracoCache::Entry> compressed = options.cache ? options.cache->find(key) : nullptr;
+        if (!compressed) {
+          auto made = compress_primitive(mesh_in, names);
+          if (!made) return made.error();
+          compressed = std::move(*made);
+          if (options.cache) options.cache->put(key, compressed);
+        }
         json ext = {{"attributes", json::object()}};
         for (size_t k = 0; k < names.size(); ++k) {
           json& acc = accessors[index_of(prim["attributes"][names[k]])];
           acc.erase("bufferView");
           acc.erase("byteOffset");
-          acc["count"] = dec.num_points;
+          acc["count"] = compressed->num_points;
           acc.erase("min");
           acc.erase("max");
-          if (names[k] == "POSITION" && mesh_in.attributes[k].component_type == 5126) {
-            const float* p = reinterpret_cast<const float*>(dec.attributes[k].data());
-            std::vector<double> lo(3, std::numeric_limits<double>::infinity()), hi(3, -lo[0]);
-            for (size_t i = 0; i < dec.num_points; ++i)
-              for (int c = 0; c < 3; ++c) lo[c] = std::min<double>(lo[c], p[3 * i + c]), hi[c] = std::max<double>(hi[c], p[3 * i + c]);
-            acc["min"] = lo;
-            acc["max"] = hi;
+          if (names[k] == "POSITION" && !compressed->position_min.empty()) {
+            acc["min"] = compressed->position_min;
+            acc["max"] = compressed->position_max;
           }
-          ext["attributes"][names[k]] = enc.attribute_ids[k];
+          ext["attributes"][names[k]] = compressed->attribute_ids[k];
         }
-        json index_acc = {{"componentType", dec.num_points <= 65535 ? 5123 : 5125},
-                          {"count", dec.indices.size()}, {"type", "SCALAR"}};
+        json index_acc = {{"componentType", compressed->num_points <= 65535 ? 5123 : 5125},
+                          {"count", compressed->num_indices}, {"type", "SCALAR"}};
         if (prim.contains("indices")) {
           accessors[index_of(prim["indices"])] = index_acc;
         } else {
@@ -265,7 +313,7 @@ Result<GlbChunks> draco_compress(const GlbChunks& in, const DracoOptions& option
           accessors.push_back(index_acc);
         }
         prim["extensions"][kExt] = ext;
-        encoded.push_back({std::move(enc.bytes), &prim["extensions"][kExt]});
+        encoded.push_back({compressed->bytes, &prim["extensions"][kExt]});
       }
     if (encoded.empty()) return in;
     GlbChunks out;
@@ -427,3 +475,20 @@ Result<GlbChunks> draco_decompress(const GlbChunks& in, const GlbDecodeLimits& l
 }
 
 }  // namespace rgbdcast::glb
+
+namespace rgbdcast {
+
+std::shared_ptr<const DracoCache::Entry> DracoCache::find(std::uint64_t key) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const auto& [k, e] : entries_)
+    if (k == key) return e;
+  return nullptr;
+}
+
+void DracoCache::put(std::uint64_t key, std::shared_ptr<const Entry> entry) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  entries_.emplace_back(key, std::move(entry));
+  if (entries_.size() > kKeep) entries_.erase(entries_.begin());
+}
+
+}  // namespace rgbdcast

@@ -35,6 +35,8 @@
 //    5.2.5 also ignores KHR_mesh_quantization: it takes int16 POSITION bytes as floats (zeros, NaN, 1e38), its
 //    post-processing then drops every triangle, and the import fails with "No meshes remaining".
 #include <cstdint>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -59,6 +61,27 @@ const char* to_string(GeometryCodec codec);  // "meshopt", "draco"
 // "meshopt" or "draco"; anything else is kInvalidArgument naming both.
 Result<GeometryCodec> parse_geometry_codec(std::string_view name);
 
+// Draco results of primitives already compressed, keyed by a hash of their input (attribute bytes and types,
+// indices, quantization, speeds): a caller that encodes the same mesh twice (a byte budget measures its geometry,
+// then the GLB is written with its extras) compresses it once. Not process-wide: whoever wants one makes it and
+// passes it in DracoOptions::cache; it keeps the last few entries. Thread-safe.
+class DracoCache {
+ public:
+  struct Entry {
+    std::vector<std::uint8_t> bytes;  // the bitstream
+    std::vector<int> attribute_ids;
+    size_t num_points = 0, num_indices = 0;
+    std::vector<double> position_min, position_max;  // of the decoded POSITION values
+  };
+  std::shared_ptr<const Entry> find(std::uint64_t key) const;
+  void put(std::uint64_t key, std::shared_ptr<const Entry> entry);
+
+ private:
+  static constexpr size_t kKeep = 4;
+  mutable std::mutex mutex_;
+  std::vector<std::pair<std::uint64_t, std::shared_ptr<const Entry>>> entries_;  // newest last
+};
+
 // KHR_draco_mesh_compression settings (gltf/draco_buffers.h has the quantization rule).
 struct DracoOptions {
   double position_step_m = 0.001;  // POSITION step at most this (set from GlbWriteOptions::position_quantum_m)
@@ -66,6 +89,7 @@ struct DracoOptions {
   // Draco's speed, 0 (smallest, slowest) .. 10; 7 measured best for the realtime preset (BENCHMARKS.md: Draco).
   int encode_speed = 7;
   int decode_speed = 7;
+  std::shared_ptr<DracoCache> cache;  // optional: reuse (and keep) the compressed primitives
 };
 
 struct GlbWriteOptions {

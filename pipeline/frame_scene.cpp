@@ -172,15 +172,24 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   double kept = 1.0;  // triangles left after dropping those earlier views cover, over those extracted
   Result<AtlasResult> textured = make_error(ErrorCode::kInternal, "not meshed");
   size_t rest_bytes = 0;  // the GLB's bytes besides geometry and texture: JSON, chunk headers, padding
-  // The GLB without its texture's bytes (a one-byte stand-in), which gives the geometry's bytes and the rest.
+  // The GLB without its texture's bytes, which gives the geometry's bytes and the rest. The texture's stand-in is
+  // a JPEG header alone (start of image, a baseline frame header of the texture's size): the UV quantization, which
+  // follows the texture's size, is the final file's, so the Draco results are reused when it is written.
+  GlbWriteOptions glb_options = options.glb;
+  if (glb_options.flavor == GlbFlavor::kCompact && glb_options.geometry_codec == GeometryCodec::kDraco)
+    glb_options.draco.cache = out.geometry_cache = std::make_shared<DracoCache>();
   auto measure_geometry = [&](const Mesh& mesh) -> Status {
     SceneNode probe;
     probe.mesh = mesh;
-    probe.mesh.texture_encoded.assign(1, 0);
+    const int tw = mesh.texture.width, th = mesh.texture.height;
+    probe.mesh.texture_encoded = {0xFF, 0xD8, 0xFF, 0xC0, 0x00, 0x0B, 0x08,
+                                  static_cast<std::uint8_t>(th >> 8), static_cast<std::uint8_t>(th & 0xFF),
+                                  static_cast<std::uint8_t>(tw >> 8), static_cast<std::uint8_t>(tw & 0xFF),
+                                  0x01, 0x01, 0x11, 0x00};
     probe.mesh.texture_mime = "image/jpeg";
     probe.to_world = camera_to_world;
     GlbStats st;
-    auto glb = encode_glb(node_scene(probe, out.camera), options.glb, &st);
+    auto glb = encode_glb(node_scene(probe, out.camera), glb_options, &st);
     if (!glb) return glb.error();
     b.geometry_bytes = st.geometry_bytes;
     rest_bytes = glb->size() - st.geometry_bytes - std::min(glb->size() - st.geometry_bytes, st.texture_bytes);
@@ -325,6 +334,11 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   out.atlas_stats = std::move(*textured);
   out.atlas_stats.mesh = Mesh{};
   return out;
+}
+
+GlbWriteOptions write_options(const TexturedFrame& frame, GlbWriteOptions base) {
+  if (frame.geometry_cache && !base.draco.cache) base.draco.cache = frame.geometry_cache;
+  return base;
 }
 
 Scene frame_scene(TexturedFrame frame, std::string extras_json) {

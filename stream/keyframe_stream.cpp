@@ -39,8 +39,9 @@ Result<EncodedKeyframe> encode_keyframe(const RgbdFrame& frame, FrameReductionOp
                                    {"frame", frame.index},
                                    {"timestamp", frame.timestamp},
                                    {"reduction", nlohmann::json::parse(choices_json(*textured))}}}};
+  const GlbWriteOptions glb_options = write_options(*textured, options.glb);
   Scene scene = frame_scene(std::move(*textured), extras.dump());
-  auto glb = encode_glb(scene, options.glb);
+  auto glb = encode_glb(scene, glb_options);
   if (!glb) return glb.error();
   out.glb = std::move(*glb);
   return out;
