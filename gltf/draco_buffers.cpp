@@ -481,8 +481,16 @@ namespace rgbdcast {
 std::shared_ptr<const DracoCache::Entry> DracoCache::find(std::uint64_t key) const {
   std::lock_guard<std::mutex> lock(mutex_);
   for (const auto& [k, e] : entries_)
-    if (k == key) return e;
+    if (k == key) {
+      ++hits_;
+      return e;
+    }
   return nullptr;
+}
+
+size_t DracoCache::hits() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return hits_;
 }
 
 void DracoCache::put(std::uint64_t key, std::shared_ptr<const Entry> entry) {

@@ -75,10 +75,12 @@ class DracoCache {
   };
   std::shared_ptr<const Entry> find(std::uint64_t key) const;
   void put(std::uint64_t key, std::shared_ptr<const Entry> entry);
+  size_t hits() const;  // finds that answered
 
  private:
   static constexpr size_t kKeep = 4;
   mutable std::mutex mutex_;
+  mutable size_t hits_ = 0;
   std::vector<std::pair<std::uint64_t, std::shared_ptr<const Entry>>> entries_;  // newest last
 };
 

@@ -210,6 +210,36 @@ TEST(GltfDraco, ValidatorReportsNoErrorOrWarning) {
   test::remove_tree_quietly(dir);
 }
 
+// The byte budget measures a frame's geometry and the GLB is written after it (pipeline/frame_scene.h): with the
+// budget's DracoCache the file is byte for byte the one written without it, and the cache answered (its entry is
+// the one the budget measured).
+TEST(GltfDraco, TheBudgetsCacheWritesTheSameFile) {
+  const SharedFrame& f = kFrames[0];
+  REQUIRE_DATA(f.path);
+  SourceOptions so;
+  so.intrinsics = "fr1";
+  auto src = open_frame_source(test::data_path(f.path), so);
+  ASSERT_TRUE(src) << src.error().message;
+  auto frame = (*src)->frame(f.index);
+  ASSERT_TRUE(frame) << frame.error().message;
+  FrameReductionOptions o;
+  o.params = reduction_preset(Preset::kRealtime);
+  o.glb = draco_options();
+  o.budget_kb = 40;
+  auto t = reduce_and_texture(*frame, o);
+  ASSERT_TRUE(t) << t.error().message;
+  ASSERT_TRUE(t->geometry_cache) << "a Draco budget keeps its results";
+  const GlbWriteOptions cached = write_options(*t, o.glb);
+  ASSERT_EQ(cached.draco.cache, t->geometry_cache);
+  const size_t hits_before = cached.draco.cache->hits();
+  const Scene scene = frame_scene(std::move(*t), "{}");
+  auto with_cache = encode_glb(scene, cached);
+  auto without = encode_glb(scene, o.glb);
+  ASSERT_TRUE(with_cache && without);
+  EXPECT_EQ(cached.draco.cache->hits(), hits_before + 1) << "the written mesh is the one the budget measured";
+  EXPECT_EQ(*with_cache, *without);
+}
+
 TEST(GltfDraco, CoarserPositionStepGivesFewerBytesAndLargerError) {
   const SharedFrame& f = kFrames[0];
   REQUIRE_DATA(f.path);
