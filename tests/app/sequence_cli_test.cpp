@@ -46,6 +46,28 @@ TEST(SequenceCli, AugmentedIclBecomesOneValidMultiViewGlb) {
   EXPECT_LT(rpe.at("rotation_max_deg").get<double>(), 0.5);
 }
 
+// With no --preset, sequence mode reduces every keyframe with the realtime preset, each under its own default budget
+// (min(40 kB, a quarter of its JPEG90+PNG16 payload): 40 kB on augmented ICL, whose payload is about 182 kB).
+TEST(SequenceCli, TheDefaultReducesEachKeyframeWithTheRealtimePreset) {
+  REQUIRE_DATA("augmented_icl_livingroom");
+  const std::string dir = test::temp_dir("seq-default");
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --sequence --keyframe-gap 1 --to 2 --no-progress --input " +
+                             test::data_path("augmented_icl_livingroom") + " --out " + dir + "/scene.glb --report " +
+                             dir + "/r.json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream in(dir + "/r.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const auto& keyframes = j.at("keyframes");
+  ASSERT_EQ(keyframes.size(), 3u) << j;
+  for (const auto& k : keyframes) {
+    EXPECT_EQ(k.at("reduction").at("preset"), "realtime") << k;
+    EXPECT_DOUBLE_EQ(k.at("reduction").at("budget").at("budget_bytes").get<double>(), 40000.0) << k;
+    EXPECT_LE(k.at("reduction").at("budget").at("glb_bytes").get<double>(), 40000.0 * 1.1) << k;
+    EXPECT_LE(k.at("triangles").get<long>(), 20000) << k;
+  }
+  EXPECT_GLTF_VALID(dir + "/scene.glb");
+}
+
 TEST(SequenceCli, DroppingCoveredTrianglesSavesBytes) {
   REQUIRE_DATA("augmented_icl_livingroom");
   const std::string dir = test::temp_dir("seq-covered");
