@@ -161,25 +161,15 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     b.glb_bytes = glb->size();
     return ok_status();
   };
-  // The smallest tolerance >= tol0 whose mesh has at most `want` triangles (bisection on the count alone).
-  const double triangles_at_tol0 = static_cast<double>(hierarchy.count(tol0));
-  auto tolerance_for = [&](double want) {
-    want /= kept;
-    if (triangles_at_tol0 <= want) return tol0;
-    double lo = tol0, hi = tol0;
-    while (hi < kMaxToleranceFactor && hierarchy.count(hi) > want) lo = hi, hi *= 2;
-    hi = std::min(hi, kMaxToleranceFactor);
-    for (int i = 0; i < 12 && hi / lo > 1.02; ++i) {
-      const double mid = std::sqrt(lo * hi);
-      (hierarchy.count(mid) > want ? lo : hi) = mid;
-    }
-    return hi;
-  };
+  // The smallest tolerance >= tol0 whose mesh has at most `want` triangles, from the counts at every tolerance
+  // (one walk of the hierarchy).
+  const DepthMeshHierarchy::TriangleCounts counts = hierarchy.counts(tol0);
+  auto tolerance_for = [&](double want) { return counts.smallest_with_at_most(want / kept, kMaxToleranceFactor); };
   auto remesh = [&](double tolerance) -> Status {
     std::vector<StageReport> stages;
     auto t = texture_at(tolerance, &stages);  // its texture at the best quality
     if (!t) return t.error();
-    const double extracted = static_cast<double>(hierarchy.count(tolerance));
+    const double extracted = static_cast<double>(counts.at(tolerance));
     const double triangles = static_cast<double>(t->mesh.triangle_count());
     kept = extracted > 0 ? std::max(0.05, triangles / extracted) : 1.0;
     textured = std::move(t);

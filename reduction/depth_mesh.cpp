@@ -21,7 +21,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <memory>
 
@@ -32,6 +34,9 @@ namespace {
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
 bool is_power_of_two(int v) { return v > 0 && (v & (v - 1)) == 0; }
+
+// A triangle id's level in the tree: the halves of a tile (ids 2, 3) are level 1.
+int level_of(int id) { return 31 - __builtin_clz(static_cast<unsigned>(id)); }
 
 // Log depth in steps of kLogStep, 0 = invalid: relative jumps become absolute differences (for filterSpeckles).
 constexpr double kLogStep = 0.005;
@@ -186,6 +191,8 @@ Status DepthMeshParams::validate() const {
     return make_error(ErrorCode::kInvalidArgument, "boundary pixels lost must be >= 0");
   if (!(std::isfinite(simplify_px) && simplify_px >= 0 && simplify_px <= 64))
     return make_error(ErrorCode::kInvalidArgument, "simplification error must be 0..64 pixels (0 = off)");
+  if (!(std::isfinite(fit_min_leg_px) && fit_min_leg_px >= 0 && fit_min_leg_px <= 128))
+    return make_error(ErrorCode::kInvalidArgument, "fit minimum leg must be 0..128 pixels");
   if (!(std::isfinite(boundary_push_px) && boundary_push_px >= 0 && boundary_push_px <= 1))
     return make_error(ErrorCode::kInvalidArgument, "boundary push must be 0..1 pixels");
   return ok_status();
@@ -197,6 +204,7 @@ struct RtinTable {
   std::vector<std::int16_t> ax, ay, bx, by, cx, cy;  // indexed by id, 2 .. 4 S^2 - 1
   std::vector<std::int32_t> leaf_of_point;           // S * S
   std::vector<std::int32_t> point_of_leaf;           // the inverse: y * S + x, or -1 (by id - first_leaf)
+  std::vector<std::uint16_t> points_of;              // grid points each internal triangle owns (by id)
   int first_leaf() const { return 2 * S * S; }
   int end() const { return 4 * S * S; }
 
@@ -226,6 +234,11 @@ struct RtinTable {
     point_of_leaf.assign(static_cast<size_t>(end() - first_leaf()), -1);
     for (int p = 0; p < S * S; ++p)
       if (leaf_of_point[p] >= 0) point_of_leaf[leaf_of_point[p] - first_leaf()] = p;
+    points_of.assign(static_cast<size_t>(first_leaf()), 0);
+    for (int id = first_leaf() - 1; id >= 2; --id)
+      points_of[id] = id >= first_leaf() / 2
+                          ? (point_of_leaf[2 * id - first_leaf()] >= 0) + (point_of_leaf[2 * id + 1 - first_leaf()] >= 0)
+                          : points_of[2 * id] + points_of[2 * id + 1];
   }
 };
 
@@ -239,10 +252,9 @@ std::shared_ptr<const RtinTable> table_for(int S) {
 // Pixel moments of a set of valid pixels (tile-local u, v; w = 1/z), plus counts.
 struct Moments {
   double n = 0, su = 0, sv = 0, sw = 0, suu = 0, suv = 0, svv = 0, suw = 0, svw = 0, sww = 0;
-  std::uint32_t total = 0;
   void add(const Moments& o) {
     n += o.n, su += o.su, sv += o.sv, sw += o.sw, suu += o.suu, suv += o.suv, svv += o.svv, suw += o.suw,
-        svw += o.svw, sww += o.sww, total += o.total;
+        svw += o.svw, sww += o.sww;
   }
 };
 
@@ -296,102 +308,132 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
       if (d > 0.f && std::isfinite(d)) h.depth_[static_cast<size_t>(y) * h.grid_w_ + x] = d;
     }
   }
-  // Per triangle of the tree: the largest depth ratio each edge may span (jump_relative per pixel of its length).
-  std::vector<float> max_ratio(3 * static_cast<size_t>(t.first_leaf())), edge_len(3 * static_cast<size_t>(t.first_leaf()));
-  std::vector<float> longest(t.first_leaf());
-  for (int id = 2; id < t.first_leaf(); ++id) {
+  // Per level of the tree (all its triangles are congruent): each edge's length (0: the hypotenuse a-b, then b-c,
+  // c-a) and the largest depth ratio it may span (jump_relative per pixel of its length).
+  const int first_leaf = t.first_leaf(), end = t.end();
+  const int levels = level_of(end - 1) + 1;
+  const int GW = h.grid_w_;
+  std::vector<std::array<float, 3>> level_len(levels), level_ratio(levels);
+  for (int d = 1; d < levels; ++d) {
+    const int id = 1 << d;
     const int px[3] = {t.ax[id], t.bx[id], t.cx[id]}, py[3] = {t.ay[id], t.by[id], t.cy[id]};
     for (int e = 0; e < 3; ++e) {
       const double len = std::hypot(px[e] - px[(e + 1) % 3], py[e] - py[(e + 1) % 3]);
-      max_ratio[3 * id + e] = static_cast<float>(std::pow(1 + p.jump_relative, len));
-      edge_len[3 * id + e] = static_cast<float>(len);
-      longest[id] = std::max<float>(longest[id], static_cast<float>(len));
+      level_len[d][e] = static_cast<float>(len);
+      level_ratio[d][e] = static_cast<float>(std::pow(1 + p.jump_relative, len));
     }
   }
+  // Levels whose triangles can deviate in texture by more than the limit once no edge jumps (else the test is
+  // skipped): an edge of length L between depths within a ratio r deviates at most L (r - 1) / (r + 1) / 2 at its
+  // midpoint, and the centroid at most 2 L_max (R / (R + 2) - 1/3) for depths within R of each other.
+  std::vector<std::uint8_t> level_texture_check(levels, 0);
+  for (int d = 1; d < levels; ++d) {
+    double edge = 0, R = 1;
+    for (int e = 0; e < 3; ++e) {
+      const double r = level_ratio[d][e];
+      edge = std::max(edge, level_len[d][e] * (r - 1) / (r + 1) / 2);
+      R = std::max(R, r);
+    }
+    const double centroid = 2 * level_len[d][0] * (R / (R + 2) - 1.0 / 3);
+    level_texture_check[d] = p.texture_deviation_px > 0 && std::max(edge, centroid) > p.texture_deviation_px * 0.999;
+  }
+  // Each triangle's vertices as tile-local grid offsets (internal triangles, then leaves).
+  std::vector<std::array<std::int32_t, 3>> vertex_offset(end);
+  for (int id = 2; id < end; ++id)
+    vertex_offset[id] = {t.ay[id] * GW + t.ax[id], t.by[id] * GW + t.bx[id], t.cy[id] * GW + t.cx[id]};
+  // The plane fit runs on triangles whose legs are at least fit_min_leg_px (ids below fit_end); their moments start
+  // at the finest such level (ids fit_end / 2 .. fit_end - 1), straight from its pixels.
+  int fit_end = 2;
+  while (fit_end < first_leaf && level_len[level_of(fit_end)][1] >= p.fit_min_leg_px - 1e-6) fit_end *= 2;
+  const int fit_shift = level_of(first_leaf) - level_of(fit_end / 2);  // leaf id >> fit_shift: its finest fit node
 
   const int tiles = h.tiles_x_ * h.tiles_y_;
-  const int first_leaf = t.first_leaf(), end = t.end();
   std::vector<float> tri_error(static_cast<size_t>(tiles) * first_leaf, 0.f);
   h.leaf_ok_.assign(static_cast<size_t>(tiles) * (end - first_leaf), 0);
   const double sigma_w = p.noise_m_per_m2;
-  const double leg_ratio = 1 + p.jump_relative, diagonal_ratio = std::pow(leg_ratio, M_SQRT2);  // leaves
-  const bool texture_split = p.texture_deviation_px > 0;
   const double max_lost = p.boundary_max_lost_px;
   const std::vector<float>& D = h.depth_;
-  const int GW = h.grid_w_;
 
 #pragma omp parallel num_threads(openmp_threads(threads))
   {
-    // Moments of the internal triangles only: a leaf owns at most one grid point, so the lowest internal level
-    // sums its two leaves' pixels directly.
-    std::vector<Moments> m(first_leaf);
+    std::vector<Moments> m(fit_end);                   // the fitted triangles' pixel moments
+    std::vector<std::uint16_t> valid_px(first_leaf);  // every internal triangle's valid pixels
 #pragma omp for schedule(static)
     for (int tile = 0; tile < tiles; ++tile) {
       const int ox = (tile % h.tiles_x_) * S, oy = (tile / h.tiles_x_) * S;
-      auto add_point = [&](Moments& mt, int point) {
-        if (point < 0) return;
-        ++mt.total;
+      const int finest_fit = fit_end / 2;
+      for (int id = finest_fit; id < fit_end && fit_end > 2; ++id) m[id] = Moments{};
+      std::fill(valid_px.begin() + first_leaf / 2, valid_px.end(), std::uint16_t{0});
+      // Pixels: each grid point of the tile belongs to one leaf; its valid pixel counts for the leaf's parent and
+      // goes into the moments of the leaf's finest fitted ancestor.
+      for (int leaf = first_leaf; leaf < end; ++leaf) {
+        const int point = t.point_of_leaf[leaf - first_leaf];
+        if (point < 0) continue;
         const int x = point % S, y = point / S, gx = ox + x, gy = oy + y;
-        if (gx >= h.width_ || gy >= h.height_) return;
+        if (gx >= h.width_ || gy >= h.height_) continue;
         const float z = depth_m.at<float>(gy, gx);
-        if (!(z > 0.f)) return;
+        if (!(z > 0.f)) continue;
+        ++valid_px[leaf >> 1];
+        if (fit_end <= 2) continue;
+        Moments& mt = m[leaf >> fit_shift];
         const double w = 1.0 / z, u = x, v = y;
         mt.n += 1, mt.su += u, mt.sv += v, mt.sw += w, mt.suu += u * u, mt.suv += u * v, mt.svv += v * v;
         mt.suw += u * w, mt.svw += v * w, mt.sww += w * w;
-      };
-      for (int id = first_leaf / 2; id < first_leaf; ++id) {
-        Moments& mt = m[id];
-        mt = Moments{};
-        add_point(mt, t.point_of_leaf[2 * id - first_leaf]);
-        add_point(mt, t.point_of_leaf[2 * id + 1 - first_leaf]);
       }
-      auto depth_at = [&](int x, int y) { return D[static_cast<size_t>(oy + y) * GW + (ox + x)]; };
+      const float* base = D.data() + static_cast<size_t>(oy) * GW + ox;
       // Tile-local coordinates of a vertex after the snap onto the image's last pixel.
       auto sx = [&](int x) { return double(std::min(ox + x, h.width_ - 1) - ox); };
       auto sy = [&](int y) { return double(std::min(oy + y, h.height_ - 1) - oy); };
+      auto within = [](float a, float b, float ratio) { return std::max(a, b) <= std::min(a, b) * ratio; };
       // Leaves: emittable when the three vertices are valid and no edge jumps in depth.
       std::uint8_t* leaf_ok = &h.leaf_ok_[static_cast<size_t>(tile) * (end - first_leaf)];
+      const auto& leaf_ratio = level_ratio[levels - 1];
       for (int id = first_leaf; id < end; ++id) {
-        const float za = depth_at(t.ax[id], t.ay[id]), zb = depth_at(t.bx[id], t.by[id]),
-                    zc = depth_at(t.cx[id], t.cy[id]);
+        const auto& o = vertex_offset[id];
+        const float za = base[o[0]], zb = base[o[1]], zc = base[o[2]];
         if (za <= 0 || zb <= 0 || zc <= 0) continue;
-        auto within = [](float a, float b, double ratio) { return std::max(a, b) <= std::min(a, b) * ratio; };
-        const bool ok = within(za, zb, diagonal_ratio) && within(zb, zc, leg_ratio) && within(zc, za, leg_ratio);
-        leaf_ok[id - first_leaf] = ok;
+        leaf_ok[id - first_leaf] =
+            within(za, zb, leaf_ratio[0]) && within(zb, zc, leaf_ratio[1]) && within(zc, za, leaf_ratio[2]);
       }
       float* err = &tri_error[static_cast<size_t>(tile) * first_leaf];
       for (int id = first_leaf - 1; id >= 2; --id) {
-        Moments& mt = m[id];
-        if (id < first_leaf / 2) {
-          mt = m[2 * id];
-          mt.add(m[2 * id + 1]);
+        const int level = level_of(id);
+        if (id < first_leaf / 2) valid_px[id] = valid_px[2 * id] + valid_px[2 * id + 1];
+        const bool fitted = id < fit_end;
+        if (fitted && id < finest_fit) {  // the moments add up whatever this triangle's verdict
+          m[id] = m[2 * id];
+          m[id].add(m[2 * id + 1]);
         }
-        const double px[3] = {sx(t.ax[id]), sx(t.bx[id]), sx(t.cx[id])};
-        const double py[3] = {sy(t.ay[id]), sy(t.by[id]), sy(t.cy[id])};
-        const double z[3] = {depth_at(t.ax[id], t.ay[id]), depth_at(t.bx[id], t.by[id]),
-                             depth_at(t.cx[id], t.cy[id])};
-        if (z[0] <= 0 || z[1] <= 0 || z[2] <= 0) {
+        const auto& o = vertex_offset[id];
+        const float za = base[o[0]], zb = base[o[1]], zc = base[o[2]];
+        const double n = valid_px[id];
+        if (za <= 0 || zb <= 0 || zc <= 0) {
           // On the edge of the valid depth: a triangle that stays whole here is not emitted, so its valid pixels
           // beyond those along one edge (which its neighbour across that edge covers) would be lost. Its error
           // is that loss, boundary_px_per_sigma pixels to a sigma, up to boundary_max_lost_px: past that it
           // splits whatever the tolerance, so a byte budget trades interior detail, not coverage, for bytes.
-          const double lost = std::max(0.0, mt.n - (longest[id] + 1));
+          const double lost = std::max(0.0, n - (level_len[level][0] + 1));
           err[id] = lost > max_lost ? kInf : static_cast<float>(lost / p.boundary_px_per_sigma);
           continue;
         }
-        if (mt.total - mt.n > p.max_hole_fraction * mt.total) {
+        const double total = t.points_of[id];
+        const auto& ratio = level_ratio[level];
+        if (total - n > p.max_hole_fraction * total || !within(za, zb, ratio[0]) || !within(zb, zc, ratio[1]) ||
+            !within(zc, za, ratio[2])) {
           err[id] = kInf;
           continue;
         }
-        bool jumps = false;
-        for (int e = 0; e < 3 && !jumps; ++e) {
-          const double lo = std::min(z[e], z[(e + 1) % 3]), hi = std::max(z[e], z[(e + 1) % 3]);
-          jumps = hi > lo * max_ratio[3 * id + e];
-        }
-        if (jumps || (texture_split && texture_deviates(px, py, z, &edge_len[3 * id], p.texture_deviation_px))) {
+        if (!fitted && !level_texture_check[level]) continue;  // error 0
+        const double z[3] = {za, zb, zc};
+        const double px[3] = {sx(t.ax[id]), sx(t.bx[id]), sx(t.cx[id])};
+        const double py[3] = {sy(t.ay[id]), sy(t.by[id]), sy(t.cy[id])};
+        if (level_texture_check[level] &&
+            texture_deviates(px, py, z, level_len[level].data(), p.texture_deviation_px)) {
           err[id] = kInf;
           continue;
         }
+        if (!fitted) continue;  // below fit_min_leg_px: error 0
+        const Moments& mt = m[id];
         // Plane w = alpha u + beta v + gamma through the vertices; SSE of the pixels from their moments.
         const double w[3] = {1 / z[0], 1 / z[1], 1 / z[2]};
         const double du1 = px[1] - px[0], dv1 = py[1] - py[0], dw1 = w[1] - w[0];
@@ -412,21 +454,24 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
     }
   }
 
-  // Martini's propagation, finest level first over all tiles: error(m) = max(own, children's midpoints).
+  // Martini's propagation, finest level first over all tiles (so a midpoint on a tile border holds both tiles'
+  // errors before any parent reads it): error(m) = max(own, children's midpoints). Serial: it is a few loads and a
+  // max a triangle, with midpoints as tile-local grid offsets computed once (a level-synchronous parallel version
+  // spent more in its barriers than it saved on a loaded machine).
   h.error_.assign(h.depth_.size(), 0.f);
-  int level_begin = first_leaf / 2;
-  for (int lb = level_begin; lb >= 2; lb /= 2) {
+  std::vector<std::int32_t> mid_offset(first_leaf);
+  for (int id = 2; id < first_leaf; ++id)
+    mid_offset[id] = ((t.ay[id] + t.by[id]) / 2) * GW + (t.ax[id] + t.bx[id]) / 2;
+  float* E = h.error_.data();
+  for (int lb = first_leaf / 2; lb >= 2; lb /= 2) {
     const bool children_split = 2 * lb < first_leaf;
     for (int tile = 0; tile < tiles; ++tile) {
-      const int ox = (tile % h.tiles_x_) * S, oy = (tile / h.tiles_x_) * S;
+      float* base = E + static_cast<size_t>((tile / h.tiles_x_) * S) * GW + (tile % h.tiles_x_) * S;
       const float* err = &tri_error[static_cast<size_t>(tile) * first_leaf];
       for (int id = lb; id < 2 * lb; ++id) {
-        auto mid = [&](int i) {
-          return static_cast<size_t>(oy + (t.ay[i] + t.by[i]) / 2) * GW + (ox + (t.ax[i] + t.bx[i]) / 2);
-        };
         float e = err[id];
-        if (children_split) e = std::max({e, h.error_[mid(2 * id)], h.error_[mid(2 * id + 1)]});
-        float& slot = h.error_[mid(id)];
+        if (children_split) e = std::max({e, base[mid_offset[2 * id]], base[mid_offset[2 * id + 1]]});
+        float& slot = base[mid_offset[id]];
         slot = std::max(slot, e);
       }
     }
@@ -467,6 +512,81 @@ size_t DepthMeshHierarchy::count(double tol) const {
   size_t n = 0;
   walk(tol, [&](int, int, int) { ++n; });
   return n;
+}
+
+namespace {
+// Tolerance bins: a non-negative float's bits are monotone in its value; the top 16 keep 7 mantissa bits.
+int tolerance_bin(double v) {
+  const float f = static_cast<float>(std::min<double>(std::max(v, 0.0), std::numeric_limits<float>::max()));
+  std::uint32_t bits;
+  std::memcpy(&bits, &f, sizeof bits);
+  return static_cast<int>(bits >> 16);
+}
+double bin_top(int bin) {
+  const std::uint32_t bits = (static_cast<std::uint32_t>(bin) << 16) | 0xffffu;
+  float f;
+  std::memcpy(&f, &bits, sizeof f);
+  return f;
+}
+constexpr int kInfBin = 0x7f80;  // +inf's bin
+}  // namespace
+
+DepthMeshHierarchy::TriangleCounts DepthMeshHierarchy::counts(double tol) const {
+  TriangleCounts c;
+  c.min_ = std::max(tol, 0.0);
+  c.first_bin_ = tolerance_bin(c.min_);
+  std::vector<std::int64_t> diff(static_cast<size_t>(kInfBin - c.first_bin_ + 2), 0);
+  auto add = [&](float own, float parent) {  // emitted while own <= t < parent
+    const int lo = std::max(tolerance_bin(own), c.first_bin_), hi = tolerance_bin(parent);
+    if (own <= c.min_ && c.min_ < parent) ++c.at_min_;
+    if (hi <= lo) return;
+    ++diff[lo - c.first_bin_];
+    --diff[hi - c.first_bin_];
+  };
+  const RtinTable& t = *table_;
+  const int S = tile_, first_leaf = t.first_leaf(), end = t.end();
+  std::vector<std::pair<int, float>> stack;  // (id, parent's error)
+  for (int tile = 0; tile < tiles_x_ * tiles_y_; ++tile) {
+    const int ox = (tile % tiles_x_) * S, oy = (tile / tiles_x_) * S;
+    const std::uint8_t* leaf_ok = &leaf_ok_[static_cast<size_t>(tile) * (end - first_leaf)];
+    stack.assign({{2, kInf}, {3, kInf}});
+    while (!stack.empty()) {
+      const auto [id, parent] = stack.back();
+      stack.pop_back();
+      if (id >= first_leaf) {
+        if (leaf_ok[id - first_leaf]) add(0.f, parent);
+        continue;
+      }
+      const float e =
+          error_[static_cast<size_t>(oy + (t.ay[id] + t.by[id]) / 2) * grid_w_ + (ox + (t.ax[id] + t.bx[id]) / 2)];
+      if (depth_[static_cast<size_t>(oy + t.ay[id]) * grid_w_ + ox + t.ax[id]] > 0 &&
+          depth_[static_cast<size_t>(oy + t.by[id]) * grid_w_ + ox + t.bx[id]] > 0 &&
+          depth_[static_cast<size_t>(oy + t.cy[id]) * grid_w_ + ox + t.cx[id]] > 0)
+        add(e, parent);
+      if (e > c.min_) {
+        stack.push_back({2 * id + 1, e});
+        stack.push_back({2 * id, e});
+      }
+    }
+  }
+  c.counts_.resize(diff.size());
+  std::int64_t run = 0;
+  for (size_t i = 0; i < diff.size(); ++i) c.counts_[i] = run += diff[i];
+  return c;
+}
+
+size_t DepthMeshHierarchy::TriangleCounts::at(double tol) const {
+  if (tol <= min_) return at_min_;
+  const int bin = tolerance_bin(tol) - first_bin_;
+  return static_cast<size_t>(counts_[std::min<size_t>(static_cast<size_t>(bin), counts_.size() - 1)]);
+}
+
+double DepthMeshHierarchy::TriangleCounts::smallest_with_at_most(double triangles, double tol_max) const {
+  if (static_cast<double>(at_min_) <= triangles || tol_max <= min_) return min_;
+  const int last = std::min<int>(tolerance_bin(tol_max) - first_bin_, static_cast<int>(counts_.size()) - 1);
+  for (int bin = 0; bin <= last; ++bin)  // counts fall as the tolerance grows
+    if (static_cast<double>(counts_[bin]) <= triangles) return bin_top(bin + first_bin_);
+  return bin_top(last + first_bin_);
 }
 
 Mesh DepthMeshHierarchy::extract(double tol, std::vector<Eigen::Vector2i>* pixels) const {

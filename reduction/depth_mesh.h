@@ -69,6 +69,12 @@ struct DepthMeshParams {
   double simplify_px = 1.0;
   double max_hole_fraction = 0.5;     // a triangle may bridge invalid pixels up to this fraction of its pixels
   double texture_deviation_px = 0.5;  // split while affine texture interpolation deviates more (0: no such split)
+  // The fit error is judged on triangles whose legs are at least this long (8 pixels or more); smaller ones split
+  // only for holes, depth jumps, texture deviation and the border rule (their error is 0). A Kinect-class sensor
+  // matches its pattern over a window of about 9x9 pixels, so below that its depth holds no surface detail and a
+  // fit measures noise; skipping those levels (87 % of the tree's triangles) is most of the hierarchy's time.
+  // 0 or 1: every level.
+  double fit_min_leg_px = 4.0;
   int tile_px = 128;                  // largest triangle legs; a power of two, 2..128
   double boundary_push_px = 0.5;      // boundary vertices move this far outwards (0: none)
 
@@ -89,8 +95,29 @@ class DepthMeshHierarchy {
   // positions and indices only, counter-clockwise seen from the camera. `pixels` (optional) gets each vertex's
   // grid pixel (u, v) before the boundary push. Empty when nothing is representable.
   Mesh extract(double tolerance_factor, std::vector<Eigen::Vector2i>* pixels = nullptr) const;
-  // Triangle count at a tolerance, without building the mesh (for budget searches).
+  // Triangle count at a tolerance, without building the mesh.
   size_t count(double tolerance_factor) const;
+
+  // The triangle counts at every tolerance from `tolerance_min` up, from one walk at it (for budget searches):
+  // a triangle is emitted at t while its own error <= t < its parent's. Tolerances are binned by their float's top
+  // 16 bits (128 bins an octave, 0.54 % apart); a bin's count is exact at its top (TriangleCounts::top).
+  class TriangleCounts {
+   public:
+    // The count at `tolerance_factor` when it is the minimum or a bin's top; else at the top of its bin (<= the
+    // exact count). Tolerances below the minimum count as the minimum.
+    size_t at(double tolerance_factor) const;
+    // The smallest tolerance in [minimum, tolerance_max] with at most `triangles` (the minimum, or a bin's top);
+    // tolerance_max's bin top when none is.
+    double smallest_with_at_most(double triangles, double tolerance_max) const;
+
+   private:
+    friend class DepthMeshHierarchy;
+    double min_ = 0;
+    size_t at_min_ = 0;
+    int first_bin_ = 0;
+    std::vector<std::int64_t> counts_;  // by bin - first_bin_
+  };
+  TriangleCounts counts(double tolerance_min) const;
 
   int width() const { return width_; }
   const DepthMeshParams& params() const { return params_; }
