@@ -34,6 +34,7 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
 
   auto options = frame_options(a);
   if (!options) fail(options.error());
+  if (auto st = apply_default_budget(a, *frame, &*options); !st) fail(st.error());
   auto textured = reduce_and_texture(*frame, *options);
   if (!textured) fail(textured.error());
   std::vector<StageReport> stages = textured->stages;
@@ -142,11 +143,11 @@ void register_reduce(CLI::App& app) {
   cmd->add_option("--depth-scale", args->depth_scale, "Raw depth units per metre (TUM 5000, mm sensors 1000)");
   cmd->add_option("--associations", args->associations, "TUM associations file (t_rgb rgb t_depth depth)");
   cmd->add_option("--preset", args->preset,
-                  "paper (the paper's pipeline exactly) or realtime (the depth image meshed adaptively, in milliseconds, "
-                  "under a byte budget)")->capture_default_str();
+                  "realtime (the default: the depth image meshed adaptively, in milliseconds, under a byte budget) or "
+                  "paper (the paper's pipeline exactly)")->capture_default_str();
   cmd->add_option("--budget-kb", args->budget_kb,
                   "Realtime: land the GLB within +-10 % of this many kB, or under when the scene needs less "
-                  "(default 40; 0 = no budget)");
+                  "(default: 40, or a quarter of the frame's JPEG90+PNG16 payload when that is less; 0 = no budget)");
   cmd->add_option("--tolerance", args->params.depth_mesh.tolerance_factor,
                   "Realtime: split a triangle while its RMS distance from its pixels exceeds this many sigma of the "
                   "sensor's depth noise (a budget raises it as needed)")->capture_default_str();

@@ -14,10 +14,18 @@ Result<FrameReductionOptions> frame_options(const ReduceArgs& a) {
   o.texture = *mode;
   o.atlas = a.atlas;
   o.glb = a.glb;
-  if (!a.geometry_codec_chosen && *preset == Preset::kRealtime) o.glb.geometry_codec = GeometryCodec::kDraco;
+  if (!a.geometry_codec_chosen) o.glb.geometry_codec = default_geometry_codec(*preset);
   o.budget_kb = a.budget_kb >= 0 ? a.budget_kb : (*preset == Preset::kRealtime ? kDefaultBudgetKb : 0.0);
   if (auto st = o.validate(); !st) return st.error();
   return o;
+}
+
+Status apply_default_budget(const ReduceArgs& a, const RgbdFrame& frame, FrameReductionOptions* o) {
+  if (a.budget_kb >= 0 || o->params.preset != Preset::kRealtime) return ok_status();
+  auto kb = default_budget_kb(frame);
+  if (!kb) return kb.error();
+  o->budget_kb = *kb;
+  return ok_status();
 }
 
 Result<SequenceParams> sequence_params(const ReduceArgs& a) {
@@ -66,7 +74,7 @@ nlohmann::json params_json(const ReduceArgs& a) {
           {"jpeg_quality", a.atlas.jpeg_quality},
           {"meshopt", a.glb.meshopt},
           {"geometry_codec", to_string(a.geometry_codec_chosen || a.preset != "realtime" ? a.glb.geometry_codec
-                                                                                        : GeometryCodec::kDraco)},
+                                                                                        : default_geometry_codec(Preset::kRealtime))},
           {"position_step_m", a.glb.position_quantum_m}};
   return j;
 }

@@ -9,6 +9,7 @@
 #include "gltf/gltf_io.h"
 #include "input/frame.h"
 #include "keyframes/sequence.h"
+#include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
 #include "reduction/pipeline.h"
 
@@ -18,10 +19,11 @@ struct ReduceArgs {
   std::string input, depth, intrinsics, associations, out, report;
   int frame = 0;
   double depth_scale = 0;
-  std::string preset = "paper";
-  double budget_kb = -1;  // < 0: the preset's default (realtime: 40 kB; paper: none)
-  // --geometry-codec not given: the preset's default (realtime: draco, half meshopt's geometry bytes, so a frame fits
-  // 40 kB; paper: meshopt).
+  std::string preset = to_string(kDefaultPreset);  // realtime (pipeline/frame_defaults.h)
+  // < 0: the preset's default (realtime: min(40 kB, a quarter of the frame's JPEG90+PNG16 payload), set per frame
+  // by apply_default_budget; paper: none).
+  double budget_kb = -1;
+  // --geometry-codec not given: the preset's default (default_geometry_codec: realtime draco, paper meshopt).
   bool geometry_codec_chosen = false;
   ReductionParams params;
   AtlasOptions atlas;
@@ -39,11 +41,13 @@ struct ReduceArgs {
   std::string trajectory;  // write the estimated trajectory here (.log: Redwood, else TUM)
 };
 
-// The realtime preset's default byte budget (kB).
-constexpr double kDefaultBudgetKb = 40;
-
 // The frame -> scene options the arguments ask for (preset, texture mode, budget); errors name the bad option.
+// Without --budget-kb, the realtime preset's budget is kDefaultBudgetKb until apply_default_budget sets the frame's.
 Result<FrameReductionOptions> frame_options(const ReduceArgs& args);
+
+// Without --budget-kb, with the realtime preset: sets options->budget_kb to the frame's default
+// (default_budget_kb: min(40 kB, a quarter of its JPEG90+PNG16 payload)). Otherwise leaves it as it is.
+Status apply_default_budget(const ReduceArgs& args, const RgbdFrame& frame, FrameReductionOptions* options);
 
 // The sequence options the arguments ask for (features, keyframe rule, range); errors name the bad option. Shared
 // by reduce --sequence and stream.

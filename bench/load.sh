@@ -6,6 +6,8 @@
 #   bench/load.sh --url http://127.0.0.1:8080 [--scene ID]   # against a running server (uploads frame 0 if no ID)
 # Options: --duration 30s --connections 8 --threads 2 --width 640 --height 480 --bin build/app/rgbdcast
 # Needs wrk, curl and jq (scripts/setup.sh installs them) and ../shared/data.
+# The uploaded frame is reduced with RGBDCAST_UPLOAD_PRESET (default paper: the BENCHMARKS.md figures were measured
+# with the paper preset's 733 kB scene, before realtime became the service's default; realtime gives a 38 kB one).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -58,7 +60,8 @@ if [ -z "$scene" ]; then
          "distortion": [0.2624, -0.9531, -0.0054, 0.0026, 1.1633], "depth_scale": 5000}' > "$intr"
   scene="$(curl -fsS -F "color=@$tum/rgb/1305031102.175304.png;type=image/png" \
                      -F "depth=@$tum/depth/1305031102.160407.png;type=image/png" \
-                     -F "intrinsics=@$intr;type=application/json" "$url/v1/scenes" | jq -r .id)"
+                     -F "intrinsics=@$intr;type=application/json" \
+                     -F "preset=${RGBDCAST_UPLOAD_PRESET:-paper}" "$url/v1/scenes" | jq -r .id)"
   rm -f "$intr"
   echo "uploaded frame 0 of fr1/xyz as scene $scene"
 fi

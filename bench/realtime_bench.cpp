@@ -10,7 +10,9 @@
 //     (full, half and quarter resolution depth, meshed on the receiver), Draco colour clouds (2 px splats) and the
 //     paper preset.
 // Usage: realtime_bench [--runs N] [--frames N] [--paper-frames N] [--backend auto|vulkan|osmesa] [--data DIR]
-//                       [--only speed|rd]
+//                       [--only speed|rd|budget]
+//  C. (--only budget) The default budget, min(40 kB, a quarter of the frame's JPEG90+PNG16 payload), on every
+//     frame: payload, budget, the GLB `rgbdcast reduce` writes at it and at 40 kB, and the estimate's cost.
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -28,8 +30,9 @@
 #include "bench/transmission/fidelity.h"
 #include "gltf/gltf_io.h"
 #include "input/frame_source.h"
-#include "scene/frame_memory.h"
+#include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
+#include "scene/frame_memory.h"
 
 using namespace rgbdcast;
 using namespace rgbdcast::bench;
@@ -54,7 +57,7 @@ double max_of(const std::vector<double>& v) { return v.empty() ? 0 : *std::max_e
 FrameReductionOptions realtime_options(double budget_kb, double geometry_share = 0.45) {
   FrameReductionOptions o;
   o.params = reduction_preset(Preset::kRealtime);
-  o.glb.geometry_codec = GeometryCodec::kDraco;  // as `rgbdcast reduce --preset realtime` (app/reduce_common.cpp)
+  o.glb.geometry_codec = default_geometry_codec(Preset::kRealtime);  // as `rgbdcast reduce` (app/reduce_common.cpp)
   o.budget_kb = budget_kb;
   o.budget_geometry_share = geometry_share;
   return o;
@@ -152,9 +155,10 @@ Result<Fidelity> capture_fidelity(Renderer& renderer, const Scene& scene, const 
   return Fidelity{f->coverage, f->psnr_db, f->psnr_valid_db};
 }
 
-void speed_section(const Args& args, Renderer& renderer) {
-  const std::vector<Dataset> sets = {
-      {"TUM fr1/xyz 200-319", {"/tum/rgbd_dataset_freiburg1_xyz_200_319"}, "fr1", args.frames},
+// The shared captures, as sets; of the 120-frame excerpt, the first `frames`.
+std::vector<Dataset> shared_sets(int frames) {
+  return {
+      {"TUM fr1/xyz 200-319", {"/tum/rgbd_dataset_freiburg1_xyz_200_319"}, "fr1", frames},
       {"TUM fr1/xyz 0-2", {"/tum/rgbd_dataset_freiburg1_xyz"}, "fr1", 3},
       {"TUM fr3 office", {"/tum/rgbd_dataset_freiburg3_long_office_household"}, "fr3", 2},
       {"TUM fr2 desk pair",
@@ -169,6 +173,10 @@ void speed_section(const Args& args, Renderer& renderer) {
         "/pcl_kinect_organized/pcd/frame_20121214T142256.332395.pcd"},
        "kinect", 1},
   };
+}
+
+void speed_section(const Args& args, Renderer& renderer) {
+  const std::vector<Dataset> sets = shared_sets(args.frames);
   std::printf("\n## A. Speed, size and capture-pose fidelity (realtime preset at its default 40 kB budget)\n");
   std::printf("wall ms from decoded images (undistortion included) to GLB bytes; realtime: median (p90) over frames x "
               "%d runs; paper: median over its first %d frames, 1 run each\n\n",
@@ -298,6 +306,56 @@ void rd_case(const TestCase& tc, Renderer& renderer) {
       [&](const Bytes& b) { return decode_raw_cloud(b, k); }, splat2);
 }
 
+
+// C. The default budget (pipeline/frame_defaults.h): min(40 kB, a quarter of the frame's JPEG90+PNG16 payload), on
+// every frame of every set, with what `rgbdcast reduce` then writes (realtime, Draco) and what the estimate costs.
+void budget_section(const Args& args) {
+  std::printf("\n## C. The default budget: min(40 kB, a quarter of the frame's JPEG90+PNG16 payload)\n");
+  std::printf("per set: median (min-max) over its frames; estimate ms: default_budget_kb (one JPEG q90 and one PNG16 "
+              "encode), median over frames x %d runs\n\n", args.runs);
+  std::printf("| set | frames | JPEG90+PNG16 kB | a quarter, kB | default budget kB | GLB kB at the default | GLB / payload "
+              "(max) | GLB kB at 40 kB | 40 kB GLB / payload (max) | estimate ms |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const Dataset& d : shared_sets(args.frames)) {
+    auto raw = load_raw(args.data_dir, d);
+    if (!raw) {
+      std::printf("| %s | skipped: %s |\n", d.name.c_str(), raw.error().message.c_str());
+      continue;
+    }
+    std::vector<double> payload_kb, quarter_kb, budget_kb, glb_kb, ratio, glb40_kb, ratio40, estimate_ms;
+    for (const RawFrame& r : *raw) {
+      auto frame = prepare(r);
+      if (!frame) die(d.name, frame.error());
+      auto payload = encode_jpeg_png16(*frame, 90);
+      if (!payload) die(d.name + " payload", payload.error());
+      Result<double> kb = 0.0;
+      for (int run = 0; run < args.runs; ++run) estimate_ms.push_back(time_ms([&] { kb = default_budget_kb(*frame); }));
+      if (!kb) die(d.name + " budget", kb.error());
+      auto glb = encode(*frame, realtime_options(*kb));
+      if (!glb) die(d.name + " reduce", glb.error());
+      auto glb40 = encode(*frame, realtime_options(kDefaultBudgetKb));
+      if (!glb40) die(d.name + " reduce 40", glb40.error());
+      payload_kb.push_back(payload->bytes() / 1000.0);
+      quarter_kb.push_back(payload->bytes() / 4000.0);
+      budget_kb.push_back(*kb);
+      glb_kb.push_back(glb->size() / 1000.0);
+      ratio.push_back(static_cast<double>(glb->size()) / payload->bytes());
+      glb40_kb.push_back(glb40->size() / 1000.0);
+      ratio40.push_back(static_cast<double>(glb40->size()) / payload->bytes());
+    }
+    auto span = [](const std::vector<double>& v) {
+      char b[64];
+      std::snprintf(b, sizeof b, "%.1f (%.1f-%.1f)", median(v), min_of(v), max_of(v));
+      return std::string(b);
+    };
+    std::printf("| %s | %zu | %s | %s | %s | %s | %.3f (%.3f) | %s | %.3f (%.3f) | %.1f |\n", d.name.c_str(), raw->size(),
+                span(payload_kb).c_str(), span(quarter_kb).c_str(), span(budget_kb).c_str(), span(glb_kb).c_str(),
+                median(ratio), max_of(ratio), span(glb40_kb).c_str(), median(ratio40), max_of(ratio40),
+                median(estimate_ms));
+    std::fflush(stdout);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -323,7 +381,7 @@ int main(int argc, char** argv) {
       args.backend = *b;
     } else {
       std::fprintf(stderr, "usage: realtime_bench [--runs N] [--frames N] [--paper-frames N] [--backend B] "
-                           "[--data DIR] [--only speed|rd]\n");
+                           "[--data DIR] [--only speed|rd|budget]\n");
       return 2;
     }
   }
@@ -332,6 +390,7 @@ int main(int argc, char** argv) {
   std::printf("realtime_bench: renderer %s (%s)\n", renderer->renderer->backend().c_str(),
               renderer->renderer->device().c_str());
   if (args.only.empty() || args.only == "speed") speed_section(args, *renderer->renderer);
+  if (args.only.empty() || args.only == "budget") budget_section(args);
   if (args.only.empty() || args.only == "rd") {
     std::printf("\n## B. Rate-distortion, capture pose and novel views at ground-truth poses\n");
     auto icl = load_icl_case(args.data_dir);

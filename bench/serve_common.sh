@@ -18,10 +18,13 @@ start_server() {
   for _ in $(seq 200); do curl -sf "$BASE/healthz" > /dev/null && return 0; sleep 0.05; done
   echo "$(basename "$0"): the server did not start"; cat "$WORK/server.log"; exit 1
 }
-# frame_upload OUT_FILE: POSTs frame 0 as color, depth and intrinsics parts; prints the HTTP status.
+# frame_upload OUT_FILE: POSTs frame 0 as color, depth and intrinsics parts; prints the HTTP status. The preset is
+# RGBDCAST_UPLOAD_PRESET, paper by default: the figures in BENCHMARKS.md were measured with the paper preset's scene,
+# from before realtime became the service's default.
 frame_upload() {
   curl -s -o "$1" -w '%{http_code}' -F "color=@$TUM/rgb/1305031102.175304.png;type=image/png" \
-    -F "depth=@$TUM/depth/1305031102.160407.png;type=image/png" -F "intrinsics=@$WORK/k.json" "$BASE/v1/scenes"
+    -F "depth=@$TUM/depth/1305031102.160407.png;type=image/png" -F "intrinsics=@$WORK/k.json" \
+    -F "preset=${RGBDCAST_UPLOAD_PRESET:-paper}" "$BASE/v1/scenes"
 }
 # scene_id JSON_FILE: the "id" of a stored scene's JSON.
 scene_id() { sed -n 's/.*"id":"\([0-9a-f]*\)".*/\1/p' "$1"; }

@@ -6,6 +6,7 @@
 #include "gltf/gltf_io.h"
 #include "input/frame_source.h"
 #include "input/intrinsics_io.h"
+#include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
 #include "service/image_header.h"
 #include "service/scene_ingest.h"
@@ -59,7 +60,18 @@ Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   FrameReductionOptions options;
   options.params = reduction_preset(upload.preset);
   options.params.threads = upload.threads;
-  options.budget_kb = upload.preset == Preset::kRealtime ? upload.budget_kb : 0.0;
+  options.glb.geometry_codec = default_geometry_codec(upload.preset);
+  options.budget_kb = 0.0;
+  if (upload.preset == Preset::kRealtime) {
+    if (upload.budget_kb >= 0) {
+      options.budget_kb = upload.budget_kb;
+    } else {
+      auto kb = default_budget_kb(*frame);
+      if (!kb) return kb.error();
+      options.budget_kb = *kb;
+    }
+  }
+  if (auto st = options.validate(); !st) return st.error();  // a budget out of range: kInvalidArgument (400)
   auto textured = reduce_and_texture(*frame, options);
   if (!textured) return textured.error();
   for (const auto& s : textured->stages) stages.push_back(s);
@@ -80,7 +92,7 @@ Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
                                              {"stages", stage_list}}}}
                                 .dump());
   t = Clock::now();
-  auto glb = encode_glb(scene);
+  auto glb = encode_glb(scene, options.glb);  // the codec the budget measured with
   if (!glb) return glb.error();
   const double export_ms = ms_since(t);
 

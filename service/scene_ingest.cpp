@@ -52,6 +52,9 @@ nlohmann::json scene_stats(const Scene& scene, size_t glb_bytes) {
     if (extras.is_object() && extras.contains("rgbdcast")) extras = extras["rgbdcast"];
     if (extras.is_object() && extras.contains("stages") && extras["stages"].is_array())
       stats["stages"] = extras["stages"];
+    // What the reduction chose ({"preset", "texture", "budget"?}, pipeline/frame_scene.h choices_json).
+    if (extras.is_object() && extras.contains("reduction") && extras["reduction"].is_object())
+      stats["reduction"] = extras["reduction"];
   }
   return stats;
 }

@@ -2,8 +2,9 @@
 // What the service accepts as a scene, turned into the GLB it stores and the stats it reports.
 // - A GLB from a client (untrusted): decoded with decode_glb before anything is stored; a truncated or invalid file
 //   or a scene with nothing to draw is kInvalidInput/kEmpty (HTTP 422).
-// - A frame upload (colour PNG/JPEG, 16-bit depth PNG, intrinsics JSON): decoded, reduced (reduce_frame), textured
-//   (the atlas) and encoded (encode_glb) on the server.
+// - A frame upload (colour PNG/JPEG, 16-bit depth PNG, intrinsics JSON; optionally a preset and a budget): decoded,
+//   reduced and textured (reduce_and_texture, with `rgbdcast reduce`'s defaults: pipeline/frame_defaults.h) and
+//   encoded (encode_glb, with the preset's geometry codec) on the server.
 // Stats (JSON): points, vertices, triangles, nodes, bytes, capture_camera, stages (name, unit, count, ms).
 #include <cstdint>
 #include <memory>
@@ -12,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "pipeline/frame_defaults.h"
 #include "reduction/pipeline.h"
 
 #include "scene/result.h"
@@ -33,8 +35,10 @@ struct FrameUpload {
   std::vector<unsigned char> depth;  // 16-bit single-channel PNG bytes
   std::string intrinsics_json;       // as load_intrinsics_json reads
   std::string scratch_dir;           // a folder for a short-lived temporary file (the store's folder)
-  Preset preset = Preset::kPaper;    // the reduction's preset (its defaults)
-  double budget_kb = 40;             // realtime preset: the GLB's byte budget (0 = none)
+  Preset preset = kDefaultPreset;    // the reduction's preset (its defaults): realtime unless the upload asks
+  // Realtime preset: the GLB's byte budget in kB (0 = none; < 0: the frame's default, default_budget_kb:
+  // min(40 kB, a quarter of its JPEG90+PNG16 payload)). The paper preset takes none.
+  double budget_kb = -1;
   int max_width = 1920, max_height = 1080;  // images larger than this are refused from their header, undecoded
   int threads = 0;                   // OpenMP threads of the reduction (ReductionParams::threads)
 };

@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -233,9 +234,25 @@ void ViewService::Impl::post_scene(const httplib::Request& req, httplib::Respons
     for (const char* name : {"color", "depth", "intrinsics"}) {
       if (!parts.count(name))
         return send_error(res, 400, std::string("multipart upload lacks the part '") + name +
-                                        "' (parts: color, depth, intrinsics)");
+                                        "' (parts: color, depth, intrinsics; optional: preset, budget_kb)");
     }
     FrameUpload up;
+    // Optional form fields: the preset (realtime, the default, or paper) and the realtime budget in kB.
+    if (parts.count("preset")) {
+      auto preset = parse_preset(parts["preset"].substr(0, 40));
+      if (!preset) return send_error(res, 400, "multipart part 'preset': " + preset.error().message);
+      up.preset = *preset;
+    }
+    if (parts.count("budget_kb")) {
+      char* end = nullptr;
+      const std::string text = parts["budget_kb"].substr(0, 40);
+      const double kb = std::strtod(text.c_str(), &end);
+      if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(kb) || kb < 0)
+        return send_error(res, 400, "multipart part 'budget_kb' must be a number of kB, 0 (none) or more");
+      if (up.preset != Preset::kRealtime && kb > 0)
+        return send_error(res, 400, "multipart part 'budget_kb' needs the realtime preset");
+      up.budget_kb = kb;
+    }
     up.color.assign(parts["color"].begin(), parts["color"].end());
     up.depth.assign(parts["depth"].begin(), parts["depth"].end());
     up.intrinsics_json = std::move(parts["intrinsics"]);

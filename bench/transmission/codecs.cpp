@@ -8,6 +8,7 @@
 
 #include "bench/transmission/draco_codec.h"
 #include "gltf/gltf_io.h"
+#include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
 #include "reduction/pipeline.h"
 
@@ -110,22 +111,13 @@ Result<Scene> decode_raw_cloud(const Bytes& bytes, const Intrinsics& k) {
 }
 
 Result<Bytes> encode_jpeg_png(const RgbdFrame& frame, int jpeg_quality, int depth_step) {
-  cv::Mat bgr, depth_raw;
-  cv::cvtColor(frame.color_rgb, bgr, cv::COLOR_RGB2BGR);
-  // Back to the sensor's units (what a driver publishes); the frame's metres came from exactly these integers.
-  frame.depth_m.convertTo(depth_raw, CV_16U, frame.intrinsics.depth_scale);
-  if (depth_step > 1)
-    cv::resize(depth_raw, depth_raw, cv::Size(depth_raw.cols / depth_step, depth_raw.rows / depth_step), 0, 0,
-               cv::INTER_NEAREST);
-  std::vector<std::uint8_t> jpeg, png;
-  if (!cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality}) ||
-      !cv::imencode(".png", depth_raw, png))
-    return make_error(ErrorCode::kInternal, "OpenCV could not encode the images");
+  auto images = encode_jpeg_png16(frame, jpeg_quality, depth_step);  // pipeline/frame_defaults.h
+  if (!images) return images.error();
   Bytes out;
-  out.reserve(4 + jpeg.size() + png.size());
-  put_u32(out, static_cast<std::uint32_t>(jpeg.size()));
-  out.insert(out.end(), jpeg.begin(), jpeg.end());
-  out.insert(out.end(), png.begin(), png.end());
+  out.reserve(4 + images->bytes());
+  put_u32(out, static_cast<std::uint32_t>(images->jpeg.size()));
+  out.insert(out.end(), images->jpeg.begin(), images->jpeg.end());
+  out.insert(out.end(), images->png.begin(), images->png.end());
   return out;
 }
 

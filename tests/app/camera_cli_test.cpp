@@ -35,7 +35,7 @@ class CameraCli : public ::testing::Test {
   static void SetUpTestSuite() {
     dir_ = test::temp_dir("camera-cli");
     if (!fs::exists(test::data_path(kFr1))) return;
-    auto r = test::run_command(test::rgbdcast_binary() + " reduce --input " + test::data_path(kFr1) +
+    auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --input " + test::data_path(kFr1) +
                                " --frame 0 --out " + dir_ + "/f0.glb");
     ASSERT_EQ(r.exit_code, 0) << r.err;
   }

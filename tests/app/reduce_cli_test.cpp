@@ -2,6 +2,7 @@
 // stderr, a non-zero exit and no output file.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -20,7 +21,7 @@ std::string q(const std::string& s) { return "'" + s + "'"; }
 TEST(ReduceCli, Fr1XyzFrame0WritesAGlbAndAReport) {
   REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
   const std::string dir = test::temp_dir("reduce-cli");
-  auto r = test::run_command(test::rgbdcast_binary() + " reduce --input " +
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --input " +
                              q(test::data_path("tum/rgbd_dataset_freiburg1_xyz")) +
                              " --frame 0 --intrinsics fr1 --out " + dir + "/f0.glb --report " + dir + "/f0.json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -47,14 +48,51 @@ TEST(ReduceCli, Fr1XyzFrame0WritesAGlbAndAReport) {
     EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << "left behind: " << e.path();
 }
 
+// With no options, reduce runs the realtime preset (pipeline/frame_defaults.h) under its default budget, with Draco
+// geometry: what the README and scripts/demo.sh promise.
+TEST(ReduceCli, TheDefaultIsTheRealtimePresetUnderItsBudget) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  const std::string dir = test::temp_dir("reduce-default");
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --input " +
+                             q(test::data_path("tum/rgbd_dataset_freiburg1_xyz")) + " --frame 0 --out " + dir +
+                             "/f0.glb --report " + dir + "/f0.json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream in(dir + "/f0.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j.at("reduction").at("preset"), "realtime");
+  EXPECT_EQ(j.at("params").at("geometry_codec"), "draco");
+  // TUM fr1/xyz frame 0: its JPEG90+PNG16 payload is over 160 kB, so the budget is the 40 kB cap.
+  EXPECT_DOUBLE_EQ(j.at("reduction").at("budget").at("budget_bytes").get<double>(), 40000.0);
+  EXPECT_LE(j.at("bytes").get<long>(), 40000);
+  EXPECT_LE(j.at("triangles").get<long>(), 20000);
+  EXPECT_GT(j.at("triangles").get<long>(), 1000);
+  std::vector<std::string> names;
+  for (const auto& st : j.at("stages")) names.push_back(st.at("name"));
+  EXPECT_NE(std::find(names.begin(), names.end(), "filter"), names.end()) << j.at("stages");
+  EXPECT_EQ(std::find(names.begin(), names.end(), "voxel"), names.end()) << j.at("stages");
+  EXPECT_NE(r.out.find("budget 40 kB"), std::string::npos) << r.out;
+}
+
+// The built-in sample (scripts/demo.sh) with the defaults: the realtime preset, a GLB well under the budget's cap,
+// and a mesh that covers the sample's valid pixels (rgbdcast eval at the capture pose).
 TEST(ReduceCli, RunsOnTheBuiltInSample) {
   const std::string dir = test::temp_dir("reduce-sample");
   auto mk = test::run_command(test::binary_path("assets/make_sample") + " " + dir + "/room 1");
   ASSERT_EQ(mk.exit_code, 0) << mk.err;
   auto r = test::run_command(test::rgbdcast_binary() + " reduce --input " + dir + "/room --intrinsics kinect --out " +
-                             dir + "/room.glb");
+                             dir + "/room.glb --report " + dir + "/room.json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream in(dir + "/room.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j.at("reduction").at("preset"), "realtime");
   EXPECT_GT(fs::file_size(dir + "/room.glb"), 1000u);
+  EXPECT_LE(fs::file_size(dir + "/room.glb"), 40000u);
+  auto e = test::run_command(test::rgbdcast_binary() + " eval --input " + dir + "/room --intrinsics kinect --frame 0 " +
+                             "--scene " + dir + "/room.glb");
+  ASSERT_EQ(e.exit_code, 0) << e.err;
+  const nlohmann::json fidelity = nlohmann::json::parse(e.out);
+  EXPECT_GE(fidelity.at("coverage").get<double>(), 0.99) << e.out;
+  EXPECT_GE(fidelity.at("psnr_db").get<double>(), 28.0) << e.out;  // 30.3 dB measured
 }
 
 struct BadCase {

@@ -31,7 +31,7 @@ class RosbagCli : public ::testing::Test {
   // Runs reduce and returns its report.
   static nlohmann::json reduce(const std::string& input, const std::string& args, const std::string& name) {
     const std::string out = dir_ + "/" + name + ".glb", report = dir_ + "/" + name + ".json";
-    auto r = test::run_command(test::rgbdcast_binary() + " reduce --input '" + input + "' " + args + " --out " + out +
+    auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --input '" + input + "' " + args + " --out " + out +
                                " --report " + report);
     EXPECT_EQ(r.exit_code, 0) << r.err;
     if (r.exit_code != 0) return nlohmann::json::object();

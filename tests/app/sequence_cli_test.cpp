@@ -18,7 +18,7 @@ TEST(SequenceCli, AugmentedIclBecomesOneValidMultiViewGlb) {
   REQUIRE_DATA("augmented_icl_livingroom");
   const std::string dir = test::temp_dir("seq-cli");
   const std::string input = test::data_path("augmented_icl_livingroom");
-  auto r = test::run_command(test::rgbdcast_binary() + " reduce --sequence --input " + input + " --out " + dir +
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --sequence --input " + input + " --out " + dir +
                              "/scene.glb --report " + dir + "/r.json --trajectory " + dir + "/est.log");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   std::ifstream in(dir + "/r.json");
@@ -46,12 +46,34 @@ TEST(SequenceCli, AugmentedIclBecomesOneValidMultiViewGlb) {
   EXPECT_LT(rpe.at("rotation_max_deg").get<double>(), 0.5);
 }
 
+// With no --preset, sequence mode reduces every keyframe with the realtime preset, each under its own default budget
+// (min(40 kB, a quarter of its JPEG90+PNG16 payload): 40 kB on augmented ICL, whose payload is about 182 kB).
+TEST(SequenceCli, TheDefaultReducesEachKeyframeWithTheRealtimePreset) {
+  REQUIRE_DATA("augmented_icl_livingroom");
+  const std::string dir = test::temp_dir("seq-default");
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --sequence --keyframe-gap 1 --to 2 --no-progress --input " +
+                             test::data_path("augmented_icl_livingroom") + " --out " + dir + "/scene.glb --report " +
+                             dir + "/r.json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream in(dir + "/r.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const auto& keyframes = j.at("keyframes");
+  ASSERT_EQ(keyframes.size(), 3u) << j;
+  for (const auto& k : keyframes) {
+    EXPECT_EQ(k.at("reduction").at("preset"), "realtime") << k;
+    EXPECT_DOUBLE_EQ(k.at("reduction").at("budget").at("budget_bytes").get<double>(), 40000.0) << k;
+    EXPECT_LE(k.at("reduction").at("budget").at("glb_bytes").get<double>(), 40000.0 * 1.1) << k;
+    EXPECT_LE(k.at("triangles").get<long>(), 20000) << k;
+  }
+  EXPECT_GLTF_VALID(dir + "/scene.glb");
+}
+
 TEST(SequenceCli, DroppingCoveredTrianglesSavesBytes) {
   REQUIRE_DATA("augmented_icl_livingroom");
   const std::string dir = test::temp_dir("seq-covered");
   const std::string input = test::data_path("augmented_icl_livingroom");
   // Every frame a keyframe (--keyframe-gap 1) so that later keyframes overlap earlier ones.
-  const std::string base = test::rgbdcast_binary() + " reduce --sequence --input " + input + " --texture frame --keyframe-gap 1 ";
+  const std::string base = test::rgbdcast_binary() + " reduce --preset paper --sequence --input " + input + " --texture frame --keyframe-gap 1 ";
   auto keep = test::run_command(base + "--keep-covered --out " + dir + "/keep.glb --report " + dir + "/keep.json");
   auto drop = test::run_command(base + "--out " + dir + "/drop.glb --report " + dir + "/drop.json");
   ASSERT_EQ(keep.exit_code, 0) << keep.err;
@@ -67,7 +89,7 @@ TEST(SequenceCli, DroppingCoveredTrianglesSavesBytes) {
 TEST(SequenceCli, WidelySpacedFramesAreSkippedWithAClearMessage) {
   REQUIRE_DATA("icl_nuim_livingroom");
   const std::string dir = test::temp_dir("seq-icl");
-  auto r = test::run_command(test::rgbdcast_binary() + " reduce --sequence --input " + test::data_path("icl_nuim_livingroom") +
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --sequence --input " + test::data_path("icl_nuim_livingroom") +
                              " --out " + dir + "/scene.glb --report " + dir + "/r.json");
   // The first frame is a keyframe on its own; the others (0.3-1 m apart, no timestamps: 33 ms apart at 30 Hz) fail
   // the 20x20 window, and whatever the wider tries find is faster than a hand-held camera: skipped, with a reason.
@@ -87,7 +109,7 @@ TEST(SequenceCli, WidelySpacedFramesAreSkippedWithAClearMessage) {
 TEST(SequenceCli, UnknownTrackingModeIsAClearError) {
   REQUIRE_DATA("augmented_icl_livingroom");
   const std::string dir = test::temp_dir("seq-tracking");
-  auto r = test::run_command(test::rgbdcast_binary() + " reduce --sequence --tracking fast --input " +
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --sequence --tracking fast --input " +
                              test::data_path("augmented_icl_livingroom") + " --out " + dir + "/scene.glb");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--tracking must be robust, paper or live"), std::string::npos) << r.err;
@@ -114,7 +136,7 @@ TEST(NovelViewCli, FrameZeroMeshPredictsTheLaterFrames) {
   REQUIRE_DATA("augmented_icl_livingroom");
   const std::string dir = test::temp_dir("novel");
   const std::string input = test::data_path("augmented_icl_livingroom");
-  auto r = test::run_command(test::rgbdcast_binary() + " reduce --input " + input + " --frame 0 --out " + dir + "/f0.glb");
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --input " + input + " --frame 0 --out " + dir + "/f0.glb");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   auto eval = [&](int k, bool true_pose) {
     auto e = test::run_command(test::rgbdcast_binary() + " eval --input " + input + " --frame " + std::to_string(k) +

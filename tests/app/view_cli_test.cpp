@@ -22,7 +22,7 @@ class ViewCli : public ::testing::Test {
     dir_ = test::temp_dir("view-cli");
     if (!fs::exists(test::data_path(kFr1))) return;
     for (const char* mode : {"atlas", "frame"}) {
-      auto r = test::run_command(test::rgbdcast_binary() + " reduce --input " + test::data_path(kFr1) +
+      auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --input " + test::data_path(kFr1) +
                                  " --frame 0 --texture " + mode + " --out " + dir_ + "/" + mode + ".glb");
       ASSERT_EQ(r.exit_code, 0) << r.err;
     }

@@ -145,14 +145,14 @@ const Files& files() {
     const std::string stamp_file = f.dir + "/stamp", stamp = stamp_of(bin);
     if (slurp(stamp_file) != stamp) {
       fs::remove(stamp_file);
-      const std::string tum = "reduce --input " + test::data_path(kTum) + " --frame 0";
+      const std::string tum = "reduce --preset paper --input " + test::data_path(kTum) + " --frame 0";
       auto t0 = std::chrono::steady_clock::now();
       run_ok(bin + " " + tum + " --out " + f.tum_compact, &f.why_not);
       f.tum_reduce_s = seconds_since(t0);
       run_ok(bin + " " + tum + " --flavor compat --out " + f.tum_compat, &f.why_not);
       run_ok(bin + " convert " + f.tum_compact + " --flavor compat -o " + f.tum_converted, &f.why_not);
       t0 = std::chrono::steady_clock::now();
-      run_ok(bin + " reduce --input " + test::data_path(kIcl) + " --sequence --keyframe-gap 1 --no-progress --out " +
+      run_ok(bin + " reduce --preset paper --input " + test::data_path(kIcl) + " --sequence --keyframe-gap 1 --no-progress --out " +
                  f.seq_compact, &f.why_not);
       f.seq_reduce_s = seconds_since(t0);
       run_ok(bin + " convert " + f.seq_compact + " -o " + f.seq_compat, &f.why_not);

@@ -46,4 +46,11 @@ void expect_matches_golden(Renderer& renderer, ResidentSceneId id, const ViewCam
   EXPECT_TRUE(failure.empty()) << failure;
 }
 
+ViewCamera tum_golden_camera(const CaptureCamera& capture, bool at_capture) {
+  if (at_capture) return ViewCamera::from_capture(capture, 320, 240);
+  auto look = ViewCamera::look_at({-0.4, -0.35, 0.1}, {0.0, 0.1, 1.4}, {0, -1, 0}, 60.0, 320, 240);
+  EXPECT_TRUE(look) << look.error().message;
+  return look ? *look : ViewCamera::from_capture(capture, 320, 240);
+}
+
 }  // namespace rgbdcast::test

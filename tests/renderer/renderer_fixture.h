@@ -25,6 +25,10 @@ class BackendTest : public ::testing::TestWithParam<std::string> {
 void expect_matches_golden(Renderer& renderer, ResidentSceneId id, const ViewCamera& camera, RenderMode mode,
                            float point_size_px, double min_drawn, const std::string& name);
 
+// The cameras of the TUM fr1/xyz frame 0 goldens (test_golden_tum.cpp, test_golden_realtime.cpp), 320x240: the
+// capture camera, or a look-at from above and to the left of it onto the desk.
+ViewCamera tum_golden_camera(const CaptureCamera& capture, bool at_capture);
+
 inline const auto kBackends = ::testing::Values(std::string("vulkan"), std::string("osmesa"));
 
 }  // namespace rgbdcast::test

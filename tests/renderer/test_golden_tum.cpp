@@ -52,12 +52,7 @@ class TumGolden : public BackendTest {
     ASSERT_NE(scene, nullptr) << error;
     auto id = renderer_->upload(*scene);
     ASSERT_TRUE(id) << id.error().message;
-    ViewCamera cam = ViewCamera::from_capture(scene->cameras[0], 320, 240);
-    if (!capture) {
-      auto look = ViewCamera::look_at({-0.4, -0.35, 0.1}, {0.0, 0.1, 1.4}, {0, -1, 0}, 60.0, 320, 240);
-      ASSERT_TRUE(look);
-      cam = *look;
-    }
+    const ViewCamera cam = tum_golden_camera(scene->cameras[0], capture);
     expect_matches_golden(*renderer_, id.value(), cam, mode, 2.0f, 0.25,
                           "tum_" + GetParam() + "_" + to_string(mode) + (capture ? "_capture" : "_lookat"));
   }

@@ -49,7 +49,7 @@ std::string upload(httplib::Client& c, const std::string& glb) {
 TEST(ServiceModelFlavors, CompatIsConvertedOnceCachedAndHasItsOwnEtag) {
   REQUIRE_DATA(kTum);
   const std::string dir = test::temp_dir("model-flavors");
-  const std::string compact = reduce_tum_frame(dir, "");
+  const std::string compact = reduce_tum_frame(dir, "--preset paper");
 
   test::ServerProcess server;
   std::string error;

@@ -1,0 +1,37 @@
+#include "pipeline/frame_defaults.h"
+
+#include <algorithm>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace rgbdcast {
+
+GeometryCodec default_geometry_codec(Preset preset) {
+  return preset == Preset::kRealtime ? GeometryCodec::kDraco : GeometryCodec::kMeshopt;
+}
+
+Result<JpegPng16> encode_jpeg_png16(const RgbdFrame& frame, int jpeg_quality, int depth_step) {
+  if (frame.color_rgb.empty() || frame.depth_m.empty() || depth_step < 1)
+    return make_error(ErrorCode::kInvalidArgument, "JPEG + PNG16 payload: an empty frame or a depth step below 1");
+  JpegPng16 out;
+  cv::Mat bgr, depth_raw;
+  cv::cvtColor(frame.color_rgb, bgr, cv::COLOR_RGB2BGR);
+  // Back to the sensor's units (what a driver publishes); the frame's metres came from exactly these integers.
+  frame.depth_m.convertTo(depth_raw, CV_16U, frame.intrinsics.depth_scale);
+  if (depth_step > 1)
+    cv::resize(depth_raw, depth_raw, cv::Size(depth_raw.cols / depth_step, depth_raw.rows / depth_step), 0, 0,
+               cv::INTER_NEAREST);
+  if (!cv::imencode(".jpg", bgr, out.jpeg, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality}) ||
+      !cv::imencode(".png", depth_raw, out.png))
+    return make_error(ErrorCode::kInternal, "OpenCV could not encode the images");
+  return out;
+}
+
+Result<double> default_budget_kb(const RgbdFrame& frame) {
+  auto payload = encode_jpeg_png16(frame, 90);
+  if (!payload) return payload.error();
+  const double quarter_kb = kDefaultBudgetPayloadShare * static_cast<double>(payload->bytes()) / 1000.0;
+  return std::max(4.0, std::min(kDefaultBudgetKb, quarter_kb));
+}
+
+}  // namespace rgbdcast
