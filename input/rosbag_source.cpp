@@ -11,6 +11,7 @@
 #include <mutex>
 
 #include "input/intrinsics_io.h"
+#include "input/rosbag_check.h"
 #include "input/ros_image.h"
 
 namespace rgbdcast {
@@ -109,6 +110,11 @@ Result<std::vector<StampedPath>> RosbagSource::index_images(const std::string& t
 }
 
 Status RosbagSource::open(const SourceOptions& o) {
+  // rosbag_storage trusts the lengths a bag declares: the whole bag is walked first (input/rosbag_check.h).
+  if (auto st = check_rosbag_file(path_); !st) {
+    const std::string why = st.error().message.substr(st.error().message.rfind("ROS bag: ", 0) == 0 ? 9 : 0);
+    return bad("not a readable ROS 1 bag (truncated or corrupt: " + why + ")");
+  }
   try {
     bag_.open(path_, rosbag::bagmode::Read);
     for (const rosbag::ConnectionInfo* c : rosbag::View(bag_).getConnections())
