@@ -190,56 +190,20 @@ void ViewService::Impl::post_scene(const httplib::Request& req, httplib::Respons
     return send_error(res, 415, "Content-Type must be model/gltf-binary (a GLB) or multipart/form-data (color, "
                                 "depth, intrinsics); got '" + type.substr(0, 60) + "'");
   }
-  BodyBudget budget{options.max_body_bytes};
   std::vector<std::uint8_t> glb;
-  std::map<std::string, std::string> parts;
-  std::string* part = nullptr;
-  bool duplicate = false;
-  bool read = false;
-  if (multipart) {
-    read = reader(
-        [&](const httplib::MultipartFormData& file) {
-          auto [it, fresh] = parts.emplace(file.name, std::string());
-          duplicate = duplicate || !fresh || parts.size() > 8;
-          part = &it->second;
-          return !duplicate;
-        },
-        [&](const char* data, size_t n) {
-          if (!budget.take(n)) return false;
-          part->append(data, n);
-          return true;
-        });
-  } else {
-    read = reader([&](const char* data, size_t n) {
-      if (!budget.take(n)) return false;
-      glb.insert(glb.end(), data, data + n);
-      return true;
-    });
-  }
-  if (!read) {
-    GatedServer::close_after_response();
-    if (budget.over)
-      return send_error(res, 413, "request body over the limit of " + std::to_string(options.max_body_bytes) +
-                                      " bytes (--max-body-mib), counted after decoding");
-    if (duplicate) return send_error(res, 400, "multipart upload with a repeated part or more than 8 parts");
-    return send_error(res, 400, "request body could not be read (cut short, bad chunked framing, bad compressed "
-                                "data or malformed multipart)");
-  }
+  FrameParts parts;
+  if (auto refused = multipart ? read_frame_parts(reader, options.max_body_bytes, &parts)
+                               : read_whole_body(reader, options.max_body_bytes, &glb))
+    return send_refusal(res, *refused);
 
   Result<IngestedScene> ingested = make_error(ErrorCode::kInternal, "unreachable");
   if (!multipart) {
     ingested = ingest_glb(std::move(glb));
   } else {
-    for (const char* name : {"color", "depth", "intrinsics"}) {
-      if (!parts.count(name))
-        return send_error(res, 400, std::string("multipart upload lacks the part '") + name +
-                                        "' (parts: color, depth, intrinsics)");
-    }
     FrameUpload up;
-    up.color.assign(parts["color"].begin(), parts["color"].end());
-    up.depth.assign(parts["depth"].begin(), parts["depth"].end());
-    up.intrinsics_json = std::move(parts["intrinsics"]);
-    parts.clear();
+    up.color = std::move(parts.color);
+    up.depth = std::move(parts.depth);
+    up.intrinsics_json = std::move(parts.intrinsics_json);
     up.scratch_dir = options.data_dir + "/scenes";
     up.max_width = options.max_frame_width;
     up.max_height = options.max_frame_height;
