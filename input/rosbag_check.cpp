@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <functional>
 #include <map>
@@ -129,6 +130,42 @@ Status check_connection(const ReadAt& read, const Record& r, std::map<std::uint3
   return ok_status();
 }
 
+// A compressed chunk's data into *plain, which must come to exactly `size` bytes. Memory follows what the data
+// really holds, not the size it claims: bz2 output grows as it arrives (bz2 can expand a few bytes into megabytes);
+// lz4 (rosbag's framing, at most 255 bytes out per byte in) is allocated once when the claim is possible at all.
+bool inflate(const std::string& compression, std::vector<std::uint8_t>& in, std::uint32_t size,
+             std::vector<std::uint8_t>* plain) {
+  if (compression == "lz4") {
+    if (size > 256.0 * in.size() + 65536) return false;
+    plain->resize(size);
+    unsigned int out = size;
+    return roslz4_buffToBuffDecompress(reinterpret_cast<char*>(in.data()), static_cast<unsigned int>(in.size()),
+                                       reinterpret_cast<char*>(plain->data()), &out) == ROSLZ4_OK &&
+           out == size;
+  }
+  bz_stream z{};
+  if (BZ2_bzDecompressInit(&z, 0, 0) != BZ_OK) return false;
+  z.next_in = reinterpret_cast<char*>(in.data());
+  z.avail_in = static_cast<unsigned int>(in.size());
+  size_t produced = 0;
+  int rc = BZ_OK;
+  while (rc == BZ_OK) {
+    if (produced == plain->size()) {
+      if (plain->size() > size) break;  // one byte more than claimed
+      plain->resize(std::min<size_t>(size_t(size) + 1, std::max<size_t>(1u << 20, plain->size() * 2)));
+    } else if (z.avail_in == 0) {
+      break;  // the data ends before the bz2 stream does
+    }
+    z.next_out = reinterpret_cast<char*>(plain->data() + produced);
+    z.avail_out = static_cast<unsigned int>(plain->size() - produced);
+    rc = BZ2_bzDecompress(&z);
+    produced = plain->size() - z.avail_out;
+  }
+  BZ2_bzDecompressEnd(&z);
+  plain->resize(produced);
+  return rc == BZ_STREAM_END && produced == size;
+}
+
 struct Chunk {
   std::uint64_t end = 0;                         // the chunk record's end in the file
   std::map<std::uint32_t, std::uint32_t> messages;  // message record offset in the uncompressed data -> connection
@@ -154,21 +191,8 @@ Result<Chunk> check_chunk(const ReadAt& read, const Record& r, std::map<std::uin
   std::vector<std::uint8_t> plain;
   if (compression == "none") {
     plain = std::move(*data);
-  } else {
-    plain.resize(*size);
-    unsigned int out = static_cast<unsigned int>(*size);
-    int rc;
-    if (compression == "bz2")
-      rc = BZ2_bzBuffToBuffDecompress(reinterpret_cast<char*>(plain.data()), &out,
-                                      reinterpret_cast<char*>(data->data()), r.data_len, 0, 0) == BZ_OK
-               ? 0
-               : -1;
-    else
-      rc = roslz4_buffToBuffDecompress(reinterpret_cast<char*>(data->data()), r.data_len,
-                                       reinterpret_cast<char*>(plain.data()), &out) == ROSLZ4_OK
-               ? 0
-               : -1;
-    if (rc != 0 || out != *size) return bad(r.at, "the " + compression + " chunk does not decompress to its size");
+  } else if (!inflate(compression, *data, static_cast<std::uint32_t>(*size), &plain)) {
+    return bad(r.at, "the " + compression + " chunk does not decompress to its size " + std::to_string(*size));
   }
   const ReadAt inside = [&plain](std::uint64_t offset, size_t n, std::uint8_t* out) {
     if (offset > plain.size() || n > plain.size() - offset) return false;

@@ -256,6 +256,29 @@ TEST(RosbagSource, LyingLengthsAreRefusedBeforeRosbagReadsThem) {
   }
 }
 
+// A compressed chunk that claims more than it holds: bz2 output is grown as it arrives, so a claimed 250 MiB costs
+// what the data really decompresses to; lz4 is refused when the claim exceeds 256 bytes per byte of data.
+TEST(RosbagSource, CompressedChunksThatClaimMoreAreRefusedWithoutAllocatingTheClaim) {
+  using namespace hostile;
+  for (const char* compression : {"bz2", "lz4"}) {
+    REQUIRE_BAG(b, std::string("fr1_32f_") + compression, test::BagDepth::kMetres32F, "rgb8", true, compression);
+    std::ifstream in(b.path, std::ios::binary);
+    std::string bag((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const size_t chunk = next(bag, 13);
+    ASSERT_EQ(bag.compare(field(bag, chunk, "compression"), 3, compression), 0);
+    for (std::uint32_t claim : {250u << 20, u32(bag, field(bag, chunk, "size")) + 1}) {
+      std::string x = bag;
+      put32(&x, field(x, chunk, "size"), claim);
+      const std::string path = test::temp_dir("rosbag-claims") + "/claim.bag";
+      std::ofstream(path, std::ios::binary | std::ios::trunc) << x;
+      auto s = open_frame_source(path, {});
+      ASSERT_FALSE(s) << compression << " claiming " << claim;
+      EXPECT_NE(s.error().message.find("chunk does not decompress to its size " + std::to_string(claim)),
+                std::string::npos) << s.error().message;
+    }
+  }
+}
+
 TEST(RosbagSource, PairsOnlyWithinTheTimeLimit) {
   REQUIRE_BAG(b, "fr1_32f", test::BagDepth::kMetres32F, "rgb8");
   SourceOptions o;
