@@ -13,6 +13,7 @@
 #include "input/intrinsics_io.h"
 #include "input/rosbag_check.h"
 #include "input/ros_image.h"
+#include "scene/error_text.h"
 
 namespace rgbdcast {
 
@@ -72,7 +73,8 @@ std::string RosbagSource::topic_list() const {
   std::string s = "the bag has ";
   for (const auto& [topic, info] : topic_types_) {
     if (s.size() > 12) s += ", ";
-    s += topic + " (" + info.first + ", " + std::to_string(info.second) + " messages)";
+    s += quote_for_error(topic, 80) + " (" + quote_for_error(info.first, 80) + ", " + std::to_string(info.second) +
+         " messages)";  // names from the bag: quoted, one line whatever they hold
   }
   return s;
 }
@@ -82,7 +84,8 @@ Status RosbagSource::check_topic(const std::string& topic, const char* type, con
   auto it = topic_types_.find(topic);
   if (it == topic_types_.end()) return bad("no topic " + topic + " (" + option + hint + "); " + topic_list());
   if (it->second.first != type || it->second.second == 0)
-    return bad("topic " + topic + " holds " + std::to_string(it->second.second) + " " + it->second.first +
+    return bad("topic " + topic + " holds " + std::to_string(it->second.second) + " " +
+               quote_for_error(it->second.first, 80) +
                " messages, not " + type + " (" + option + hint + "); " + topic_list());
   return ok_status();
 }
@@ -158,7 +161,8 @@ Status RosbagSource::open(const SourceOptions& o) {
                           e.color_timestamp, e.depth_timestamp});
     }
   } catch (const std::exception& e) {
-    return bad(std::string("not a readable ROS 1 bag (truncated or corrupt: ") + e.what() + ")");
+    return bad(std::string("not a readable ROS 1 bag (truncated or corrupt: ") + quote_for_error(e.what(), 200) +
+               ")");
   }
   if (entries_.empty()) {
     char limit[32];
@@ -192,7 +196,8 @@ Result<RgbdFrame> RosbagSource::frame(size_t i) const {
     color_msg = *c;
     depth_msg = *d;
   } catch (const std::exception& e) {
-    return bad(std::string("frame ") + std::to_string(i) + " unreadable (truncated or corrupt bag: " + e.what() + ")");
+    return bad(std::string("frame ") + std::to_string(i) + " unreadable (truncated or corrupt bag: " +
+               quote_for_error(e.what(), 200) + ")");
   }
   const FrameEntry& e = entries_[i];
   auto color = ros_color_to_rgb(view_of(*color_msg), e.color_path);
