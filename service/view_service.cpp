@@ -349,9 +349,11 @@ void ViewService::Impl::routes() {
     post_scene(req, res, reader);
   }));
   server->Get("/v1/scenes", guarded([this](Req, Res res) {
-    nlohmann::json list = nlohmann::json::array();
-    for (const auto& s : store->list()) list.push_back(scene_summary(s));
-    send_json(res, 200, {{"scenes", list}, {"count", list.size()}});
+    nlohmann::json body = {{"scenes", nlohmann::json::array()}};
+    nlohmann::json& list = body["scenes"];
+    store->for_each([&list](const StoredScene& s) { list.push_back(scene_summary(s)); });
+    body["count"] = list.size();
+    send_json(res, 200, body);
   }));
   server->Get(R"(/v1/scenes/([^/]+))", guarded([this](Req req, Res res) {
     auto s = scene_or_error(req, res);
