@@ -46,8 +46,7 @@ class SceneStore {
   std::optional<StoredScene> get(const std::string& id) const;
   std::vector<StoredScene> list() const;  // oldest first
   // Calls f on every scene, oldest first, under the store's lock (f must not call the store): the listing route's
-  // way, which does not copy every scene's metadata per request (bench/soak.sh: those copies were most of the RSS
-  // that grew with the store).
+  // way, which does not copy every scene's metadata per request (no measurable RSS effect in bench/soak.sh).
   void for_each(const std::function<void(const StoredScene&)>& f) const;
   Status remove(const std::string& id);   // kNotFound when unknown
   Result<std::vector<std::uint8_t>> read_glb(const std::string& id) const;
