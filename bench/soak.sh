@@ -53,7 +53,12 @@ WARM=$(( DURATION / 10 < 60 ? DURATION / 10 : 60 ))
 sleep "$WARM"
 RSS_WARM=$(rss_mib)
 : > "$WORK/rss.log"
-while [ "$(date +%s)" -lt "$END" ]; do echo "$(date +%s) $(rss_mib)" >> "$WORK/rss.log"; sleep 10; done
+stored() { curl -s "$BASE/metrics" | awk '$1 == "rgbdcast_scenes_stored" {print $2}'; }
+anon_file() { awk '/RssAnon|RssFile/ {printf "%.1f ", $2 / 1024}' "/proc/$SERVER/status"; }
+while [ "$(date +%s)" -lt "$END" ]; do
+  echo "$(date +%s) $(rss_mib) $(stored) $(anon_file)" >> "$WORK/rss.log"
+  sleep 10
+done
 wait $(jobs -p | grep -v "^$SERVER$") 2>/dev/null || true
 sleep 6  # idle: the server trims its heap and resets renderers that served large views
 RSS_END=$(rss_mib)
@@ -66,5 +71,8 @@ echo "soak: $TOTAL requests in ${DURATION} s by $CLIENTS clients"
 awk '{c[$1" "$2]++} END{for (k in c) print "  " k, c[k]}' "$WORK/all.log" | sort
 echo "soak: 5xx $FIVE, no response $ZERO"
 awk -v w="$RSS_WARM" -v e="$RSS_END" -v m="$RSS_MAX" 'BEGIN{printf "soak: RSS after warm-up %.1f MiB, max %.1f MiB, end (after 6 s idle) %.1f MiB, growth %+.1f %%\n", w, m, e, (e-w)*100.0/w}'
+# RSS_LOG=FILE keeps the trace (every 10 s after warm-up): Unix time, RSS in MiB, scenes stored, its anonymous and
+# file-backed parts in MiB.
+[ -n "${RSS_LOG:-}" ] && cp "$WORK/rss.log" "$RSS_LOG"
 kill -0 "$SERVER" 2>/dev/null && echo "soak: server alive at the end" || { echo "soak: SERVER DIED"; exit 1; }
 [ "$FIVE" = 0 ] && [ "$ZERO" = 0 ]

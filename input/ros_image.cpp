@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "scene/camera.h"
+#include "scene/error_text.h"
 
 namespace rgbdcast {
 
@@ -20,7 +21,7 @@ Result<cv::Mat> wrap(const RosImageView& im, int type, const std::string& what) 
                                                     std::to_string(kMaxImageSize));
   if (im.step < row_bytes)
     return make_error(ErrorCode::kInvalidInput, what + ": step " + std::to_string(im.step) + " is shorter than a " +
-                                                    im.encoding + " row of " + std::to_string(row_bytes) + " bytes");
+                                                    quote_for_error(im.encoding) + " row of " + std::to_string(row_bytes) + " bytes");
   if (im.data == nullptr || im.size < size_t(im.step) * im.height)
     return make_error(ErrorCode::kInvalidInput, what + ": " + std::to_string(im.size) + " bytes of data, " +
                                                     std::to_string(size_t(im.step) * im.height) + " expected");
@@ -53,7 +54,7 @@ Result<cv::Mat> ros_color_to_rgb(const RosImageView& im, const std::string& what
   else if (im.encoding == "mono8") type = CV_8UC1, code = cv::COLOR_GRAY2RGB;
   else
     return make_error(ErrorCode::kInvalidInput,
-                      what + ": colour encoding \"" + im.encoding + "\" is not supported (rgb8, bgr8 or mono8)");
+                      what + ": colour encoding \"" + quote_for_error(im.encoding) + "\" is not supported (rgb8, bgr8 or mono8)");
   auto m = wrap(im, type, what);
   if (!m) return m;
   cv::Mat rgb;
@@ -68,7 +69,7 @@ Result<RosDepth> ros_depth(const RosImageView& im, const std::string& what) {
   if (im.encoding == "16UC1") type = CV_16UC1;
   else if (im.encoding == "32FC1") type = CV_32FC1, d.metres = true;
   else
-    return make_error(ErrorCode::kInvalidInput, what + ": depth encoding \"" + im.encoding +
+    return make_error(ErrorCode::kInvalidInput, what + ": depth encoding \"" + quote_for_error(im.encoding) +
                                                     "\" is not supported (16UC1 in millimetres or 32FC1 in metres)");
   auto m = wrap(im, type, what);
   if (!m) return m.error();
@@ -114,7 +115,7 @@ Result<Intrinsics> intrinsics_from_camera_info(const RosCameraInfo& info, const 
   }();
   if (!any) return k;
   if (info.distortion_model != "plumb_bob" && info.distortion_model != "rational_polynomial")
-    return bad("distortion model \"" + info.distortion_model + "\" is not supported (plumb_bob or rational_polynomial)");
+    return bad("distortion model \"" + quote_for_error(info.distortion_model) + "\" is not supported (plumb_bob or rational_polynomial)");
   for (size_t i = 5; i < info.D.size(); ++i)
     if (info.D[i] != 0) return bad("distortion terms past k1 k2 p1 p2 k3 are not supported");
   for (size_t i = 0; i < 5 && i < info.D.size(); ++i) k.distortion[i] = info.D[i];

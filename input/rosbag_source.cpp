@@ -11,7 +11,9 @@
 #include <mutex>
 
 #include "input/intrinsics_io.h"
+#include "input/rosbag_check.h"
 #include "input/ros_image.h"
+#include "scene/error_text.h"
 
 namespace rgbdcast {
 
@@ -71,7 +73,8 @@ std::string RosbagSource::topic_list() const {
   std::string s = "the bag has ";
   for (const auto& [topic, info] : topic_types_) {
     if (s.size() > 12) s += ", ";
-    s += topic + " (" + info.first + ", " + std::to_string(info.second) + " messages)";
+    s += quote_for_error(topic, 80) + " (" + quote_for_error(info.first, 80) + ", " + std::to_string(info.second) +
+         " messages)";  // names from the bag: quoted, one line whatever they hold
   }
   return s;
 }
@@ -81,7 +84,8 @@ Status RosbagSource::check_topic(const std::string& topic, const char* type, con
   auto it = topic_types_.find(topic);
   if (it == topic_types_.end()) return bad("no topic " + topic + " (" + option + hint + "); " + topic_list());
   if (it->second.first != type || it->second.second == 0)
-    return bad("topic " + topic + " holds " + std::to_string(it->second.second) + " " + it->second.first +
+    return bad("topic " + topic + " holds " + std::to_string(it->second.second) + " " +
+               quote_for_error(it->second.first, 80) +
                " messages, not " + type + " (" + option + hint + "); " + topic_list());
   return ok_status();
 }
@@ -109,6 +113,11 @@ Result<std::vector<StampedPath>> RosbagSource::index_images(const std::string& t
 }
 
 Status RosbagSource::open(const SourceOptions& o) {
+  // rosbag_storage trusts the lengths a bag declares: the whole bag is walked first (input/rosbag_check.h).
+  if (auto st = check_rosbag_file(path_); !st) {
+    const std::string why = st.error().message.substr(st.error().message.rfind("ROS bag: ", 0) == 0 ? 9 : 0);
+    return bad("not a readable ROS 1 bag (truncated or corrupt: " + why + ")");
+  }
   try {
     bag_.open(path_, rosbag::bagmode::Read);
     for (const rosbag::ConnectionInfo* c : rosbag::View(bag_).getConnections())
@@ -152,7 +161,8 @@ Status RosbagSource::open(const SourceOptions& o) {
                           e.color_timestamp, e.depth_timestamp});
     }
   } catch (const std::exception& e) {
-    return bad(std::string("not a readable ROS 1 bag (truncated or corrupt: ") + e.what() + ")");
+    return bad(std::string("not a readable ROS 1 bag (truncated or corrupt: ") + quote_for_error(e.what(), 200) +
+               ")");
   }
   if (entries_.empty()) {
     char limit[32];
@@ -186,7 +196,8 @@ Result<RgbdFrame> RosbagSource::frame(size_t i) const {
     color_msg = *c;
     depth_msg = *d;
   } catch (const std::exception& e) {
-    return bad(std::string("frame ") + std::to_string(i) + " unreadable (truncated or corrupt bag: " + e.what() + ")");
+    return bad(std::string("frame ") + std::to_string(i) + " unreadable (truncated or corrupt bag: " +
+               quote_for_error(e.what(), 200) + ")");
   }
   const FrameEntry& e = entries_[i];
   auto color = ros_color_to_rgb(view_of(*color_msg), e.color_path);

@@ -1,15 +1,11 @@
 // The server-side reduction of an uploaded RGB-D frame (the multipart route of POST /v1/scenes): decode and validate
 // the images, read the intrinsics, reduce and texture (pipeline/frame_scene.h, as `rgbdcast reduce`), encode the GLB. The
 // result is what `rgbdcast reduce` writes for the same frame, and is then checked like any uploaded GLB.
-#include <cmath>
-
 #include "gltf/gltf_io.h"
-#include "input/frame_source.h"
-#include "input/intrinsics_io.h"
 #include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
-#include "service/image_header.h"
 #include "service/scene_ingest.h"
+#include "service/upload_body.h"
 
 namespace rgbdcast::service {
 namespace {
@@ -21,39 +17,14 @@ double ms_since(Clock::time_point t0) {
 
 nlohmann::json stage_json(const StageReport& s) { return {{"name", s.name}, {s.unit, s.count}, {"ms", s.ms}}; }
 
-Status check_image_size(const std::vector<unsigned char>& bytes, const char* part, int max_width, int max_height) {
-  auto size = peek_image_size(bytes.data(), bytes.size());
-  if (!size) return make_error(ErrorCode::kInvalidInput, std::string(part) + ": " + size.error().message);
-  if (size->width > max_width || size->height > max_height)
-    return make_error(ErrorCode::kInvalidInput, std::string(part) + ": " + std::to_string(size->width) + "x" +
-                                                    std::to_string(size->height) + " is over the frame limit of " +
-                                                    std::to_string(max_width) + "x" + std::to_string(max_height) +
-                                                    " (--max-frame)");
-  return ok_status();
-}
-
 }  // namespace
 
 Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   std::vector<StageReport> stages;
   auto t = Clock::now();
-  for (const auto& [bytes, part] : {std::pair{&upload.color, "color"}, std::pair{&upload.depth, "depth"}}) {
-    auto st = check_image_size(*bytes, part, upload.max_width, upload.max_height);
-    if (!st) return st.error();
-  }
-  auto intrinsics = parse_intrinsics_json(upload.intrinsics_json, "intrinsics");  // from memory, no paths
-  if (!intrinsics) return intrinsics.error();
-  {
-    const Intrinsics& k = *intrinsics;
-    if (!(std::isfinite(k.fx) && std::isfinite(k.fy) && k.fx > 0 && k.fy > 0))
-      return make_error(ErrorCode::kInvalidInput, "intrinsics: focal lengths fx and fy must be positive numbers");
-  }
-  auto color = decode_color(upload.color, "color");
-  if (!color) return make_error(ErrorCode::kInvalidInput, color.error().message);
-  auto depth = decode_depth16(upload.depth, "depth");
-  if (!depth) return make_error(ErrorCode::kInvalidInput, depth.error().message);
-  auto frame = make_frame(*color, *depth, *intrinsics);
-  if (!frame) return make_error(ErrorCode::kInvalidInput, frame.error().message);
+  auto frame = decode_frame_parts(upload.color, upload.depth, upload.intrinsics_json, upload.max_width,
+                                  upload.max_height);
+  if (!frame) return frame.error();
   stages.push_back({"decode", "pixels", static_cast<size_t>(frame->color_rgb.total()), ms_since(t)});
 
   // The same frame -> scene function and options as `rgbdcast reduce` with its defaults.
@@ -82,6 +53,7 @@ Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   const nlohmann::json choices = nlohmann::json::parse(choices_json(*textured));
   nlohmann::json stage_list = nlohmann::json::array();
   for (const auto& s : stages) stage_list.push_back(stage_json(s));
+  const GlbWriteOptions glb_options = write_options(*textured, options.glb);  // the budget's Draco results
   Scene scene = frame_scene(std::move(*textured),
                             nlohmann::json{{"rgbdcast",
                                             {{"source", "upload"},
@@ -92,7 +64,7 @@ Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
                                              {"stages", stage_list}}}}
                                 .dump());
   t = Clock::now();
-  auto glb = encode_glb(scene, options.glb);  // the codec the budget measured with
+  auto glb = encode_glb(scene, glb_options);  // the codec the budget measured with
   if (!glb) return glb.error();
   const double export_ms = ms_since(t);
 

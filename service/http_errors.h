@@ -3,6 +3,7 @@
 // the library's ErrorCode to an HTTP status.
 #include <string>
 
+#include "scene/error_text.h"
 #include "scene/result.h"
 
 namespace rgbdcast::service {
@@ -23,8 +24,5 @@ std::string redact_paths(const std::string& text);
 }  // namespace rgbdcast::service
 
 namespace rgbdcast::service {
-// What a client sent, quoted in an error text: at most max_bytes of it ("..." after a cut), with every byte outside
-// printable ASCII (control characters such as a decoded %0A, DEL, backslash, bytes of UTF-8) written as \xNN, so
-// the error stays one printable line whatever the input.
-std::string quote_for_error(const std::string& text, size_t max_bytes = 40);
+using rgbdcast::quote_for_error;  // scene/error_text.h: what a client sent, quoted in an error text
 }  // namespace rgbdcast::service

@@ -1,6 +1,6 @@
 #pragma once
 // Small pieces every route file of the service uses to answer (view_service.cpp, mission_routes.cpp): the JSON
-// error and value bodies, the 503 with Retry-After, the media type of a request, the body budget and upload slots.
+// error and value bodies, the 503 with Retry-After, the media type of a request, a refused body, upload slots.
 // httplib.h must be compiled with the library's flags (../shared/STACK.md).
 #include <httplib.h>
 
@@ -11,7 +11,9 @@
 #include <nlohmann/json.hpp>
 
 #include "scene/result.h"
+#include "service/connection_gate.h"
 #include "service/http_errors.h"
+#include "service/upload_body.h"
 
 namespace rgbdcast::service {
 
@@ -46,17 +48,12 @@ inline std::string media_type(const std::string& content_type) {
   return t;
 }
 
-// A request body as it arrives, whatever its framing (Content-Length, chunked) and coding (gzip, br: httplib
-// inflates it): at most `limit` bytes are kept; past it the reading stops and `over` is set.
-struct BodyBudget {
-  size_t limit = 0, received = 0;
-  bool over = false;
-  bool take(size_t n) {
-    received += n;
-    over = over || received > limit;
-    return !over;
-  }
-};
+// The answer to a body that is not processed (service/upload_body.h): its 4xx, and the connection closed when the
+// body was not read to its end.
+inline void send_refusal(httplib::Response& res, const BodyRefusal& refusal) {
+  if (refusal.close) GatedServer::close_after_response();
+  send_error(res, refusal.status, refusal.detail);
+}
 
 // Counts requests holding a slot; try_acquire fails when `limit` already do.
 class Slots {

@@ -119,21 +119,8 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
     return send_error(res, 503, "too many uploads at once; retry later");
   }
   SlotRelease release{&uploads_};
-  BodyBudget budget{options_.max_body_bytes};
   std::vector<std::uint8_t> glb;
-  const bool read = reader([&](const char* data, size_t n) {
-    if (!budget.take(n)) return false;
-    glb.insert(glb.end(), data, data + n);
-    return true;
-  });
-  if (!read) {
-    GatedServer::close_after_response();
-    if (budget.over)
-      return send_error(res, 413, "request body over the limit of " + std::to_string(options_.max_body_bytes) +
-                                      " bytes (--max-body-mib), counted after decoding");
-    return send_error(res, 400, "request body could not be read (cut short, bad chunked framing or bad compressed "
-                                "data)");
-  }
+  if (auto refused = read_whole_body(reader, options_.max_body_bytes, &glb)) return send_refusal(res, *refused);
   auto decoded = decode_client_glb(glb);
   if (!decoded) return send_error(res, decoded.error());
   const size_t triangles = decoded->triangle_count();

@@ -255,6 +255,17 @@ std::vector<StoredScene> SceneStore::list() const {
   return out;
 }
 
+void SceneStore::for_each(const std::function<void(const StoredScene&)>& f) const {
+  std::lock_guard lock(mutex_);
+  std::vector<const StoredScene*> order;
+  order.reserve(scenes_.size());
+  for (const auto& [id, s] : scenes_) order.push_back(&s);
+  std::stable_sort(order.begin(), order.end(), [](const StoredScene* a, const StoredScene* b) {
+    return a->created_unix_s < b->created_unix_s;
+  });
+  for (const StoredScene* s : order) f(*s);
+}
+
 Status SceneStore::remove(const std::string& id) {
   if (!is_valid_scene_id(id)) return make_error(ErrorCode::kNotFound, "no scene " + id);
   {

@@ -10,6 +10,7 @@
 //   an id can never name a file outside the scenes folder.
 // Thread-safe: every method may be called from any thread.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <map>
@@ -44,6 +45,9 @@ class SceneStore {
   Result<StoredScene> put(const std::vector<std::uint8_t>& glb, nlohmann::json metadata);
   std::optional<StoredScene> get(const std::string& id) const;
   std::vector<StoredScene> list() const;  // oldest first
+  // Calls f on every scene, oldest first, under the store's lock (f must not call the store): the listing route's
+  // way, which does not copy every scene's metadata per request (no measurable RSS effect in bench/soak.sh).
+  void for_each(const std::function<void(const StoredScene&)>& f) const;
   Status remove(const std::string& id);   // kNotFound when unknown
   Result<std::vector<std::uint8_t>> read_glb(const std::string& id) const;
   std::string glb_path(const std::string& id) const;  // only for a valid id

@@ -21,6 +21,7 @@ const std::map<std::string, Target>& targets() {
       {"glb", rgbdcast::fuzz::glb},           {"draco", rgbdcast::fuzz::draco},
       {"intrinsics", rgbdcast::fuzz::intrinsics},
       {"frame_decode", rgbdcast::fuzz::frame_decode}, {"frame_upload", rgbdcast::fuzz::frame_upload},
+      {"multipart", rgbdcast::fuzz::multipart},
       {"pcd", rgbdcast::fuzz::pcd},           {"trajectory", rgbdcast::fuzz::trajectory},
       {"view_query", rgbdcast::fuzz::view_query},     {"rosbag", rgbdcast::fuzz::rosbag}};
   return t;

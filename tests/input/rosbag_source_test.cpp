@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 
 #include "input/frame_source.h"
@@ -176,6 +177,106 @@ TEST(RosbagSource, TruncatedOrForeignFilesGiveOneLine) {
   auto t = open_frame_source(dir + "/text.bag", {});
   ASSERT_FALSE(t);
   EXPECT_NE(t.error().message.find("not a readable ROS 1 bag"), std::string::npos) << t.error().message;
+}
+
+// rosbag_storage trusts a bag's declared lengths (the fuzz target found a heap over-read in ros::Header::parse on a
+// connection header whose field claims more bytes than the record holds): input/rosbag_check.h walks the bag first.
+// Each case is one lie written into a real bag; each is refused in one line before rosbag opens the file.
+namespace hostile {
+std::uint32_t u32(const std::string& b, size_t at) {
+  std::uint32_t v = 0;
+  for (int i = 3; i >= 0; --i) v = (v << 8) | std::uint8_t(b[at + i]);
+  return v;
+}
+void put32(std::string* b, size_t at, std::uint32_t v) {
+  for (int i = 0; i < 4; ++i) (*b)[at + i] = char((v >> (8 * i)) & 0xff);
+}
+// The offset of field `name`'s value in the header of the record at `at` (npos when absent).
+size_t field(const std::string& b, size_t at, const std::string& name) {
+  const size_t end = at + 4 + u32(b, at);
+  for (size_t i = at + 4; i + 4 <= end;) {
+    const size_t len = u32(b, i);
+    if (b.compare(i + 4, name.size() + 1, name + "=") == 0) return i + 4 + name.size() + 1;
+    i += 4 + len;
+  }
+  return std::string::npos;
+}
+size_t data_len_at(const std::string& b, size_t at) { return at + 4 + u32(b, at); }
+size_t next(const std::string& b, size_t at) { return data_len_at(b, at) + 4 + u32(b, data_len_at(b, at)); }
+}  // namespace hostile
+
+TEST(RosbagSource, LyingLengthsAreRefusedBeforeRosbagReadsThem) {
+  REQUIRE_BAG(b, "fr1_32f", test::BagDepth::kMetres32F, "rgb8");
+  using namespace hostile;
+  std::ifstream in(b.path, std::ios::binary);
+  const std::string bag((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t header = 13, chunk = next(bag, header);
+  ASSERT_NE(field(bag, header, "index_pos"), std::string::npos);
+  const size_t index_pos = u32(bag, field(bag, header, "index_pos"));  // below 4 GiB here
+  ASSERT_EQ(bag.compare(field(bag, chunk, "compression"), 4, "none"), 0);
+  const size_t index_record = next(bag, chunk);  // the first index record after the first chunk
+  ASSERT_EQ(bag[field(bag, index_record, "op")], 4);
+
+  struct Case {
+    std::string what, expect;
+    std::function<void(std::string*)> lie;
+  };
+  const std::vector<Case> cases = {
+      {"a connection header field longer than its record (the fuzz find)", "a field claims",
+       [&](std::string* x) { put32(x, data_len_at(*x, index_pos) + 4, u32(*x, data_len_at(*x, index_pos)) + 100); }},
+      {"a record header longer than the file", "the header claims",
+       [&](std::string* x) { put32(x, index_pos, 0x00fffff0); }},
+      {"record data longer than the file", "the data claims",
+       [&](std::string* x) { put32(x, data_len_at(*x, index_pos), 0x7ffffff0); }},
+      {"index_pos inside a record", "is not a record's start",
+       [&](std::string* x) { put32(x, field(*x, header, "index_pos"), std::uint32_t(index_pos + 1)); }},
+      {"a 4 GiB chunk", "at most 256 MiB", [&](std::string* x) { put32(x, field(*x, chunk, "size"), 0xfffffff0); }},
+      {"an uncompressed chunk whose size is not its data", "is not its data length",
+       [&](std::string* x) { put32(x, field(*x, chunk, "size"), u32(*x, field(*x, chunk, "size")) - 1); }},
+      {"an index entry past its chunk", "not a message of its connection",
+       [&](std::string* x) { put32(x, data_len_at(*x, index_record) + 4 + 8, 0x00ffffff); }},
+      {"one more connection than the index holds", "fewer than conn_count",
+       [&](std::string* x) { put32(x, field(*x, header, "conn_count"), 1000); }},
+  };
+  const std::string dir = test::temp_dir("rosbag-lies");
+  for (const Case& c : cases) {
+    std::string x = bag;
+    c.lie(&x);
+    ASSERT_NE(x, bag) << c.what;
+    const std::string path = dir + "/lie.bag";
+    std::ofstream(path, std::ios::binary | std::ios::trunc) << x;
+    auto s = open_frame_source(path, {});
+    ASSERT_FALSE(s) << c.what;
+    EXPECT_EQ(s.error().code, ErrorCode::kInvalidInput) << c.what;
+    EXPECT_NE(s.error().message.find("not a readable ROS 1 bag (truncated or corrupt: record at byte"),
+              std::string::npos) << c.what << ": " << s.error().message;
+    EXPECT_NE(s.error().message.find(c.expect), std::string::npos) << c.what << ": " << s.error().message;
+    EXPECT_EQ(s.error().message.find('\n'), std::string::npos) << c.what;
+    std::printf("[ lie ] %s -> %s\n", c.what.c_str(), s.error().message.substr(s.error().message.find("record at")).c_str());
+  }
+}
+
+// A compressed chunk that claims more than it holds: bz2 output is grown as it arrives, so a claimed 250 MiB costs
+// what the data really decompresses to; lz4 is refused when the claim exceeds 256 bytes per byte of data.
+TEST(RosbagSource, CompressedChunksThatClaimMoreAreRefusedWithoutAllocatingTheClaim) {
+  using namespace hostile;
+  for (const char* compression : {"bz2", "lz4"}) {
+    REQUIRE_BAG(b, std::string("fr1_32f_") + compression, test::BagDepth::kMetres32F, "rgb8", true, compression);
+    std::ifstream in(b.path, std::ios::binary);
+    std::string bag((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const size_t chunk = next(bag, 13);
+    ASSERT_EQ(bag.compare(field(bag, chunk, "compression"), 3, compression), 0);
+    for (std::uint32_t claim : {250u << 20, u32(bag, field(bag, chunk, "size")) + 1}) {
+      std::string x = bag;
+      put32(&x, field(x, chunk, "size"), claim);
+      const std::string path = test::temp_dir("rosbag-claims") + "/claim.bag";
+      std::ofstream(path, std::ios::binary | std::ios::trunc) << x;
+      auto s = open_frame_source(path, {});
+      ASSERT_FALSE(s) << compression << " claiming " << claim;
+      EXPECT_NE(s.error().message.find("chunk does not decompress to its size " + std::to_string(claim)),
+                std::string::npos) << s.error().message;
+    }
+  }
 }
 
 TEST(RosbagSource, PairsOnlyWithinTheTimeLimit) {
