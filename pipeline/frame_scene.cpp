@@ -280,7 +280,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   }
   // Texture: the largest quality (at full, then half resolution) whose bytes fit what is left. JPEG bytes are close
   // to exponential in the quality over 20..92, so the quality is interpolated on log bytes between the two ends and
-  // refined (two encodes a step, on two threads) until within 3 % under what is left, at most three times.
+  // refined (two encodes a step, on two threads) until within 5 % under what is left, at most three times.
   const double texture_target = target - static_cast<double>(b.glb_bytes - b.texture_bytes);
   double scale = 1.0;
   int q_lo = kMaxQuality;
@@ -292,7 +292,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
       if (auto s = encode_at(scale, {kMinQuality, kMaxQuality}, threads); !s) return s.error();
     }
     if (bytes_of(q_lo, scale) <= texture_target && bytes_of(q_hi, scale) > texture_target) {
-      for (int step = 0; step < 3 && q_hi - q_lo > 2 && bytes_of(q_lo, scale) < 0.97 * texture_target; ++step) {
+      for (int step = 0; step < 3 && q_hi - q_lo > 2 && bytes_of(q_lo, scale) < 0.95 * texture_target; ++step) {
         const double lo_bytes = bytes_of(q_lo, scale), hi_bytes = bytes_of(q_hi, scale);
         const double f = std::log(texture_target / lo_bytes) / std::log(hi_bytes / lo_bytes);
         const int guess = static_cast<int>(std::floor(q_lo + f * (q_hi - q_lo)));

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <chrono>
 #include <thread>
 
 #include "input/frame_source.h"
@@ -24,13 +25,19 @@ int process_threads() {
 }
 
 // Runs `work` on a fresh thread; returns how many threads the process gained while it ran (counted on that thread
-// before it ends, so the OpenMP pool threads it started are still there).
+// before it ends, so the OpenMP pool threads it started are still there). Stages that start plain threads join
+// them, but a joined thread can still be listed in /proc for a moment after the join returns: the count is the
+// least seen over 0.5 s, so what is counted is a pool that stays, not a thread on its way out.
 int threads_left_by(const std::function<void()>& work) {
   int grown = -1;
   std::thread t([&] {
     const int before = process_threads();
     work();
     grown = process_threads() - before;
+    for (int i = 0; i < 20 && grown > 0; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(25));
+      grown = std::min(grown, process_threads() - before);
+    }
   });
   t.join();
   return grown;
