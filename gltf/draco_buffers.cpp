@@ -282,7 +282,7 @@ Result<GlbChunks> draco_compress(const GlbChunks& in, const DracoOptions& option
         }
         mesh_in.indices = indices.data();
         mesh_in.num_indices = indices.size();
-        const std::uint64_t key = cache_key(mesh_in, data);
+        const std::uint64_t key = options.cache ? cache_key(mesh_in, data) : 0;
         std::shared_ptr<const DracoCache::Entry> compressed = options.cache ? options.cache->find(key) : nullptr;
         if (!compressed) {
           auto made = compress_primitive(mesh_in, names);

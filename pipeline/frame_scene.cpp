@@ -179,8 +179,10 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   if (glb_options.flavor == GlbFlavor::kCompact && glb_options.geometry_codec == GeometryCodec::kDraco)
     glb_options.draco.cache = out.geometry_cache = std::make_shared<DracoCache>();
   auto measure_geometry = [&](const Mesh& mesh) -> Status {
-    SceneNode probe;
-    probe.mesh = mesh;
+    SceneNode probe;  // the geometry and the stand-in (its header gives the texture's size): no pixel copy
+    probe.mesh.positions = mesh.positions;
+    probe.mesh.uvs = mesh.uvs;
+    probe.mesh.indices = mesh.indices;
     const int tw = mesh.texture.width, th = mesh.texture.height;
     probe.mesh.texture_encoded = {0xFF, 0xD8, 0xFF, 0xC0, 0x00, 0x0B, 0x08,
                                   static_cast<std::uint8_t>(th >> 8), static_cast<std::uint8_t>(th & 0xFF),
@@ -314,7 +316,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   }
   for (Tried& t : tried)
     if (t.quality == q_lo && t.scale == scale) {
-      textured->mesh.texture = scale < 1.0 ? std::move(half) : std::move(textured->mesh.texture);
+      if (scale < 1.0) textured->mesh.texture = std::move(half);
       textured->mesh.texture_encoded = std::move(t.bytes);
       textured->mesh.texture_mime = "image/jpeg";
       break;

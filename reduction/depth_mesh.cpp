@@ -65,7 +65,7 @@ class FastLog {
 
 cv::Mat log_depth(const cv::Mat& depth_m) {
   static_assert(sizeof(float) == 4);
-  const FastLog fast_log;
+  static const FastLog fast_log;  // a constant table, built once
   const float origin = static_cast<float>(std::log(kLogOrigin)), inv_step = static_cast<float>(1.0 / kLogStep);
   cv::Mat out(depth_m.size(), CV_16SC1);
   for (int y = 0; y < depth_m.rows; ++y) {
@@ -544,12 +544,6 @@ void DepthMeshHierarchy::walk(double tol, Emit&& emit) const {
       }
     }
   }
-}
-
-size_t DepthMeshHierarchy::count(double tol) const {
-  size_t n = 0;
-  walk(tol, [&](int, int, int) { ++n; });
-  return n;
 }
 
 namespace {

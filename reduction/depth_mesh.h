@@ -96,9 +96,6 @@ class DepthMeshHierarchy {
   // positions and indices only, counter-clockwise seen from the camera. `pixels` (optional) gets each vertex's
   // grid pixel (u, v) before the boundary push. Empty when nothing is representable.
   Mesh extract(double tolerance_factor, std::vector<Eigen::Vector2i>* pixels = nullptr) const;
-  // Triangle count at a tolerance, without building the mesh.
-  size_t count(double tolerance_factor) const;
-
   // The triangle counts at every tolerance from `tolerance_min` up, from one walk at it (for budget searches):
   // a triangle is emitted at t while its own error <= t < its parent's. Tolerances are binned by their float's top
   // 16 bits (128 bins an octave, 0.54 % apart); a bin's count is exact at its top (TriangleCounts::top).
