@@ -148,6 +148,9 @@ void register_reduce(CLI::App& app) {
   cmd->add_option("--budget-kb", args->budget_kb,
                   "Realtime: land the GLB within +-10 % of this many kB, or under when the scene needs less "
                   "(default: 40, or a quarter of the frame's JPEG90+PNG16 payload when that is less; 0 = no budget)");
+  cmd->add_option("--budget-outline-scale", args->budget_outline_texture_scale,
+                  "Realtime budget: past the largest tolerance, the texture scale (0.25..1) kept before the mesh's "
+                  "outline is straightened")->capture_default_str();
   cmd->add_option("--tolerance", args->params.depth_mesh.tolerance_factor,
                   "Realtime: split a triangle while its RMS distance from its pixels exceeds this many sigma of the "
                   "sensor's depth noise (a budget raises it as needed)")->capture_default_str();
@@ -169,6 +172,9 @@ void register_reduce(CLI::App& app) {
   cmd->add_option("--boundary-lost-px", args->params.depth_mesh.boundary_max_lost_px,
                   "Realtime: a triangle on a hole's or the image's edge splits when keeping it whole would drop more "
                   "than this many valid pixels")->capture_default_str();
+  cmd->add_option("--boundary-push-px", args->params.depth_mesh.boundary_push_px,
+                  "Realtime: vertices on the mesh's outline move this far outwards in the image (0..2), so the "
+                  "outline's pixels are covered whole at the capture pose")->capture_default_str();
   cmd->add_option("--outliers", args->params.outlier_method,
                   "Outlier neighbour search: kdtree (PCL, the paper's) or organized (image window, faster)")
       ->transform(CLI::CheckedTransformer(std::map<std::string, OutlierMethod>{

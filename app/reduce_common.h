@@ -23,6 +23,7 @@ struct ReduceArgs {
   // < 0: the preset's default (realtime: min(40 kB, a quarter of the frame's JPEG90+PNG16 payload), set per frame
   // by apply_default_budget; paper: none).
   double budget_kb = -1;
+  double budget_outline_texture_scale = FrameReductionOptions{}.budget_outline_texture_scale;
   // --geometry-codec not given: the preset's default (default_geometry_codec: realtime draco, paper meshopt).
   bool geometry_codec_chosen = false;
   ReductionParams params;

@@ -1,5 +1,5 @@
 // Per-stage times of the reduction on real frames: median of N runs per stage, printed as a table.
-// usage: reduce_bench [--input DIR] [--intrinsics fr1] [--frame 0] [--runs 5] [--preset paper|realtime]
+// usage: reduce_bench [--input DIR] [--intrinsics fr1 (default: guessed from the input, as reduce does)] [--frame 0] [--runs 5] [--preset paper|realtime]
 //                     [--budget-kb 40] [--threads N (realtime; 0 = OpenMP's default)]
 // The paper preset (default) is timed with both outlier searches. The realtime preset is timed through the one
 // frame -> scene function and the GLB encode, as `rgbdcast reduce` runs it (Draco geometry, the budget), with its
@@ -73,7 +73,7 @@ static int realtime_stages(const RgbdFrame& frame, const std::string& input, int
 
 int main(int argc, char** argv) {
   keep_freed_frame_memory();  // as `rgbdcast reduce` and `rgbdcast stream` run
-  std::string input = RGBDCAST_DATA_DIR "/tum/rgbd_dataset_freiburg1_xyz", intrinsics = "fr1";
+  std::string input = RGBDCAST_DATA_DIR "/tum/rgbd_dataset_freiburg1_xyz", intrinsics;
   int frame_index = 0, runs = 5;
   std::string preset = "paper";
   double budget_kb = 40;

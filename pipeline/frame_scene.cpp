@@ -1,6 +1,7 @@
 #include "pipeline/frame_scene.h"
 
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -10,6 +11,7 @@
 #include <thread>
 
 #include "atlas/texture_encode.h"
+#include "atlas/unsampled_fill.h"
 #include "reduction/openmp_threads.h"
 
 namespace rgbdcast {
@@ -82,6 +84,33 @@ Result<std::vector<std::vector<std::uint8_t>>> encode_jpegs(const Image& im, con
   return bytes;
 }
 
+// The frame texture of `before` (a mesh before its collapses, which keep its surface, outline included, within
+// simplify_px of where it was), its unsampled texels filled, the sampled ones (each lookup's bilinear footprint
+// included) grown by that much: so the texels the collapsed mesh samples keep their colour, and the texture can be
+// made beside the collapses.
+Result<AtlasResult> texture_before_collapses(const Mesh& before, const RgbdFrame& frame, AtlasOptions o,
+                                             double simplify_px) {
+  const auto t0 = Clock::now();
+  o.mode = TextureMode::kFrame;
+  o.fill_unsampled = false;
+  o.encode = false;
+  o.reorder_triangles = false;
+  auto r = build_atlas(before, frame.color_rgb, frame.intrinsics.pinhole(), o);
+  if (!r) return r.error();
+  const int w = r->mesh.texture.width, h = r->mesh.texture.height;
+  auto sampled = texels_sampled_by_uvs(r->mesh, w, h);
+  if (!sampled) return sampled.error();
+  const int grow = static_cast<int>(std::ceil(std::max(0.0, simplify_px)));
+  cv::Mat mask(h, w, CV_8UC1, sampled->data());
+  if (grow > 0) cv::dilate(mask, mask, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * grow + 1, 2 * grow + 1)));
+  r->unsampled_texels = static_cast<size_t>(std::count(sampled->begin(), sampled->end(), 0));
+  const auto f0 = Clock::now();
+  if (auto st = fill_unsampled_texels(&r->mesh.texture, *sampled); !st) return st.error();
+  r->fill_ms = ms_since(f0);
+  r->ms = ms_since(t0);
+  return r;
+}
+
 }  // namespace
 
 Status FrameReductionOptions::validate() const {
@@ -92,6 +121,9 @@ Status FrameReductionOptions::validate() const {
     return make_error(ErrorCode::kInvalidArgument, "budget must be 0 (none) or up to 100000 kB");
   if (budget_kb > 0 && budget_kb < 4)
     return make_error(ErrorCode::kInvalidArgument, "budget must be at least 4 kB (a GLB's headers and a texture)");
+  if (!(std::isfinite(budget_outline_texture_scale) && budget_outline_texture_scale >= kMinTextureScale &&
+        budget_outline_texture_scale <= 1))
+    return make_error(ErrorCode::kInvalidArgument, "the budget's outline texture scale must be 0.25..1");
   if (!(std::isfinite(budget_geometry_share) && budget_geometry_share > 0 && budget_geometry_share < 1))
     return make_error(ErrorCode::kInvalidArgument, "the budget's geometry share must be between 0 and 1");
   if (budget_kb > 0 && params.preset != Preset::kRealtime)
@@ -203,7 +235,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   auto update_total = [&] { b.glb_bytes = b.geometry_bytes + b.texture_bytes + rest_bytes; };
   // The smallest tolerance >= tol0 whose mesh has at most `want` triangles, from the counts at every tolerance
   // (one walk of the hierarchy).
-  const DepthMeshHierarchy::TriangleCounts counts = hierarchy.counts(tol0);
+  const DepthMeshHierarchy::TriangleCounts counts = hierarchy.counts(tol0, openmp_threads(options.params.threads));
   auto tolerance_for = [&](double want) { return counts.smallest_with_at_most(want / kept, kMaxToleranceFactor); };
   // The mesh at a tolerance, textured (pixels only) and its geometry measured; then its texture at the best quality.
   // JPEG encodes tried on the current mesh's texture: (quality, scale) -> bytes. A remesh changes the texture's
@@ -238,9 +270,51 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   // may follow needs both).
   const double simplify0 = options.params.depth_mesh.simplify_px;
   b.simplify_px = simplify0;
+  // With two threads and nothing to drop for earlier views, the texture is made from the mesh before its collapses
+  // on a second thread (texture_before_collapses, then its JPEGs at the best and the least quality), beside the
+  // collapses and the geometry's measurement on this one.
+  const bool texture_beside = threads > 1 && earlier.empty() && atlas.mode == TextureMode::kFrame &&
+                              atlas.fill_unsampled.value_or(false);
+  Result<std::vector<std::vector<std::uint8_t>>> side_jpegs = make_error(ErrorCode::kInternal, "not encoded");
+  auto mesh_with_texture_beside = [&](double tolerance, double simplify_px, std::vector<StageReport>* stages,
+                                      Status* geometry) -> Result<AtlasResult> {
+    auto reduced = extract_realtime(*prepared, frame, tolerance, 0);
+    if (!reduced) return reduced.error();
+    Mesh before;
+    before.positions = reduced->mesh.positions;
+    before.indices = reduced->mesh.indices;
+    Result<AtlasResult> side_texture = make_error(ErrorCode::kInternal, "not made");
+    std::thread side([&] {
+      side_texture = texture_before_collapses(before, frame, atlas, simplify_px);
+      if (side_texture) side_jpegs = encode_jpegs(side_texture->mesh.texture, {kMaxQuality, kMinQuality}, 1);
+      else side_jpegs = side_texture.error();
+    });
+    Result<AtlasResult> t = [&]() -> Result<AtlasResult> {
+      if (auto st = simplify_realtime(*prepared, frame, simplify_px, &*reduced); !st) return st.error();
+      AtlasOptions o = atlas;
+      o.fill_unsampled = false;
+      o.encode = false;
+      auto uvs = build_atlas(reduced->mesh, frame.color_rgb, frame.intrinsics.pinhole(), o);
+      if (!uvs) return uvs.error();
+      *geometry = measure_geometry(uvs->mesh);
+      return uvs;
+    }();
+    side.join();
+    if (!t) return t.error();
+    if (!side_texture) return side_texture.error();
+    t->mesh.texture = std::move(side_texture->mesh.texture);
+    t->unsampled_texels = side_texture->unsampled_texels;
+    t->fill_ms = side_texture->fill_ms;
+    t->ms = side_texture->ms;
+    *stages = reduced->stages;
+    stages->push_back({"atlas", "texels", t->texels, t->ms});  // on the second thread
+    return t;
+  };
   auto remesh = [&](double tolerance, double simplify_px) -> Status {
     std::vector<StageReport> stages;
-    auto t = texture_at(tolerance, simplify_px, &stages);
+    Status geometry = ok_status(), texture = ok_status();
+    auto t = texture_beside ? mesh_with_texture_beside(tolerance, simplify_px, &stages, &geometry)
+                            : texture_at(tolerance, simplify_px, &stages);
     if (!t) return t.error();
     const double extracted = static_cast<double>(counts.at(tolerance));
     const double triangles = static_cast<double>(t->mesh.triangle_count());
@@ -253,9 +327,13 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     tried.clear();
     scaled = Image{};
     scaled_at = 1.0;
-    Status geometry = ok_status(), texture = ok_status();
     auto encode_texture = [&](int workers) { texture = encode_at(1.0, {kMaxQuality, kMinQuality}, workers); };
-    if (threads > 1) {
+    if (texture_beside) {  // both measured already
+      if (!side_jpegs) return side_jpegs.error();
+      tried.push_back({kMaxQuality, 1.0, std::move((*side_jpegs)[0])});
+      tried.push_back({kMinQuality, 1.0, std::move((*side_jpegs)[1])});
+      b.encodes += 2;
+    } else if (threads > 1) {
       std::thread side([&] { geometry = measure_geometry(textured->mesh); });
       encode_texture(1);
       side.join();
@@ -280,15 +358,17 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     if (auto s = remesh(geometry_for(geometry_cap), simplify0); !s) return s.error();
   b.rule = b.tolerance_factor > tol0 ? "geometry-capped" : "texture-fitted";
   // Past the largest tolerance the mesh's bytes are its outline's (depth jumps and holes, which split whatever the
-  // tolerance). When they leave the texture less than its floor (the least quality at half resolution), the
-  // collapses straighten the outline further, their limit doubled until they do not. The outline then stays within
-  // that many pixels of the depth's (a few of its pixels uncovered: a last resort, so the geometry keeps more than
-  // its share before it comes to this); the texture gets what is left, as below.
+  // tolerance). When they leave the texture less than its floor (the least quality at
+  // budget_outline_texture_scale, full resolution by default), the collapses straighten the outline further, their
+  // limit doubled until they do not. The outline then stays within that many pixels of the depth's (a few of its
+  // pixels uncovered, so the geometry keeps more than its share before it comes to this); the texture gets what is
+  // left, as below.
   while (b.geometry_bytes > 1.1 * geometry_cap && b.tolerance_factor >= kMaxToleranceFactor && simplify0 > 0 &&
          b.simplify_px < kMaxSimplifyPx) {
-    if (bytes_of(kMinQuality, 0.5) < 0)
-      if (auto s = encode_at(0.5, {kMinQuality}, 1); !s) return s.error();
-    if (static_cast<double>(b.geometry_bytes + rest_bytes) + bytes_of(kMinQuality, 0.5) <= target) break;
+    const double kept_scale = options.budget_outline_texture_scale;
+    if (bytes_of(kMinQuality, kept_scale) < 0)
+      if (auto s = encode_at(kept_scale, {kMinQuality}, 1); !s) return s.error();
+    if (static_cast<double>(b.geometry_bytes + rest_bytes) + bytes_of(kMinQuality, kept_scale) <= target) break;
     if (auto s = remesh(b.tolerance_factor, std::min(kMaxSimplifyPx, 2 * b.simplify_px)); !s) return s.error();
     b.rule = "outline-capped";
   }

@@ -15,6 +15,7 @@
 // neighbour share that point, so they split together and the mesh has no T-junction. Levels are processed
 // finest-first over all tiles, so a midpoint on a tile border holds both tiles' errors before any parent reads it.
 #include "reduction/depth_mesh.h"
+#include "reduction/mesh_edges.h"
 #include "reduction/openmp_threads.h"
 
 #include <opencv2/calib3d.hpp>
@@ -97,7 +98,19 @@ Status DepthFilterParams::validate() const {
   return ok_status();
 }
 
-Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilterParams& p) {
+namespace {
+// Rows 0..h-1 split into `threads` bands, each run by one plain thread (joined here): f(y0, y1, band).
+template <class F>
+void for_row_bands(int h, int threads, F&& f) {
+  const int bands = std::clamp(threads, 1, std::max(1, h / 32));
+  std::vector<std::thread> pool;
+  for (int i = 1; i < bands; ++i) pool.emplace_back([&, i] { f(h * i / bands, h * (i + 1) / bands, i); });
+  f(0, h / bands, 0);
+  for (auto& t : pool) t.join();
+}
+}  // namespace
+
+Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilterParams& p, int threads) {
   if (depth_m.empty() || depth_m.type() != CV_32FC1)
     return make_error(ErrorCode::kInvalidArgument, "depth filter: depth must be a non-empty CV_32FC1 image");
   if (auto st = p.validate(); !st) return st.error();
@@ -112,23 +125,27 @@ Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilter
   cv::Mat kept = l.clone();
   cv::Mat padded;
   cv::copyMakeBorder(l, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, cv::Scalar(0));
-  for (int y = 0; y < h; ++y) {
-    const std::int16_t* up = padded.ptr<std::int16_t>(y) + 1;
-    const std::int16_t* row = padded.ptr<std::int16_t>(y + 1) + 1;
-    const std::int16_t* down = padded.ptr<std::int16_t>(y + 2) + 1;
-    std::int16_t* out = kept.ptr<std::int16_t>(y);
-    for (int x = 0; x < w; ++x) {
-      const int c = row[x];
-      if (c == 0) continue;
-      auto same = [&](int n) { return n != 0 && std::abs(n - c) <= max_diff; };
-      const int support = same(up[x - 1]) + same(up[x]) + same(up[x + 1]) + same(row[x - 1]) + same(row[x + 1]) +
-                          same(down[x - 1]) + same(down[x]) + same(down[x + 1]);
-      if (support < p.min_support) {
-        out[x] = 0;
-        ++r.flying;
+  std::vector<size_t> flying(std::max(1, threads), 0), filled(std::max(1, threads), 0);
+  for_row_bands(h, threads, [&](int y0, int y1, int band) {
+    for (int y = y0; y < y1; ++y) {
+      const std::int16_t* up = padded.ptr<std::int16_t>(y) + 1;
+      const std::int16_t* row = padded.ptr<std::int16_t>(y + 1) + 1;
+      const std::int16_t* down = padded.ptr<std::int16_t>(y + 2) + 1;
+      std::int16_t* out = kept.ptr<std::int16_t>(y);
+      for (int x = 0; x < w; ++x) {
+        const int c = row[x];
+        if (c == 0) continue;
+        auto same = [&](int n) { return n != 0 && std::abs(n - c) <= max_diff; };
+        const int support = same(up[x - 1]) + same(up[x]) + same(up[x + 1]) + same(row[x - 1]) + same(row[x + 1]) +
+                            same(down[x - 1]) + same(down[x]) + same(down[x + 1]);
+        if (support < p.min_support) {
+          out[x] = 0;
+          ++flying[band];
+        }
       }
     }
-  }
+  });
+  for (size_t n : flying) r.flying += n;
   // Speckles: continuous regions smaller than min_region_px.
   const size_t before = static_cast<size_t>(cv::countNonZero(kept));
   if (p.min_region_px > 0) cv::filterSpeckles(kept, 0, p.min_region_px, max_diff);
@@ -154,26 +171,29 @@ Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilter
     cv::dilate(kept != 0, near_valid, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * R + 1, 2 * R + 1)));
     const double max_ratio = 1 + 2 * p.jump_relative;
     const float min_count = 0.25f * (2 * R + 1) * (2 * R + 1);
-    for (int y = 0; y < h; ++y) {
-      const std::uint8_t* nv = near_valid.ptr<std::uint8_t>(y);
-      const std::int16_t* k = kept.ptr<std::int16_t>(y);
-      float* out = r.depth_m.ptr<float>(y);
-      for (int x = 0; x < w; ++x) {
-        if (k[x] || !nv[x]) continue;
-        float sum = 0, count = 0, far = 0, near = std::numeric_limits<float>::infinity();
-        for (int yy = std::max(0, y - R); yy <= std::min(h - 1, y + R); ++yy) {
-          const float* srow = source.ptr<float>(yy);
-          for (int xx = std::max(0, x - R); xx <= std::min(w - 1, x + R); ++xx) {
-            const float z = srow[xx];
-            if (z <= 0.f) continue;
-            sum += z, count += 1, far = std::max(far, z), near = std::min(near, z);
+    for_row_bands(h, threads, [&](int y0, int y1, int band) {
+      for (int y = y0; y < y1; ++y) {
+        const std::uint8_t* nv = near_valid.ptr<std::uint8_t>(y);
+        const std::int16_t* k = kept.ptr<std::int16_t>(y);
+        float* out = r.depth_m.ptr<float>(y);
+        for (int x = 0; x < w; ++x) {
+          if (k[x] || !nv[x]) continue;
+          float sum = 0, count = 0, far = 0, near = std::numeric_limits<float>::infinity();
+          for (int yy = std::max(0, y - R); yy <= std::min(h - 1, y + R); ++yy) {
+            const float* srow = source.ptr<float>(yy);
+            for (int xx = std::max(0, x - R); xx <= std::min(w - 1, x + R); ++xx) {
+              const float z = srow[xx];
+              if (z <= 0.f) continue;
+              sum += z, count += 1, far = std::max(far, z), near = std::min(near, z);
+            }
           }
+          if (count < min_count || far > near * max_ratio) continue;
+          out[x] = sum / count;
+          ++filled[band];
         }
-        if (count < min_count || far > near * max_ratio) continue;
-        out[x] = sum / count;
-        ++r.filled;
       }
-    }
+    });
+    for (size_t n : filled) r.filled += n;
   }
   // Vertex depth: the mean inverse depth over a full window of one surface (exact on a plane, whose inverse depth is
   // affine in the pixel), else the pixel's own. The fit is still judged on the pixels themselves.
@@ -224,8 +244,8 @@ Status DepthMeshParams::validate() const {
     return make_error(ErrorCode::kInvalidArgument, "simplification error must be 0..64 pixels (0 = off)");
   if (!(std::isfinite(fit_min_leg_px) && fit_min_leg_px >= 0 && fit_min_leg_px <= 128))
     return make_error(ErrorCode::kInvalidArgument, "fit minimum leg must be 0..128 pixels");
-  if (!(std::isfinite(boundary_push_px) && boundary_push_px >= 0 && boundary_push_px <= 1))
-    return make_error(ErrorCode::kInvalidArgument, "boundary push must be 0..1 pixels");
+  if (!(std::isfinite(boundary_push_px) && boundary_push_px >= 0 && boundary_push_px <= 2))
+    return make_error(ErrorCode::kInvalidArgument, "boundary push must be 0..2 pixels");
   return ok_status();
 }
 
@@ -563,47 +583,67 @@ double bin_top(int bin) {
 constexpr int kInfBin = 0x7f80;  // +inf's bin
 }  // namespace
 
-DepthMeshHierarchy::TriangleCounts DepthMeshHierarchy::counts(double tol) const {
+DepthMeshHierarchy::TriangleCounts DepthMeshHierarchy::counts(double tol, int threads) const {
   TriangleCounts c;
   c.min_ = std::max(tol, 0.0);
   c.first_bin_ = tolerance_bin(c.min_);
-  std::vector<std::int64_t> diff(static_cast<size_t>(kInfBin - c.first_bin_ + 2), 0);
-  auto add = [&](float own, float parent) {  // emitted while own <= t < parent
-    const int lo = std::max(tolerance_bin(own), c.first_bin_), hi = tolerance_bin(parent);
-    if (own <= c.min_ && c.min_ < parent) ++c.at_min_;
-    if (hi <= lo) return;
-    ++diff[lo - c.first_bin_];
-    --diff[hi - c.first_bin_];
-  };
+  const size_t bins = static_cast<size_t>(kInfBin - c.first_bin_ + 2);
   const RtinTable& t = *table_;
-  const int S = tile_, first_leaf = t.first_leaf(), end = t.end();
-  std::vector<std::pair<int, float>> stack;  // (id, parent's error)
-  for (int tile = 0; tile < tiles_x_ * tiles_y_; ++tile) {
-    const int ox = (tile % tiles_x_) * S, oy = (tile / tiles_x_) * S;
-    const std::uint8_t* leaf_ok = &leaf_ok_[static_cast<size_t>(tile) * (end - first_leaf)];
-    stack.assign({{2, kInf}, {3, kInf}});
-    while (!stack.empty()) {
-      const auto [id, parent] = stack.back();
-      stack.pop_back();
-      if (id >= first_leaf) {
-        if (leaf_ok[id - first_leaf]) add(0.f, parent);
-        continue;
-      }
-      const float e =
-          error_[static_cast<size_t>(oy + (t.ay[id] + t.by[id]) / 2) * grid_w_ + (ox + (t.ax[id] + t.bx[id]) / 2)];
-      if (depth_[static_cast<size_t>(oy + t.ay[id]) * grid_w_ + ox + t.ax[id]] > 0 &&
-          depth_[static_cast<size_t>(oy + t.by[id]) * grid_w_ + ox + t.bx[id]] > 0 &&
-          depth_[static_cast<size_t>(oy + t.cy[id]) * grid_w_ + ox + t.cx[id]] > 0)
-        add(e, parent);
-      if (e > c.min_) {
-        stack.push_back({2 * id + 1, e});
-        stack.push_back({2 * id, e});
+  const int S = tile_, first_leaf = t.first_leaf(), end = t.end(), tiles = tiles_x_ * tiles_y_;
+  // Tiles are independent: each worker walks its share into its own difference array (emitted while
+  // own <= t < parent: +1 at own's bin, -1 at parent's), and the arrays are added. Plain threads, as in build().
+  struct Partial {
+    std::vector<std::int64_t> diff;
+    size_t at_min = 0;
+  };
+  const int workers = std::clamp(threads, 1, std::max(1, tiles / 4));
+  std::vector<Partial> partial(workers);
+  auto work = [&](int worker) {
+    Partial& p = partial[worker];
+    p.diff.assign(bins, 0);
+    auto add = [&](float own, float parent) {
+      const int lo = std::max(tolerance_bin(own), c.first_bin_), hi = tolerance_bin(parent);
+      if (own <= c.min_ && c.min_ < parent) ++p.at_min;
+      if (hi <= lo) return;
+      ++p.diff[lo - c.first_bin_];
+      --p.diff[hi - c.first_bin_];
+    };
+    std::vector<std::pair<int, float>> stack;  // (id, parent's error)
+    for (int tile = worker; tile < tiles; tile += workers) {
+      const int ox = (tile % tiles_x_) * S, oy = (tile / tiles_x_) * S;
+      const std::uint8_t* leaf_ok = &leaf_ok_[static_cast<size_t>(tile) * (end - first_leaf)];
+      stack.assign({{2, kInf}, {3, kInf}});
+      while (!stack.empty()) {
+        const auto [id, parent] = stack.back();
+        stack.pop_back();
+        if (id >= first_leaf) {
+          if (leaf_ok[id - first_leaf]) add(0.f, parent);
+          continue;
+        }
+        const float e =
+            error_[static_cast<size_t>(oy + (t.ay[id] + t.by[id]) / 2) * grid_w_ + (ox + (t.ax[id] + t.bx[id]) / 2)];
+        if (depth_[static_cast<size_t>(oy + t.ay[id]) * grid_w_ + ox + t.ax[id]] > 0 &&
+            depth_[static_cast<size_t>(oy + t.by[id]) * grid_w_ + ox + t.bx[id]] > 0 &&
+            depth_[static_cast<size_t>(oy + t.cy[id]) * grid_w_ + ox + t.cx[id]] > 0)
+          add(e, parent);
+        if (e > c.min_) {
+          stack.push_back({2 * id + 1, e});
+          stack.push_back({2 * id, e});
+        }
       }
     }
-  }
-  c.counts_.resize(diff.size());
+  };
+  std::vector<std::thread> pool;
+  for (int i = 1; i < workers; ++i) pool.emplace_back(work, i);
+  work(0);
+  for (auto& worker : pool) worker.join();
+  c.counts_.resize(bins);
   std::int64_t run = 0;
-  for (size_t i = 0; i < diff.size(); ++i) c.counts_[i] = run += diff[i];
+  for (size_t i = 0; i < bins; ++i) {
+    for (const Partial& p : partial) run += p.diff[i];
+    c.counts_[i] = run;
+  }
+  for (const Partial& p : partial) c.at_min_ += p.at_min;
   return c;
 }
 
@@ -641,20 +681,6 @@ Mesh DepthMeshHierarchy::extract(double tol, std::vector<Eigen::Vector2i>* pixel
   Mesh mesh;
   if (tris.empty()) return mesh;
 
-  // Boundary edges (used by one triangle): their vertices move outwards, perpendicular to the edge, in the image.
-  std::vector<std::uint64_t> edges;
-  edges.reserve(tris.size());
-  for (size_t i = 0; i < tris.size(); i += 3)
-    for (int e = 0; e < 3; ++e) {
-      const std::uint64_t a = tris[i + e], b = tris[i + (e + 1) % 3];
-      edges.push_back(std::min(a, b) << 32 | std::max(a, b));
-    }
-  std::vector<std::uint64_t> sorted = edges;
-  std::sort(sorted.begin(), sorted.end());
-  auto is_boundary = [&](std::uint64_t key) {
-    const auto range = std::equal_range(sorted.begin(), sorted.end(), key);
-    return range.second - range.first == 1;
-  };
   std::vector<std::int32_t> remap(depth_.size(), -1);
   std::vector<std::uint32_t> grid_of_vertex;
   mesh.indices.reserve(tris.size());
@@ -665,17 +691,19 @@ Mesh DepthMeshHierarchy::extract(double tol, std::vector<Eigen::Vector2i>* pixel
     }
     mesh.indices.push_back(static_cast<std::uint32_t>(remap[g]));
   }
-  // Each boundary vertex moves outwards (the sum of its boundary edges' outward normals, each axis clamped to the
-  // push), along the inverse-depth plane of its boundary triangles so that it stays on their surface.
+  // Each boundary vertex (on an edge of one triangle) moves outwards, perpendicular to the edge in the image: the
+  // sum of its boundary edges' outward normals, each axis clamped to the push, along the inverse-depth plane of its
+  // boundary triangles so that it stays on their surface.
   const size_t nv = grid_of_vertex.size();
   std::vector<Eigen::Vector2d> push(nv, Eigen::Vector2d::Zero()), gradient(nv, Eigen::Vector2d::Zero());
   std::vector<int> gradient_count(nv, 0);
   auto pixel = [&](std::uint32_t g) { return snapped(g); };
   const double r = params_.boundary_push_px;
   if (r > 0) {
+    const std::vector<std::uint32_t> uses = edge_use_counts(mesh.indices, nv);
     for (size_t i = 0; i < tris.size(); i += 3) {
       for (int e = 0; e < 3; ++e) {
-        if (!is_boundary(edges[i + e])) continue;
+        if (uses[i + e] != 1) continue;
         const std::uint32_t a = tris[i + e], b = tris[i + (e + 1) % 3], c = tris[i + (e + 2) % 3];
         const Eigen::Vector2d pa = pixel(a), pb = pixel(b), pc = pixel(c);
         Eigen::Vector2d n(pb.y() - pa.y(), pa.x() - pb.x());

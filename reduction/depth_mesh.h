@@ -11,8 +11,9 @@
 // tolerance in w, and the error of a triangle over all its pixels reduces to sums (moments) that add up from the
 // children: the whole hierarchy's errors cost O(pixels).
 //
-// Contract of the mesh: vertices at pixel centres (pushed half a pixel outwards on the mesh's boundary, so that every
-// pixel of a covered region is covered at the capture pose, its border pixels included); no T-junctions (the RTIN's
+// Contract of the mesh: vertices at pixel centres (pushed a pixel outwards on the mesh's boundary, so that every
+// pixel of a covered region is covered at the capture pose, its border pixels included, and the one-pixel band of
+// flying pixels the filter drops along a discontinuity too); no T-junctions (the RTIN's
 // conforming splits, shared across tiles); every interior edge has exactly two triangles; no triangle spans a depth
 // discontinuity; deterministic (no randomness, no thread-order dependence).
 #include <cstdint>
@@ -51,7 +52,8 @@ struct DepthFilterResult {
 // OpenCV's filterSpeckles on log depth, where a relative jump is an absolute difference), then fills small gaps
 // inside one surface (never between two), so that the mesh need not trace every missing pixel. depth_m: CV_32FC1
 // metres, 0 = no depth. O(pixels).
-Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilterParams& params);
+// threads: row bands on plain threads for the per-pixel passes (1: this thread alone).
+Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilterParams& params, int threads = 1);
 
 struct DepthMeshParams {
   double tolerance_factor = 2.0;      // split while a triangle's RMS distance from its pixels exceeds this many sigma
@@ -77,7 +79,11 @@ struct DepthMeshParams {
   // 0 or 1: every level.
   double fit_min_leg_px = 4.0;
   int tile_px = 128;                  // largest triangle legs; a power of two, 2..128
-  double boundary_push_px = 0.5;      // boundary vertices move this far outwards (0: none)
+  // Boundary vertices move this far outwards (0: none; at most 2). Half a pixel covers the border pixels; a pixel
+  // also covers the flying pixels the filter dropped beside them (valid depth the sensor gave, mixed between two
+  // surfaces): on TUM fr1/xyz frame 0 at 40 kB coverage 0.988 -> 0.994 and PSNR over all valid pixels +1.8 dB, for
+  // 0.1 dB less over the pixels drawn (edge pixels are the hardest to texture).
+  double boundary_push_px = 1.0;
 
   Status validate() const;
 };
@@ -115,7 +121,8 @@ class DepthMeshHierarchy {
     int first_bin_ = 0;
     std::vector<std::int64_t> counts_;  // by bin - first_bin_
   };
-  TriangleCounts counts(double tolerance_min) const;
+  // threads: workers over the tiles (plain threads joined here; 1: this thread alone).
+  TriangleCounts counts(double tolerance_min, int threads = 1) const;
 
   int width() const { return width_; }
   const DepthMeshParams& params() const { return params_; }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "reduction/openmp_threads.h"
 #include "reduction/stages.h"
 
 namespace rgbdcast {
@@ -133,7 +134,7 @@ Result<RealtimeReduction> prepare_realtime(const RgbdFrame& frame, const Reducti
   std::vector<StageReport> stages;
   StageTimer timer(&stages);
   // An organized cloud (PCD) carries its own depth image in depth_m (z of each point).
-  auto filtered = filter_depth(frame.depth_m, params.filter);
+  auto filtered = filter_depth(frame.depth_m, params.filter, openmp_threads(params.threads));
   if (!filtered) return filtered.error();
   // valid and filter share one pass; the split of the time is not worth a second one.
   stages.push_back({"valid", "points", filtered->valid, 0.0});
@@ -162,17 +163,24 @@ Result<ReducedFrame> extract_realtime(const RealtimeReduction& prepared, const R
     out.mesh.colors[i] = {c[0], c[1], c[2]};
   }
   timer.done("triangulate", "triangles", out.mesh.triangle_count());
-  const DepthMeshParams& mp = prepared.hierarchy.params();
-  if (simplify_px < 0) simplify_px = mp.simplify_px;
-  if (simplify_px > 0 && !out.mesh.indices.empty()) {
-    simplify_image_space(out.mesh, frame.intrinsics.pinhole(), mp.noise_m_per_m2, simplify_px,
-                         mp.texture_deviation_px);
-    timer.done("simplify", "triangles", out.mesh.triangle_count());
-  }
-  out.cloud.positions = out.mesh.positions;
-  out.cloud.colors = out.mesh.colors;
-  if (out.mesh.indices.empty()) return make_error(ErrorCode::kEmpty, "the reduction left no triangles");
+  if (simplify_px < 0) simplify_px = prepared.hierarchy.params().simplify_px;
+  if (auto st = simplify_realtime(prepared, frame, simplify_px, &out); !st) return st.error();
   return out;
+}
+
+Status simplify_realtime(const RealtimeReduction& prepared, const RgbdFrame& frame, double simplify_px,
+                         ReducedFrame* reduced) {
+  StageTimer timer(&reduced->stages);
+  Mesh& mesh = reduced->mesh;
+  const DepthMeshParams& mp = prepared.hierarchy.params();
+  if (simplify_px > 0 && !mesh.indices.empty()) {
+    simplify_image_space(mesh, frame.intrinsics.pinhole(), mp.noise_m_per_m2, simplify_px, mp.texture_deviation_px);
+    timer.done("simplify", "triangles", mesh.triangle_count());
+  }
+  reduced->cloud.positions = mesh.positions;
+  reduced->cloud.colors = mesh.colors;
+  if (mesh.indices.empty()) return make_error(ErrorCode::kEmpty, "the reduction left no triangles");
+  return ok_status();
 }
 
 Result<ReducedFrame> reduce_frame(const RgbdFrame& frame, const ReductionParams& params) {

@@ -81,6 +81,10 @@ struct RealtimeReduction {
 Result<RealtimeReduction> prepare_realtime(const RgbdFrame& frame, const ReductionParams& params);
 Result<ReducedFrame> extract_realtime(const RealtimeReduction& prepared, const RgbdFrame& frame,
                                       double tolerance_factor, double simplify_px = -1);
+// The collapses alone, on a mesh extract_realtime gave with simplify_px 0 (for a caller that uses the mesh before
+// them too): stage "simplify" appended, the cloud updated. Errors: kEmpty when no triangle is left.
+Status simplify_realtime(const RealtimeReduction& prepared, const RgbdFrame& frame, double simplify_px,
+                         ReducedFrame* reduced);
 
 // Depth sanity: an error naming --depth-scale when the frame's valid depths are implausible for an RGB-D sensor
 // (median outside 0.2-20 m), instead of a mesh of garbage.

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 
+#include "reduction/mesh_edges.h"
 #include "reduction/stages.h"
 
 namespace rgbdcast {
@@ -70,12 +71,10 @@ size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, doub
   const double g_max = texture_limit_px > 0 ? 4 * texture_limit_px / (kMaxFreeLegPx * kMaxFreeLegPx) : 1e30;
   std::vector<float> g(mesh.positions.size(), 0.f);
   auto key = [](std::uint32_t a, std::uint32_t b) { return std::uint64_t(std::min(a, b)) << 32 | std::max(a, b); };
-  std::vector<std::uint64_t> edges;  // every triangle's edges, sorted: an edge used once is on the outline
-  edges.reserve(mesh.indices.size());
+  const std::vector<std::uint32_t> uses = edge_use_counts(mesh.indices, mesh.positions.size());
   for (size_t t = 0; t < mesh.indices.size(); t += 3)
     for (int e = 0; e < 3; ++e) {
       const std::uint32_t a = mesh.indices[t + e], b = mesh.indices[t + (e + 1) % 3];
-      edges.push_back(key(a, b));
       const double len = std::hypot(uvw[3 * a] - uvw[3 * b], uvw[3 * a + 1] - uvw[3 * b + 1]);
       if (len < kMinSlopeEdgePx) continue;  // a short edge's depth difference is mostly the sensor's noise
       const double za = mesh.positions[a].z(), zb = mesh.positions[b].z();
@@ -84,13 +83,8 @@ size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, doub
     }
   std::vector<std::uint8_t> free_vertex(mesh.positions.size(), 0);
   for (size_t i = 0; i < g.size(); ++i) free_vertex[i] = g[i] <= g_max;
-  std::sort(edges.begin(), edges.end());
-  for (size_t i = 0; i < edges.size();) {
-    size_t j = i + 1;
-    while (j < edges.size() && edges[j] == edges[i]) ++j;
-    if (j - i == 1) free_vertex[edges[i] >> 32] = free_vertex[edges[i] & 0xffffffffu] = 1;
-    i = j;
-  }
+  for (size_t s = 0; s < uses.size(); ++s)  // an edge of one triangle is on the outline: both its ends may move
+    if (uses[s] == 1) free_vertex[mesh.indices[s]] = free_vertex[mesh.indices[s - s % 3 + (s % 3 + 1) % 3]] = 1;
   const float lift = static_cast<float>(100 * std::max(1.0, max_error));
   for (size_t i = 0; i < mesh.positions.size(); ++i)
     if (!free_vertex[i]) uvw[3 * i + 2] += (i % 2 ? lift : -lift);
@@ -117,10 +111,10 @@ size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, doub
   }
   out.resize(kept);
   // A fold can also leave an edge with three triangles: the smallest of them go until two remain.
-  std::vector<std::pair<std::uint64_t, size_t>> by_edge;  // (edge, triangle), sorted by edge
-  by_edge.reserve(out.size());
-  for (size_t t = 0; t < out.size(); t += 3)
-    for (int e = 0; e < 3; ++e) by_edge.push_back({key(out[t + e], out[t + (e + 1) % 3]), t});
+  const std::vector<std::uint32_t> out_uses = edge_use_counts(out, mesh.positions.size());
+  std::vector<std::pair<std::uint64_t, size_t>> by_edge;  // (edge, triangle) of those edges, sorted by edge
+  for (size_t s = 0; s < out_uses.size(); ++s)
+    if (out_uses[s] > 2) by_edge.push_back({key(out[s], out[s - s % 3 + (s % 3 + 1) % 3]), s - s % 3});
   std::sort(by_edge.begin(), by_edge.end());
   std::vector<bool> drop(out.size() / 3, false);
   auto image_area = [&](size_t t) {

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <new>
 #include <nlohmann/json.hpp>
@@ -114,6 +115,24 @@ std::vector<long> match_vertices(const Mesh& original, const Mesh& decoded, doub
   return match;
 }
 
+// Each original vertex's representative: the lowest index among the original vertices within pos_tol and uv_tol of
+// it, transitively. Vertices that close are one point once quantized (the realtime preset's boundary push can bring
+// a pushed vertex within a millimetre of its neighbour), so a decoded point may stand for either.
+std::vector<long> representatives(const Mesh& m, double pos_tol, double uv_tol) {
+  std::vector<long> rep(m.positions.size());
+  for (size_t i = 0; i < rep.size(); ++i) rep[i] = static_cast<long>(i);
+  std::function<long(long)> find = [&](long i) { return rep[i] == i ? i : rep[i] = find(rep[i]); };
+  for (size_t i = 0; i < m.positions.size(); ++i)
+    for (size_t j = i + 1; j < m.positions.size(); ++j) {
+      if ((m.positions[i] - m.positions[j]).cast<double>().lpNorm<Eigen::Infinity>() > pos_tol) continue;
+      if ((m.uvs[i] - m.uvs[j]).cast<double>().lpNorm<Eigen::Infinity>() > uv_tol) continue;
+      const long a = find(static_cast<long>(i)), b = find(static_cast<long>(j));
+      rep[std::max(a, b)] = std::min(a, b);
+    }
+  for (size_t i = 0; i < rep.size(); ++i) rep[i] = find(static_cast<long>(i));
+  return rep;
+}
+
 std::set<std::array<long, 3>> triangle_set(const std::vector<std::uint32_t>& idx, const std::vector<long>* map) {
   std::set<std::array<long, 3>> t;
   for (size_t i = 0; i + 2 < idx.size(); i += 3) {
@@ -163,11 +182,18 @@ TEST(GltfDraco, RealFramesRoundTripWithinTheQuantizationStep) {
     EXPECT_EQ(d.texture.width, m.texture.width);
     // Quantization steps after the rule (draco_buffers.h): position <= 1 mm, uv <= 0.25 texel; errors <= half.
     const double tex_side = std::max(m.texture.width, m.texture.height);
-    const auto match = match_vertices(m, d, 0.0005 + 1e-6, 0.125 / tex_side + 1e-7);
+    const double pos_tol = 0.0005 + 1e-6, uv_tol = 0.125 / tex_side + 1e-7;
+    auto match = match_vertices(m, d, pos_tol, uv_tol);
     EXPECT_EQ(std::count(match.begin(), match.end(), -1L), 0) << f.path << ": decoded vertices off by more than "
                                                                   "half a step";
-    EXPECT_EQ(std::set<long>(match.begin(), match.end()).size(), m.positions.size()) << "an original vertex is lost";
-    EXPECT_EQ(triangle_set(d.indices, &match), triangle_set(m.indices, nullptr)) << f.path << ": triangles differ";
+    // Originals closer than a step (2 x the half step) are one point after quantization: compared as one.
+    const std::vector<long> rep = representatives(m, 2 * pos_tol, 2 * uv_tol);
+    const size_t distinct = std::set<long>(rep.begin(), rep.end()).size();
+    EXPECT_GE(distinct, m.positions.size() - m.positions.size() / 200) << f.path << ": too many twins";
+    for (long& j : match)
+      if (j >= 0) j = rep[j];
+    EXPECT_EQ(std::set<long>(match.begin(), match.end()).size(), distinct) << "an original vertex is lost";
+    EXPECT_EQ(triangle_set(d.indices, &match), triangle_set(m.indices, &rep)) << f.path << ": triangles differ";
     // The node's placement and the capture camera survive.
     EXPECT_TRUE(back->nodes[0].to_world.isApprox(scene.nodes[0].to_world, 1e-9));
     ASSERT_EQ(back->cameras.size(), 1u);

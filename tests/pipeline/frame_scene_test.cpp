@@ -9,6 +9,7 @@
 #include "evaluation/image_metrics.h"
 #include "gltf/gltf_io.h"
 #include "input/frame_source.h"
+#include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
 #include "renderer/renderer.h"
 #include "tests/common/test_data.h"
@@ -36,9 +37,11 @@ const std::vector<SharedFrames> kShared = {
     {"pcl_kinect_organized/pcd/frame_20121214T142256.332395.pcd", "kinect", {0}},
 };
 
+// The realtime preset as `rgbdcast reduce --budget-kb B` runs it (its default codec, Draco).
 FrameReductionOptions realtime(double budget_kb) {
   FrameReductionOptions o;
   o.params = reduction_preset(Preset::kRealtime);
+  o.glb.geometry_codec = default_geometry_codec(Preset::kRealtime);
   o.budget_kb = budget_kb;
   return o;
 }
@@ -70,7 +73,8 @@ TEST(FrameScene, BudgetMetOrReportedOnEverySharedFrame) {
       auto t = reduce_and_texture(frame, realtime(kb));
       ASSERT_TRUE(t) << what << ": " << t.error().message;
       const BudgetChoice b = t->budget;
-      auto glb = encode_glb(frame_scene(std::move(*t), "{}"));
+      const GlbWriteOptions glb_options = write_options(*t, realtime(kb).glb);
+      auto glb = encode_glb(frame_scene(std::move(*t), "{}"), glb_options);
       ASSERT_TRUE(glb) << what;
       const double bytes = static_cast<double>(glb->size()), target = kb * 1000;
       const std::string how = what + " at " + std::to_string(int(kb)) + " kB (" + b.rule + ", tolerance " +
@@ -82,16 +86,18 @@ TEST(FrameScene, BudgetMetOrReportedOnEverySharedFrame) {
       else EXPECT_NEAR(bytes, target, 0.1 * target) << how;
       EXPECT_NE(b.rule, "over-budget") << how;
       // The outline is straightened only past the largest tolerance, and only as far as the bytes need.
-      if (b.rule != "outline-capped") EXPECT_EQ(b.simplify_px, reduction_preset(Preset::kRealtime).depth_mesh.simplify_px)
-          << how;
+      if (b.rule != "outline-capped") {
+        EXPECT_EQ(b.simplify_px, reduction_preset(Preset::kRealtime).depth_mesh.simplify_px) << how;
+      }
     });
   }
 }
 
-// Coverage of the valid pixels at the capture pose, the decoded GLB rendered. Without a budget: at least 0.985 (the
-// issue's target is 0.99; the two fr2 frames give 0.988 and 0.989, every other shared frame more). Under the default
-// 40 kB budget a border triangle still may not drop more than 2 pixels, so coverage stays at least 0.98 (fr2: 0.986;
-// the paper preset covers 0.82-0.89 of these frames at 140-890 kB).
+// Coverage of the valid pixels at the capture pose, the decoded GLB rendered: at least 0.99 on every shared frame,
+// with no budget and at the default 40 kB (a border triangle may not drop more than 2 pixels whatever the budget,
+// and the outline's vertices move a pixel outwards, over the flying pixels the filter dropped; the paper preset
+// covers 0.82-0.89 of these frames at 140-890 kB). PSNR over the pixels drawn: at least 30 dB with no budget, 29 at
+// 40 kB (the least, fr2's, was 29.6 when this was written).
 TEST(FrameScene, CoversTheValidPixelsAtTheCapturePose) {
   auto renderer = create_renderer(BackendChoice::kAuto);
   ASSERT_TRUE(renderer) << renderer.error().message;
@@ -100,7 +106,8 @@ TEST(FrameScene, CoversTheValidPixelsAtTheCapturePose) {
     for_each_shared_frame([&](const RgbdFrame& frame, const std::string& what) {
       auto t = reduce_and_texture(frame, realtime(kb));
       ASSERT_TRUE(t) << what << ": " << t.error().message;
-      auto glb = encode_glb(frame_scene(std::move(*t), "{}"));
+      const GlbWriteOptions glb_options = write_options(*t, realtime(kb).glb);
+      auto glb = encode_glb(frame_scene(std::move(*t), "{}"), glb_options);
       ASSERT_TRUE(glb) << what;
       auto scene = decode_glb(glb->data(), glb->size());
       ASSERT_TRUE(scene) << what << ": " << scene.error().message;
@@ -115,8 +122,8 @@ TEST(FrameScene, CoversTheValidPixelsAtTheCapturePose) {
       ASSERT_TRUE(f) << what;
       std::cout << what << " at " << kb << " kB: coverage " << f->coverage << ", PSNR drawn " << f->psnr_db
                 << " dB, all valid " << f->psnr_valid_db << " dB\n";
-      EXPECT_GE(f->coverage, kb == 0 ? 0.985 : 0.98) << what << " at " << kb << " kB";
-      EXPECT_GE(f->psnr_db, kb == 0 ? 30.0 : 25.0) << what << " at " << kb << " kB";
+      EXPECT_GE(f->coverage, 0.99) << what << " at " << kb << " kB";
+      EXPECT_GE(f->psnr_db, kb == 0 ? 30.0 : 29.0) << what << " at " << kb << " kB";
     });
   }
 }

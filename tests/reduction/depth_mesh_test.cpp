@@ -10,6 +10,7 @@
 
 #include "input/frame_source.h"
 #include "reduction/depth_mesh.h"
+#include "reduction/mesh_edges.h"
 #include "reduction/pipeline.h"
 #include "tests/common/test_data.h"
 
@@ -254,6 +255,48 @@ TEST(DepthMesh, FilterDropsFlyingPixelsAndSpeckles) {
   EXPECT_GE(f->filled, 9u);
   EXPECT_EQ(f->depth_m.at<float>(100, 100), 1.0f);
   EXPECT_EQ(f->depth_m.at<float>(100, 600), 2.0f);
+}
+
+// The per-pixel passes on row bands, the counts on tiles: two threads give what one gives, bit for bit.
+TEST(DepthMesh, FilterAndCountsAreTheSameOnTwoThreads) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  auto frame = fr1_frame(0);
+  ASSERT_TRUE(frame) << frame.error().message;
+  auto one = filter_depth(frame->depth_m, DepthFilterParams{}, 1);
+  auto two = filter_depth(frame->depth_m, DepthFilterParams{}, 2);
+  ASSERT_TRUE(one && two);
+  EXPECT_EQ(one->flying, two->flying);
+  EXPECT_EQ(one->filled, two->filled);
+  EXPECT_GT(one->filled, 0u);
+  EXPECT_EQ(cv::norm(one->depth_m, two->depth_m, cv::NORM_INF), 0.0);
+  auto h = DepthMeshHierarchy::build(one->depth_m, one->vertex_depth_m, frame->intrinsics.pinhole(),
+                                     DepthMeshParams{}, 1);
+  ASSERT_TRUE(h) << h.error().message;
+  const auto c1 = h->counts(2.0, 1), c2 = h->counts(2.0, 2);
+  for (double t : {2.0, 3.0, 5.5, 8.0, 16.0, 32.0}) EXPECT_EQ(c1.at(t), c2.at(t)) << t;
+  EXPECT_EQ(c1.at(2.0), h->extract(2.0).triangle_count());  // the minimum is exact
+}
+
+// Edge use counts (linear, by lower vertex) agree with a map of every edge, on a real mesh and on a fold.
+TEST(DepthMesh, EdgeUseCountsMatchAMapOfEdges) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  auto frame = fr1_frame(0);
+  ASSERT_TRUE(frame) << frame.error().message;
+  Built b = build(frame->depth_m, frame->intrinsics.pinhole());
+  const auto uses = edge_use_counts(b.mesh.indices, b.mesh.positions.size());
+  const auto by_map = edge_uses(b.mesh);
+  ASSERT_EQ(uses.size(), b.mesh.indices.size());
+  size_t boundary = 0;
+  for (size_t s = 0; s < uses.size(); ++s) {
+    const int a = static_cast<int>(b.mesh.indices[s]);
+    const int c = static_cast<int>(b.mesh.indices[s - s % 3 + (s % 3 + 1) % 3]);
+    EXPECT_EQ(uses[s], static_cast<std::uint32_t>(by_map.at({std::min(a, c), std::max(a, c)}))) << s;
+    boundary += uses[s] == 1;
+  }
+  EXPECT_GT(boundary, 0u);
+  // Three triangles on edge 0-1 (a fold), the rest on one each.
+  const std::vector<std::uint32_t> fold = {0, 1, 2, 1, 0, 3, 0, 1, 4};
+  EXPECT_EQ(edge_use_counts(fold, 5), (std::vector<std::uint32_t>{3, 1, 1, 3, 1, 1, 3, 1, 1}));
 }
 
 TEST(DepthMesh, RejectsAbsurdParameters) {
