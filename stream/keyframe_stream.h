@@ -9,13 +9,22 @@
 // is not sent (counted in `covered`). The GLB holds the mesh in the keyframe's camera frame; its world pose goes in
 // the POST (see stream/uplink.h).
 //
-// Realtime: frame i is due at start + (t_i - t_first) (t from the source's timestamps, else i / fps); the reader
-// waits for it, and a frame whose successor is already due when its turn comes is dropped, as a live camera's
-// driver would replace it (the record says "dropped"). "captured" is the due time (Unix s); without realtime it is
-// the time the frame was read.
+// Reading: a camera reader thread (stream/camera_reader.h) reads the frames one ahead of the tracker; in realtime at
+// their own timestamps, replacing a frame the tracker did not take in time, as a live camera's driver does (the
+// record says "dropped"). "captured" is the due time (Unix s); without realtime it is the time the frame's read
+// started.
+//
+// Threads: tracking runs on the caller's thread and only hands each keyframe (its frame, pose and times) to a
+// reduction thread, which reduces keyframes in order, writes them to the outbox and runs the backlog rule; that
+// thread (and the workers the reduction starts, which inherit it) runs at `reduce_nice` above the caller, so that
+// on a busy machine the tracker keeps reading the camera while a keyframe is being reduced (before, a 0.2-0.4 s
+// reduction on the tracker's thread made the realtime reader drop the frames due meanwhile). Keyframes wait in an
+// unbounded queue for it, in order; none is dropped. When stop is asked, keyframes still queued are not reduced:
+// they never reached the outbox, and a resumed run tracks their frames again.
 //
 // Budget: the smaller of the rate rule and the latency rule (stream/link_estimator.h). The latency rule's overhead
-// is what is known when the keyframe's pose is: the seconds since its capture (reading, tracking), plus the
+// is what is known when the keyframe's reduction starts: the seconds since its capture (reading, tracking, the
+// reduction queue), plus the
 // earlier keyframes' reduction time (SmoothedDuration: mean + 2 mean deviations; 0.3 s before the first, about what
 // one took on 2 busy cores) and their smoothed wait in the outbox (Sender::queue_wait_s); until a POST was
 // acknowledged, also LatencyRule::first_post_fixed_s (the initial estimate knows no round trip). Each outbox entry keeps its times (tracked, reduced, post_started) so a benchmark can
@@ -54,6 +63,7 @@ struct StreamOptions {
   std::string link_kbps_file;       // --link-kbps-file: re-read on every frame (and while draining); empty: none
   double max_backlog_s = 2.0;
   double coarse_factor = 0.25;
+  int reduce_nice = 5;              // --reduce-nice: added to the reduction thread's niceness (0: as the caller)
 };
 
 struct StreamProgress {
@@ -81,7 +91,18 @@ struct StreamSummary {
   bool stopped = false;       // stop was asked before everything was delivered
   std::vector<std::string> errors;
   SenderStats sender;
+  // Is tracking keeping up: per frame read (not the dropped ones), the wall time from the frame being due (or its
+  // read starting) to its tracking's end, the camera reader's CPU time to read it (stream/camera_reader.h) and the
+  // tracker thread's CPU time to track it; per keyframe, the wall time of its reduction on the reduction thread.
+  // Milliseconds.
+  std::vector<double> frame_wall_ms, frame_cpu_ms, read_cpu_ms, reduce_ms;
+  size_t reduce_queue_max = 0;  // most keyframes waiting for the reduction thread at once
 };
+
+struct Percentiles {
+  double p50 = 0, p95 = 0;  // linear interpolation between order statistics; 0 for no samples
+};
+Percentiles percentiles(std::vector<double> values);
 
 // Errors: the sequence's (kInvalidArgument, kEmpty), an outbox entry whose frame cannot be reloaded on resume
 // (kNotFound), the sender's fatal error (kUnavailable, e.g. a refused token).
