@@ -35,6 +35,7 @@ struct StreamArgs {
   unsigned seed = 0;
   int max_in_flight = 2;
   int reduce_nice = 5;
+  bool keep_every_keyframe = false;
 };
 
 // The progress line: on a terminal one line redrawn in place; otherwise a plain line every interval.
@@ -143,6 +144,7 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   options.latency.target_s = a.latency_ms / 1000.0;
   options.link_kbps_file = a.link_kbps_file;
   options.reduce_nice = a.reduce_nice;
+  options.supersede = !a.keep_every_keyframe;
 
   struct sigaction sa {};
   sa.sa_handler = on_signal;
@@ -158,7 +160,7 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   std::cout << "rgbdcast stream: " << s.frames << " frames (" << s.tracked << " tracked";
   if (a.realtime) std::cout << ", " << s.dropped << " dropped behind the camera";
   std::cout << "), " << s.keyframes << " new keyframes (" << s.covered << " fully covered, not sent; " << s.coarsened
-            << " coarsened)";
+            << " coarsened, " << s.superseded << " superseded while the link owed too much)";
   if (s.cap_changes > 0) std::cout << ", " << s.cap_changes << " caps read from " << a.link_kbps_file;
   if (s.resumed) std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries
                            << " outbox entries";
@@ -226,6 +228,9 @@ void register_stream(CLI::App& app) {
                   "POSTs in flight at once, one connection each (1-4): a second one crosses the line while the "
                   "first one's answer is outstanding")
       ->capture_default_str();
+  cmd->add_flag("--keep-every-keyframe", args->keep_every_keyframe,
+                "Reduce and send every keyframe the tracker picks, even when the link cannot carry them (default: "
+                "a keyframe waiting for a busy link is superseded by a newer one)");
   cmd->add_option("--reduce-nice", args->reduce_nice,
                   "Niceness added to the keyframe reduction thread (0-19), so that tracking keeps up with the camera")
       ->capture_default_str();

@@ -57,6 +57,7 @@ for ds in $DATASETS; do
       --outage-s 10 --stats "$OUT/$name.relay.json" > "$OUT/$name.relay.log" 2>&1 &
     relay_pid=$!
     for _ in $(seq 100); do curl -sf "http://127.0.0.1:$sport/healthz" >/dev/null && break; sleep 0.1; done
+    for _ in $(seq 100); do curl -sf "http://127.0.0.1:$rport/healthz" >/dev/null && break; sleep 0.1; done   # the relay too
     watcher_pid=
     if [[ $run == *outage ]]; then
       # The outage in the middle: once half of the keyframes of the 2 Mbit/s run are in the outbox.

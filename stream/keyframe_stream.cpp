@@ -290,17 +290,34 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   std::deque<KeyframeJob> jobs;
   bool tracking_done = false;
   std::condition_variable jobs_cv;
+  // Hold the next keyframe back while the sender owes more (Sender::owed_s: the paced line's remaining time and the
+  // pending bytes not yet started) than its reduction is expected to take: reduced now, it would wait for the line.
+  auto link_owes_too_much = [&] {
+    return options.supersede && sender.owed_s() > std::max(reduce_s.value(), 0.1);
+  };
   std::thread reducer([&] {
     renice_this_thread(options.reduce_nice);
     for (;;) {
       KeyframeJob job;
-      {
-        std::unique_lock lock(mu);
-        jobs_cv.wait(lock, [&] { return !jobs.empty() || tracking_done; });
-        if (jobs.empty() || should_stop()) return;  // stopped: queued keyframes never reached the outbox
-        job = std::move(jobs.front());
-        jobs.pop_front();
+      std::unique_lock lock(mu);
+      jobs_cv.wait(lock, [&] { return !jobs.empty() || tracking_done; });
+      if (jobs.empty() || should_stop()) return;  // stopped: queued keyframes never reached the outbox
+      // Held back while the link owes too much; a newer keyframe tracked meanwhile supersedes the waiting one.
+      for (;;) {
+        lock.unlock();
+        const bool hold = link_owes_too_much();
+        lock.lock();
+        if (!hold || should_stop()) break;
+        while (jobs.size() > 1) {
+          jobs.pop_front();
+          ++summary.superseded;
+        }
+        jobs_cv.wait_for(lock, std::chrono::milliseconds(50));
       }
+      if (should_stop()) return;
+      job = std::move(jobs.front());
+      jobs.pop_front();
+      lock.unlock();
       reduce_keyframe(job);
     }
   });

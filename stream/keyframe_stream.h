@@ -30,11 +30,20 @@
 // acknowledged, also LatencyRule::first_post_fixed_s (the initial estimate knows no round trip). Each outbox entry keeps its times (tracked, reduced, post_started) so a benchmark can
 // say where a keyframe's latency went.
 //
-// Backlog rule (the link cannot carry what is queued): after each new keyframe, when the pending bytes need more
-// than max(max_backlog_s, 2 x the keyframe interval) at the current estimate, the older never-attempted keyframes
-// are coarsened, oldest first, until the backlog fits: each is re-reduced once (same frame, same coverage views,
-// the same single call) to coarse_factor x its budget (not below the budget floor) and replaces its outbox entry
-// when smaller. Nothing is dropped: a dropped keyframe would leave a hole that later deltas rely on it to cover.
+// Backlog rule (the link cannot carry what is queued), in two steps:
+// - Supersede (on unless `supersede` is false): the next tracked keyframe is reduced only once what the sender owes
+//   (Sender::owed_s: the time left on its paced line plus the pending bytes not yet started, at the estimate) is
+//   no more than the keyframe's expected reduction time (SmoothedDuration below, at least 0.1 s): reduced any
+//   earlier, it would only wait for the line, ageing. Until then it waits, and a newer keyframe tracked meanwhile
+//   supersedes it (the older one is never reduced; counted in `superseded`). So keyframes enter the outbox no
+//   faster than the link carries them, and the one that does is the newest. A superseded keyframe leaves no hole
+//   in the deltas: nothing was reduced against it, since later keyframes are reduced against those in the outbox;
+//   surface that only it saw is not sent (the bench's coverage figure shows what that costs). Entries already in
+//   the outbox are never dropped: later deltas rely on their surface, and the server may hold them.
+// - Coarsen: after each new keyframe, when the pending bytes need more than max(max_backlog_s, 2 x the keyframe
+//   interval) at the current estimate, the older never-attempted keyframes are coarsened, oldest first, until the
+//   backlog fits: each is re-reduced once (same frame, same coverage views, the same single call) to
+//   coarse_factor x its budget (not below the budget floor) and replaces its outbox entry when smaller.
 // The newest keyframe is never coarsened, and the sender posts newest first.
 //
 // Resume: with entries in the outbox, tracking restarts at the last keyframe's frame, whose pose (from the outbox)
@@ -64,6 +73,7 @@ struct StreamOptions {
   double max_backlog_s = 2.0;
   double coarse_factor = 0.25;
   int reduce_nice = 5;              // --reduce-nice: added to the reduction thread's niceness (0: as the caller)
+  bool supersede = true;            // the backlog rule's first step; --keep-every-keyframe turns it off
 };
 
 struct StreamProgress {
@@ -82,6 +92,7 @@ struct StreamSummary {
   size_t keyframes = 0;       // new outbox entries of this run
   size_t covered = 0;         // keyframes with nothing new (not sent)
   size_t coarsened = 0;
+  size_t superseded = 0;      // tracked keyframes never reduced: a newer one replaced them while the link owed too much
   size_t cap_changes = 0;     // values taken from --link-kbps-file
   size_t failed = 0;          // keyframes whose reduction or outbox write failed (message in errors)
   bool resumed = false;

@@ -77,6 +77,18 @@ size_t Sender::acknowledged_posts() const {
   return estimator_.samples();
 }
 
+double Sender::owed_s() const {
+  std::lock_guard lock(mu_);
+  const double estimate_bps = std::max(estimator_.estimate_kbps(), 1.0) * 1000.0 / 8.0;
+  const bool paced = estimator_.cap_kbps() > 0;
+  double bytes = 0;
+  for (const OutboxEntry& e : outbox_.entries())
+    if (e.pending() && !(paced && (e.attempted || in_flight_.count(e.seq)))) bytes += static_cast<double>(e.bytes);
+  double line_s = 0;
+  if (paced) line_s = std::max(0.0, std::chrono::duration<double>(line_free_ - clock::now()).count());
+  return line_s + bytes / estimate_bps;
+}
+
 void Sender::set_cap_kbps(double cap_kbps) {
   std::lock_guard lock(mu_);
   estimator_.set_cap_kbps(cap_kbps);

@@ -78,6 +78,9 @@ class Sender {
   // (EWMA, weight 0.3; 0 before the first): part of the overhead the latency rule subtracts (link_estimator.h).
   double queue_wait_s() const;
   size_t acknowledged_posts() const;  // samples of the link estimate so far (0: it is still the initial guess)
+  // Seconds until what is pending would be across the link: with a cap, the time left on the paced virtual line
+  // plus the pending entries not yet started at the estimate; without, every pending byte at the estimate.
+  double owed_s() const;
   void set_cap_kbps(double cap_kbps);
   SenderStats stats() const;
 
