@@ -70,8 +70,8 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
             << " ms, total " << static_cast<int>(total_ms) << " ms)\n";
   if (budget.budget_bytes > 0)
     std::cout << "budget " << budget.budget_bytes / 1000 << " kB (" << budget.rule << "): tolerance "
-              << budget.tolerance_factor << " sigma, JPEG q" << budget.jpeg_quality << " at scale "
-              << budget.texture_scale << "\n";
+              << budget.tolerance_factor << " sigma, collapses " << budget.simplify_px << " px, JPEG q"
+              << budget.jpeg_quality << " at scale " << budget.texture_scale << "\n";
   if (a.report.empty()) return;
   nlohmann::json stage_list = stages_json(stages);
   // The atlas and export stages carry their details.

@@ -54,7 +54,8 @@ nlohmann::json intrinsics_json(const Intrinsics& k) {
 
 nlohmann::json params_json(const ReduceArgs& a) {
   nlohmann::json j = {{"preset", a.preset},
-                      {"budget_kb", a.budget_kb},
+                      // as asked: "default" when not given (the budget used is in the reduction's "budget")
+                      {"budget_kb", a.budget_kb >= 0 ? nlohmann::json(a.budget_kb) : nlohmann::json("default")},
                       {"tolerance_factor", a.params.depth_mesh.tolerance_factor},
                       {"depth_noise", a.params.depth_mesh.noise_m_per_m2},
                       {"jump_relative", a.params.depth_mesh.jump_relative},

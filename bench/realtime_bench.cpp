@@ -84,9 +84,10 @@ struct RawFrame {
   bool from_images = false;
 };
 
-Result<RgbdFrame> prepare(const RawFrame& raw) {
+// The frame as a source would give it, undistorted through the set's tables (a source keeps them for its camera).
+Result<RgbdFrame> prepare(const RawFrame& raw, Undistorter& undistorter) {
   if (!raw.from_images) return raw.ready;
-  return make_frame(raw.color_rgb, raw.depth_raw, raw.intrinsics);
+  return make_frame(raw.color_rgb, raw.depth_raw, raw.intrinsics, &undistorter);
 }
 
 struct Dataset {
@@ -187,6 +188,7 @@ void speed_section(const Args& args, Renderer& renderer) {
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Dataset& d : sets) {
     auto raw = load_raw(args.data_dir, d);
+    Undistorter undistorter;
     if (!raw) {
       std::printf("| %s | skipped: %s |\n", d.name.c_str(), raw.error().message.c_str());
       continue;
@@ -198,13 +200,13 @@ void speed_section(const Args& args, Renderer& renderer) {
       for (int run = 0; run < args.runs; ++run) {
         Result<Bytes> out = make_error(ErrorCode::kInternal, "not run");
         rt_ms.push_back(time_ms([&] {
-          auto frame = prepare((*raw)[i]);
+          auto frame = prepare((*raw)[i], undistorter);
           out = frame ? encode(*frame, realtime_options(40)) : Result<Bytes>(frame.error());
         }));
         if (!out) die(d.name + " frame " + std::to_string(i), out.error());
         glb = std::move(*out);
       }
-      auto frame = prepare((*raw)[i]);
+      auto frame = prepare((*raw)[i], undistorter);
       if (!frame) die(d.name, frame.error());
       rt_kb.push_back(glb.size() / 1000.0);
       auto scene = decode_glb(glb.data(), glb.size());
@@ -227,7 +229,7 @@ void speed_section(const Args& args, Renderer& renderer) {
       if (static_cast<int>(i) < args.paper_frames) {
         Result<Bytes> out = make_error(ErrorCode::kInternal, "not run");
         paper_ms.push_back(time_ms([&] {
-          auto pf = prepare((*raw)[i]);
+          auto pf = prepare((*raw)[i], undistorter);
           out = pf ? encode(*pf, paper_options()) : Result<Bytes>(pf.error());
         }));
         if (!out) die(d.name + " paper", out.error());
@@ -318,13 +320,14 @@ void budget_section(const Args& args) {
   std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Dataset& d : shared_sets(args.frames)) {
     auto raw = load_raw(args.data_dir, d);
+    Undistorter undistorter;
     if (!raw) {
       std::printf("| %s | skipped: %s |\n", d.name.c_str(), raw.error().message.c_str());
       continue;
     }
     std::vector<double> payload_kb, quarter_kb, budget_kb, glb_kb, ratio, glb40_kb, ratio40, estimate_ms;
     for (const RawFrame& r : *raw) {
-      auto frame = prepare(r);
+      auto frame = prepare(r, undistorter);
       if (!frame) die(d.name, frame.error());
       auto payload = encode_jpeg_png16(*frame, 90);
       if (!payload) die(d.name + " payload", payload.error());

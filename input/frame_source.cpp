@@ -101,37 +101,44 @@ namespace {
 // Fixed-point tables (OpenCV's CV_16SC2 + interpolation indices): remap reads them about twice as fast as float
 // tables. Colour uses the bilinear pair; depth its own rounded table (nearest: the float table's rounding, not the
 // bilinear table's floor, which would shift depth half a pixel against colour).
-struct UndistortMaps {
-  cv::Mat linear_xy, linear_frac, nearest_xy;
-};
+Undistorter::Maps build_maps(const Intrinsics& k) {
+  cv::Mat K = (cv::Mat_<double>(3, 3) << k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
+  cv::Mat D(1, 5, CV_64F);
+  for (int i = 0; i < 5; ++i) D.at<double>(i) = k.distortion[i];
+  Undistorter::Maps maps;
+  cv::Mat x, y, unused;
+  cv::initUndistortRectifyMap(K, D, cv::Mat(), K, cv::Size(k.width, k.height), CV_32FC1, x, y);
+  cv::convertMaps(x, y, maps.linear_xy, maps.linear_frac, CV_16SC2, false);
+  cv::convertMaps(x, y, maps.nearest_xy, unused, CV_16SC2, true);
+  return maps;
+}
 
-// The remap tables of a camera. Every frame of a sequence (and every upload from one robot) has the same camera,
-// so the last camera's tables are kept instead of being rebuilt per frame.
-UndistortMaps undistort_maps(const Intrinsics& k) {
-  static std::mutex mutex;
-  static Intrinsics cached_k;
-  static UndistortMaps cached;
-  std::lock_guard<std::mutex> lock(mutex);
-  const bool same = !cached.linear_xy.empty() && cached_k.fx == k.fx && cached_k.fy == k.fy && cached_k.cx == k.cx &&
-                    cached_k.cy == k.cy && cached_k.width == k.width && cached_k.height == k.height &&
-                    cached_k.distortion == k.distortion;
-  if (!same) {
-    cv::Mat K = (cv::Mat_<double>(3, 3) << k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
-    cv::Mat D(1, 5, CV_64F);
-    for (int i = 0; i < 5; ++i) D.at<double>(i) = k.distortion[i];
-    cached = UndistortMaps{};
-    cv::Mat x, y, unused;
-    cv::initUndistortRectifyMap(K, D, cv::Mat(), K, cv::Size(k.width, k.height), CV_32FC1, x, y);
-    cv::convertMaps(x, y, cached.linear_xy, cached.linear_frac, CV_16SC2, false);
-    cv::convertMaps(x, y, cached.nearest_xy, unused, CV_16SC2, true);
-    cached_k = k;
-  }
-  return cached;  // cv::Mat copies share the (never modified) tables
+bool same_camera(const Intrinsics& a, const Intrinsics& b) {
+  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
+         a.height == b.height && a.distortion == b.distortion;
 }
 
 }  // namespace
 
-Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw, const Intrinsics& intrinsics) {
+struct Undistorter::State {
+  std::mutex mutex;
+  Intrinsics k;
+  Maps maps;
+};
+Undistorter::Undistorter() : state_(std::make_unique<State>()) {}
+Undistorter::~Undistorter() = default;
+
+Undistorter::Maps Undistorter::maps(const Intrinsics& k) {
+  std::lock_guard<std::mutex> lock(state_->mutex);
+  if (state_->maps.linear_xy.empty() || !same_camera(state_->k, k)) {
+    state_->maps = build_maps(k);
+    state_->k = k;
+  }
+  return state_->maps;  // cv::Mat copies share the (never modified) tables
+}
+
+Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw, const Intrinsics& intrinsics,
+                             Undistorter* undistorter) {
   if (color_rgb.size() != depth_raw.size())
     return make_error(ErrorCode::kInvalidInput, "colour (" + std::to_string(color_rgb.cols) + "x" +
                                                     std::to_string(color_rgb.rows) + ") and depth (" +
@@ -150,7 +157,7 @@ Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw,
   if (intrinsics.has_distortion()) {
     // Both images are resampled onto the ideal pinhole camera with the same K: colour bilinear, depth nearest
     // (interpolating depth across an edge would invent points between foreground and background).
-    const UndistortMaps maps = undistort_maps(intrinsics);
+    const Undistorter::Maps maps = undistorter ? undistorter->maps(intrinsics) : build_maps(intrinsics);
     cv::remap(color_rgb, f.color_rgb, maps.linear_xy, maps.linear_frac, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
     cv::remap(depth_m, f.depth_m, maps.nearest_xy, cv::Mat(), cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
   } else {
@@ -160,7 +167,7 @@ Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw,
   return f;
 }
 
-static Result<RgbdFrame> load_pair(const FrameEntry& e, const Intrinsics& intrinsics) {
+static Result<RgbdFrame> load_pair(const FrameEntry& e, const Intrinsics& intrinsics, Undistorter* undistorter) {
   auto cbytes = read_file(e.color_path);
   if (!cbytes) return cbytes.error();
   auto dbytes = read_file(e.depth_path);
@@ -169,7 +176,7 @@ static Result<RgbdFrame> load_pair(const FrameEntry& e, const Intrinsics& intrin
   if (!color) return color.error();
   auto depth = decode_depth16(*dbytes, e.depth_path, FrameLimits::local_files());
   if (!depth) return depth.error();
-  auto frame = make_frame(*color, *depth, intrinsics);
+  auto frame = make_frame(*color, *depth, intrinsics, undistorter);
   if (!frame) return make_error(frame.error().code, e.depth_path + ": " + frame.error().message);
   frame->timestamp = e.color_timestamp;
   frame->color_path = e.color_path;
@@ -251,7 +258,7 @@ class ListSource : public FrameSource {
     if (i >= entries_.size())
       return make_error(ErrorCode::kNotFound, "frame " + std::to_string(i) + " is past the end (" + root_ + " has " +
                                                   std::to_string(entries_.size()) + " frames)");
-    auto f = load_pair(entries_[i], k_);
+    auto f = load_pair(entries_[i], k_, &undistorter_);
     if (f) f->index = static_cast<int>(i);
     return f;
   }
@@ -260,6 +267,7 @@ class ListSource : public FrameSource {
   std::string kind_, root_;
   std::vector<FrameEntry> entries_;
   Intrinsics k_;
+  mutable Undistorter undistorter_;  // the camera's tables, made on the first frame
 };
 
 std::string lower(std::string s) {

@@ -80,9 +80,28 @@ Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std:
                              const FrameLimits& limits = {});
 Result<cv::Mat> decode_depth16(const std::vector<unsigned char>& bytes, const std::string& what,
                                const FrameLimits& limits = {});
+// The undistortion tables of the last camera seen. Every frame of a sequence (and every upload from one robot) has
+// the same camera, so the owner of a stream of frames (a FrameSource, a bench) keeps one instead of rebuilding the
+// tables per frame (initUndistortRectifyMap: a few ms at 640x480). Thread-safe; the tables are never modified once
+// built, so frames being undistorted keep theirs while another camera's are made.
+class Undistorter {
+ public:
+  struct Maps {
+    cv::Mat linear_xy, linear_frac, nearest_xy;  // fixed-point tables: colour bilinear, depth nearest
+  };
+  Undistorter();
+  ~Undistorter();
+  Maps maps(const Intrinsics& k);  // the camera's tables, built when it differs from the last one
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
 // Builds a frame from decoded images: checks sizes against each other and the intrinsics, converts depth to metres,
-// undistorts. color is RGB CV_8UC3, depth_raw CV_16UC1 in units of intrinsics.depth_scale (or CV_32FC1 with
-// depth_scale 1: metres, 0 = no reading).
-Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw, const Intrinsics& intrinsics);
+// undistorts (through `undistorter`'s tables; without one, tables made for this frame). color is RGB CV_8UC3,
+// depth_raw CV_16UC1 in units of intrinsics.depth_scale (or CV_32FC1 with depth_scale 1: metres, 0 = no reading).
+Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw, const Intrinsics& intrinsics,
+                             Undistorter* undistorter = nullptr);
 
 }  // namespace rgbdcast

@@ -63,6 +63,7 @@ class RosbagSource : public FrameSource {
   Intrinsics k_;
   mutable std::mutex mutex_;  // guards bag_: rosbag::Bag reads through one file position
   mutable rosbag::Bag bag_;
+  mutable Undistorter undistorter_;  // the camera's tables, made on the first frame
   std::map<std::string, std::pair<std::string, uint32_t>> topic_types_;  // topic -> (datatype, messages)
   std::vector<FrameEntry> entries_;
   std::vector<std::pair<ImageRef, ImageRef>> refs_;  // colour, depth of each entry
@@ -206,7 +207,7 @@ Result<RgbdFrame> RosbagSource::frame(size_t i) const {
   if (!depth) return depth.error();
   Intrinsics k = k_;
   if (depth->metres) k.depth_scale = 1.0;
-  auto f = make_frame(*color, depth->image, k);
+  auto f = make_frame(*color, depth->image, k, &undistorter_);
   if (!f) return make_error(f.error().code, e.depth_path + ": " + f.error().message);
   f->timestamp = e.color_timestamp;
   f->index = static_cast<int>(i);

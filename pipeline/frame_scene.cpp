@@ -22,10 +22,12 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 // Bytes of a GLB kept for the caller's extras (stage lists, intrinsics, capture metadata) when meeting a budget.
 constexpr double kExtrasReserveBytes = 1200;
 constexpr int kMinQuality = 20, kMaxQuality = 92;
-// Limits of what a budget may give up: the mesh's tolerance (sigma units) and the texture's resolution. A budget
-// below what they allow is not met; the report says so ("over-budget").
+// Limits of what a budget may give up: the mesh's tolerance (sigma units), then its outline (the collapses' limit
+// in pixels, doubled up to this), and the texture's resolution (halved down to this). A budget below what they
+// allow is not met; the report says so ("over-budget").
 constexpr double kMaxToleranceFactor = 32;
-constexpr double kMinTextureScale = 0.5;
+constexpr double kMaxSimplifyPx = 8;
+constexpr double kMinTextureScale = 0.25;
 // Geometry bytes per triangle of the compact GLB before one is measured, by codec: the medians of the realtime
 // preset's meshes on the shared frames are about 4.4 with meshopt and 2.6 with Draco (bench/geometry_codec_bench).
 // Only the first guess depends on them.
@@ -130,8 +132,9 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     prepared = prepare_realtime(frame, options.params);
     if (!prepared) return prepared.error();
   }
-  auto texture_at = [&](double tolerance, std::vector<StageReport>* stages) -> Result<AtlasResult> {
-    Result<ReducedFrame> reduced = prepared ? extract_realtime(*prepared, frame, tolerance)
+  auto texture_at = [&](double tolerance, double simplify_px,
+                        std::vector<StageReport>* stages) -> Result<AtlasResult> {
+    Result<ReducedFrame> reduced = prepared ? extract_realtime(*prepared, frame, tolerance, simplify_px)
                                             : reduce_frame(frame, options.params);
     if (!reduced) return reduced.error();
     *stages = reduced->stages;
@@ -150,7 +153,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
 
   const double tol0 = options.params.depth_mesh.tolerance_factor;
   if (options.budget_kb <= 0) {
-    auto textured = texture_at(tol0, &out.stages);
+    auto textured = texture_at(tol0, -1, &out.stages);
     if (!textured) return textured.error();
     out.node.mesh = std::move(textured->mesh);
     out.atlas_stats = std::move(*textured);
@@ -212,10 +215,14 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   };
   std::vector<Tried> tried;
   const int threads = openmp_threads(options.params.threads);
-  Image half;  // the texture at kMinTextureScale, made when needed
+  Image scaled;  // the texture at scaled_at < 1, made when needed
+  double scaled_at = 1.0;
   auto encode_at = [&](double scale, const std::vector<int>& qualities, int workers) -> Status {
-    if (scale < 1.0 && half.data.empty()) half = scaled_texture(textured->mesh.texture, scale);
-    auto bytes = encode_jpegs(scale < 1.0 ? half : textured->mesh.texture, qualities, workers);
+    if (scale < 1.0 && scaled_at != scale) {
+      scaled = scaled_texture(textured->mesh.texture, scale);
+      scaled_at = scale;
+    }
+    auto bytes = encode_jpegs(scale < 1.0 ? scaled : textured->mesh.texture, qualities, workers);
     if (!bytes) return bytes.error();
     for (size_t i = 0; i < qualities.size(); ++i) tried.push_back({qualities[i], scale, std::move((*bytes)[i])});
     b.encodes += static_cast<int>(qualities.size());
@@ -229,9 +236,11 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   // The mesh at a tolerance, textured, its geometry measured (Draco or meshopt, in a GLB) and, beside it on a
   // second thread when the reduction may use two, its texture at the best and the least quality (the search that
   // may follow needs both).
-  auto remesh = [&](double tolerance) -> Status {
+  const double simplify0 = options.params.depth_mesh.simplify_px;
+  b.simplify_px = simplify0;
+  auto remesh = [&](double tolerance, double simplify_px) -> Status {
     std::vector<StageReport> stages;
-    auto t = texture_at(tolerance, &stages);
+    auto t = texture_at(tolerance, simplify_px, &stages);
     if (!t) return t.error();
     const double extracted = static_cast<double>(counts.at(tolerance));
     const double triangles = static_cast<double>(t->mesh.triangle_count());
@@ -240,8 +249,10 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     ++b.meshes;
     out.stages = std::move(stages);
     b.tolerance_factor = tolerance;
+    b.simplify_px = simplify_px;
     tried.clear();
-    half = Image{};
+    scaled = Image{};
+    scaled_at = 1.0;
     Status geometry = ok_status(), texture = ok_status();
     auto encode_texture = [&](int workers) { texture = encode_at(1.0, {kMaxQuality, kMinQuality}, workers); };
     if (threads > 1) {
@@ -263,25 +274,40 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   auto geometry_for = [&](double bytes) { return tolerance_for(bytes / bytes_per_triangle); };
 
   b.jpeg_quality = kMaxQuality;
-  if (auto s = remesh(geometry_for(geometry_cap)); !s) return s.error();
+  if (auto s = remesh(geometry_for(geometry_cap), simplify0); !s) return s.error();
   // One correction when the prior was off by more than 10 %.
   if (b.geometry_bytes > 1.1 * geometry_cap && b.tolerance_factor < kMaxToleranceFactor)
-    if (auto s = remesh(geometry_for(geometry_cap)); !s) return s.error();
+    if (auto s = remesh(geometry_for(geometry_cap), simplify0); !s) return s.error();
   b.rule = b.tolerance_factor > tol0 ? "geometry-capped" : "texture-fitted";
-  if (b.glb_bytes <= target) {
+  // Past the largest tolerance the mesh's bytes are its outline's (depth jumps and holes, which split whatever the
+  // tolerance). When they leave the texture less than its floor (the least quality at half resolution), the
+  // collapses straighten the outline further, their limit doubled until they do not. The outline then stays within
+  // that many pixels of the depth's (a few of its pixels uncovered: a last resort, so the geometry keeps more than
+  // its share before it comes to this); the texture gets what is left, as below.
+  while (b.geometry_bytes > 1.1 * geometry_cap && b.tolerance_factor >= kMaxToleranceFactor && simplify0 > 0 &&
+         b.simplify_px < kMaxSimplifyPx) {
+    if (bytes_of(kMinQuality, 0.5) < 0)
+      if (auto s = encode_at(0.5, {kMinQuality}, 1); !s) return s.error();
+    if (static_cast<double>(b.geometry_bytes + rest_bytes) + bytes_of(kMinQuality, 0.5) <= target) break;
+    if (auto s = remesh(b.tolerance_factor, std::min(kMaxSimplifyPx, 2 * b.simplify_px)); !s) return s.error();
+    b.rule = "outline-capped";
+  }
+  if (b.glb_bytes <= target && b.simplify_px == simplify0) {
     // The texture at its best quality leaves bytes over: they go back to the mesh (at most twice: the bytes a
     // triangle costs, and the share of triangles the collapses keep, change with the tolerance).
     for (int round = 0; round < 2; ++round) {
       const double left = target - static_cast<double>(b.glb_bytes);
       if (left <= 0.05 * target || b.tolerance_factor <= tol0) break;
       const double before = b.tolerance_factor;
-      if (auto s = remesh(geometry_for(static_cast<double>(b.geometry_bytes) + 0.9 * left)); !s) return s.error();
+      if (auto s = remesh(geometry_for(static_cast<double>(b.geometry_bytes) + 0.9 * left), simplify0); !s)
+        return s.error();
       if (b.tolerance_factor == before) break;
     }
     if (b.tolerance_factor <= tol0 && b.glb_bytes <= target) b.rule = "fits";
   }
-  // Texture: the largest quality (at full, then half resolution) whose bytes fit what is left. JPEG bytes are close
-  // to exponential in the quality over 20..92, so the quality is interpolated on log bytes between the two ends and
+  // Texture: the largest quality (at full resolution, else the largest of half, quarter... down to
+  // kMinTextureScale where the least quality fits) whose bytes fit what is left. JPEG bytes are close to
+  // exponential in the quality over 20..92, so the quality is interpolated on log bytes between the two ends and
   // refined (two encodes a step, on two threads) until within 5 % under what is left, at most three times.
   const double texture_target = target - static_cast<double>(b.glb_bytes - b.texture_bytes);
   double scale = 1.0;
@@ -289,8 +315,8 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   if (static_cast<double>(b.texture_bytes) > texture_target) {
     q_lo = kMinQuality;
     int q_hi = kMaxQuality;  // bytes at q_hi (at this scale) do not fit
-    if (bytes_of(q_lo, scale) > texture_target) {  // the least quality does not fit at full resolution: half
-      scale = kMinTextureScale;
+    while (bytes_of(q_lo, scale) > texture_target && scale > kMinTextureScale) {  // the least quality does not fit
+      scale /= 2;
       if (auto s = encode_at(scale, {kMinQuality, kMaxQuality}, threads); !s) return s.error();
     }
     if (bytes_of(q_lo, scale) <= texture_target && bytes_of(q_hi, scale) > texture_target) {
@@ -311,12 +337,12 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
         if (q_hi <= q_lo) break;  // JPEG bytes are not quite monotone in the quality: q_lo fits, which is enough
       }
     } else if (bytes_of(q_hi, scale) <= texture_target) {
-      q_lo = q_hi;  // at half resolution the best quality fits
+      q_lo = q_hi;  // at a reduced resolution the best quality fits
     }
   }
   for (Tried& t : tried)
     if (t.quality == q_lo && t.scale == scale) {
-      if (scale < 1.0) textured->mesh.texture = std::move(half);
+      if (scale < 1.0) textured->mesh.texture = std::move(scaled);
       textured->mesh.texture_encoded = std::move(t.bytes);
       textured->mesh.texture_mime = "image/jpeg";
       break;
@@ -324,7 +350,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   b.jpeg_quality = q_lo;
   b.texture_scale = scale;
   b.texture_bytes = textured->mesh.texture_encoded.size();
-  // UVs are quantized to the texture's size, so a half-size texture changes the geometry's bytes: measured again.
+  // UVs are quantized to the texture's size, so a smaller texture changes the geometry's bytes: measured again.
   if (scale < 1.0) {
     if (auto s = measure_geometry(textured->mesh); !s) return s.error();
     ++b.encodes;
@@ -356,6 +382,7 @@ std::string choices_json(const TexturedFrame& f) {
   if (f.budget.budget_bytes > 0) {
     const BudgetChoice& b = f.budget;
     j["budget"] = {{"budget_bytes", b.budget_bytes},   {"tolerance_factor", b.tolerance_factor},
+                   {"simplify_px", b.simplify_px},
                    {"jpeg_quality", b.jpeg_quality},   {"texture_scale", b.texture_scale},
                    {"geometry_bytes", b.geometry_bytes}, {"texture_bytes", b.texture_bytes},
                    {"glb_bytes", b.glb_bytes},         {"encodes", b.encodes},

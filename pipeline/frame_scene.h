@@ -40,14 +40,16 @@ struct FrameReductionOptions {
 struct BudgetChoice {
   double budget_bytes = 0;       // 0: no budget
   double tolerance_factor = 0;   // mesh tolerance (sigma units)
+  double simplify_px = 0;        // the collapses' limit (DepthMeshParams::simplify_px, raised past the tolerance's)
   int jpeg_quality = 0;
   double texture_scale = 1.0;    // texture resolution relative to the colour frame
   size_t geometry_bytes = 0, texture_bytes = 0, glb_bytes = 0;  // of the node alone (no extras)
   int encodes = 0;               // GLB encodes and JPEG encodes tried
   int meshes = 0;                // meshes extracted, textured and measured (1 or 2 when the prior was close)
   // Which case applied: "fits" (the scene needs less), "texture-fitted" (the mesh at its tolerance, the texture
-  // fitted), "geometry-capped" (the tolerance raised too), "over-budget" (the limits of tolerance and texture
-  // scale reached: the GLB is larger than the budget).
+  // fitted), "geometry-capped" (the tolerance raised too), "outline-capped" (past the largest tolerance, the
+  // collapses' limit raised too), "over-budget" (the limits of tolerance, collapses and texture scale reached: the
+  // GLB is larger than the budget).
   std::string rule;
 };
 

@@ -150,7 +150,7 @@ Result<RealtimeReduction> prepare_realtime(const RgbdFrame& frame, const Reducti
 }
 
 Result<ReducedFrame> extract_realtime(const RealtimeReduction& prepared, const RgbdFrame& frame,
-                                      double tolerance_factor) {
+                                      double tolerance_factor, double simplify_px) {
   ReducedFrame out;
   out.stages = prepared.stages;
   StageTimer timer(&out.stages);
@@ -163,8 +163,9 @@ Result<ReducedFrame> extract_realtime(const RealtimeReduction& prepared, const R
   }
   timer.done("triangulate", "triangles", out.mesh.triangle_count());
   const DepthMeshParams& mp = prepared.hierarchy.params();
-  if (mp.simplify_px > 0 && !out.mesh.indices.empty()) {
-    simplify_image_space(out.mesh, frame.intrinsics.pinhole(), mp.noise_m_per_m2, mp.simplify_px,
+  if (simplify_px < 0) simplify_px = mp.simplify_px;
+  if (simplify_px > 0 && !out.mesh.indices.empty()) {
+    simplify_image_space(out.mesh, frame.intrinsics.pinhole(), mp.noise_m_per_m2, simplify_px,
                          mp.texture_deviation_px);
     timer.done("simplify", "triangles", out.mesh.triangle_count());
   }

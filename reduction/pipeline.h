@@ -71,7 +71,8 @@ Result<ReducedFrame> reduce_frame(const RgbdFrame& frame, const ReductionParams&
 
 // The realtime preset in two steps, for callers that pick the tolerance per frame (a byte budget): prepare() runs
 // valid + filter and builds the mesh hierarchy (the costly part, once); extract() gives the mesh at a tolerance
-// factor, vertex-coloured from the frame, with the stages so far plus "triangulate".
+// factor, vertex-coloured from the frame, with the stages so far plus "triangulate" (and "simplify": the edge
+// collapses at simplify_px, the params' DepthMeshParams::simplify_px when negative).
 struct RealtimeReduction {
   DepthMeshHierarchy hierarchy;
   std::vector<StageReport> stages;  // valid, filter
@@ -79,7 +80,7 @@ struct RealtimeReduction {
 };
 Result<RealtimeReduction> prepare_realtime(const RgbdFrame& frame, const ReductionParams& params);
 Result<ReducedFrame> extract_realtime(const RealtimeReduction& prepared, const RgbdFrame& frame,
-                                      double tolerance_factor);
+                                      double tolerance_factor, double simplify_px = -1);
 
 // Depth sanity: an error naming --depth-scale when the frame's valid depths are implausible for an RGB-D sensor
 // (median outside 0.2-20 m), instead of a mesh of garbage.

@@ -9,6 +9,8 @@
 //   scripts/regenerate_realtime_goldens.sh
 // (it builds this test, runs it, promotes its realtime_* actual images and runs it again).
 #include "gltf/gltf_io.h"
+#include <iostream>
+
 #include "input/frame_source.h"
 #include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
@@ -43,6 +45,7 @@ const Scene* realtime_scene(std::string* error) {
       o.budget_kb = *budget;
       auto textured = reduce_and_texture(*frame, o);
       if (!textured) return textured.error();
+      std::cout << "realtime golden scene: " << choices_json(*textured) << "\n";  // what a mismatch came from
       auto glb = encode_glb(frame_scene(std::move(*textured), "{}"), o.glb);
       if (!glb) return glb.error();
       return decode_glb(glb->data(), glb->size());
