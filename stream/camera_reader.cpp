@@ -68,6 +68,10 @@ void CameraReader::run() {
         out.captured = start_unix + (stamp(i) - first);
         out.began = due(i);
       } else {
+        // On demand: the frame is read when the tracker asks for it, so that "captured" is not a frame's wait in
+        // the slot while the tracker waited for a reduction (keyframe_stream.h).
+        cv_.wait(lock, [&] { return stopping_ || (wanted_ && *wanted_ >= i); });
+        if (stopping_) break;
         out.captured = unix_now();
         out.began = steady::now();
       }
@@ -97,6 +101,10 @@ void CameraReader::run() {
 
 Result<CameraFrame> CameraReader::take(size_t i) {
   std::unique_lock lock(mu_);
+  if (!wanted_ || *wanted_ < i) {
+    wanted_ = i;
+    cv_.notify_all();
+  }
   for (;;) {
     if (stopping_) return make_error(ErrorCode::kUnavailable, "stopped");
     if (slot_index_ && *slot_index_ < i) {  // a frame the tracker did not ask for: never used

@@ -1,15 +1,16 @@
 #pragma once
 // The camera's side of `rgbdcast stream`: a thread that reads (decodes, undistorts) the source's frames in order and
-// hands them to the tracker one at a time, as a live camera's driver does, so that reading frame i+1 overlaps
-// tracking frame i (decoding a TUM frame's two PNGs is about a quarter of a frame's CPU on this machine).
+// hands them to the tracker one at a time, as a live camera's driver does, so that in realtime reading frame i+1
+// overlaps tracking frame i (decoding a TUM frame's two PNGs is 11-14 ms, about 40 % of a frame's CPU here).
 //
-// The reader stays one frame ahead: it reads the next frame once the tracker has taken the last one, into a
-// one-frame slot. Realtime: frame i is due at start + (t_i - t_first) (t from the source's timestamps, else i / fps);
+// Realtime: the reader stays one frame ahead: it reads the next frame once the tracker has taken the last one, into
+// a one-frame slot. frame i is due at start + (t_i - t_first) (t from the source's timestamps, else i / fps);
 // the reader reads the newest frame already due (or waits for the next one), and the frames it passed over are
 // dropped (counted), as a driver replaces a frame the application did not take in time. They are not decoded: here
 // "reading" is decoding PNGs from disk, which a live camera does not cost, so decoding frames nobody takes would
-// only steal CPU from the tracker. "captured" is the due time. Otherwise nothing is dropped, and "captured" is
-// when the frame's read started.
+// only steal CPU from the tracker. "captured" is the due time. Otherwise a frame is read when the tracker asks for
+// it (no look-ahead: the tracker then waits for each keyframe's reduction, and a prefetched frame would age in the
+// slot meanwhile), nothing is dropped, and "captured" is when its read started.
 //
 // take(i) is called with increasing i (the tracker's frame loop): it returns frame i, or kUnavailable ("dropped: ...")
 // when the reader has already moved past it, or the source's error for it. The source is read under `source_mu`,
@@ -63,6 +64,7 @@ class CameraReader {
   std::optional<size_t> slot_index_;
   std::optional<Result<CameraFrame>> slot_;
   size_t next_to_read_ = 0;  // the reader's position: frames below it were read or passed over
+  std::optional<size_t> wanted_;  // the frame the tracker last asked for
   bool finished_ = false, stopping_ = false;
   size_t dropped_ = 0;
   std::thread thread_;

@@ -288,7 +288,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   };
 
   std::deque<KeyframeJob> jobs;
-  bool tracking_done = false;
+  bool tracking_done = false, reducing = false, holding = false;
   std::condition_variable jobs_cv;
   // Hold the next keyframe back while the sender owes more (Sender::owed_s: the paced line's remaining time and the
   // pending bytes not yet started) than its reduction is expected to take: reduced now, it would wait for the line.
@@ -308,17 +308,27 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
         const bool hold = link_owes_too_much();
         lock.lock();
         if (!hold || should_stop()) break;
+        if (!holding) {
+          holding = true;
+          jobs_cv.notify_all();  // a tracker waiting for this reduction goes on (and may supersede it)
+        }
         while (jobs.size() > 1) {
           jobs.pop_front();
           ++summary.superseded;
         }
         jobs_cv.wait_for(lock, std::chrono::milliseconds(50));
       }
+      holding = false;
       if (should_stop()) return;
       job = std::move(jobs.front());
       jobs.pop_front();
+      reducing = true;
       lock.unlock();
       reduce_keyframe(job);
+      lock.lock();
+      reducing = false;
+      lock.unlock();
+      jobs_cv.notify_all();
     }
   });
   auto finish_reductions = [&] {
@@ -345,6 +355,12 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       summary.reduce_queue_max = std::max(summary.reduce_queue_max, jobs.size());
     }
     jobs_cv.notify_all();
+    if (!options.realtime) {
+      // As fast as it can: no camera to keep up with, so the tracker waits for the reduction instead of taking the
+      // CPU it needs (but not while the keyframe is held back for the link: a newer one may supersede it).
+      std::unique_lock lock(mu);
+      jobs_cv.wait(lock, [&] { return holding || (jobs.empty() && !reducing) || should_stop(); });
+    }
     return ok_status();
   };
   auto on_frame = [&](const FrameRecord& r, size_t done, size_t total) {
