@@ -33,6 +33,9 @@ struct StreamArgs {
   bool realtime = false;
   double link_kbps = 0, initial_kbps = 500, latency_ms = 1000, max_backlog_s = 2.0, progress_interval_s = 2.0;
   unsigned seed = 0;
+  int max_in_flight = 2;
+  int reduce_nice = 5;
+  bool keep_every_keyframe = false;
 };
 
 // The progress line: on a terminal one line redrawn in place; otherwise a plain line every interval.
@@ -91,8 +94,18 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
     if (!token) fail_stream(token.error());
     uo.token = *token;
   }
-  auto uplink = stream::Uplink::create(uo);
-  if (!uplink) fail_stream(uplink.error());
+  if (a.max_in_flight < 1 || a.max_in_flight > 4)
+    fail_stream(make_error(ErrorCode::kInvalidArgument, "--max-in-flight must be 1..4"));
+  if (a.reduce_nice < 0 || a.reduce_nice > 19)
+    fail_stream(make_error(ErrorCode::kInvalidArgument, "--reduce-nice must be 0..19"));
+  // One uplink (one keep-alive connection) per lane of the sender.
+  std::vector<std::unique_ptr<stream::Uplink>> uplinks;
+  for (int i = 0; i < a.max_in_flight; ++i) {
+    auto u = stream::Uplink::create(uo);
+    if (!u) fail_stream(u.error());
+    uplinks.push_back(std::move(*u));
+  }
+  stream::Uplink* const uplink = uplinks.front().get();
 
   ReduceArgs r = a.reduce;
   r.preset = "realtime";
@@ -110,7 +123,7 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   auto source = open_frame_source(r.input, so);
   if (!source) fail_stream(source.error());
 
-  if (auto st = (*uplink)->check_reachable(); !st) fail_stream(st.error());
+  if (auto st = uplink->check_reachable(); !st) fail_stream(st.error());
   const std::string outbox_dir = a.outbox.empty() ? "rgbdcast-outbox-" + a.mission : a.outbox;
   auto outbox = stream::Outbox::open(outbox_dir, a.mission);
   if (!outbox) fail_stream(outbox.error());
@@ -119,7 +132,9 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   sp.mission = a.mission;
   sp.link = link;
   sp.seed = a.seed;
-  stream::Sender sender(**outbox, **uplink, sp);
+  std::vector<stream::Uplink*> lanes;
+  for (auto& u : uplinks) lanes.push_back(u.get());
+  stream::Sender sender(**outbox, lanes, sp);
 
   stream::StreamOptions options;
   options.realtime = a.realtime;
@@ -128,6 +143,8 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   options.max_backlog_s = a.max_backlog_s;
   options.latency.target_s = a.latency_ms / 1000.0;
   options.link_kbps_file = a.link_kbps_file;
+  options.reduce_nice = a.reduce_nice;
+  options.supersede = !a.keep_every_keyframe;
 
   struct sigaction sa {};
   sa.sa_handler = on_signal;
@@ -143,14 +160,26 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   std::cout << "rgbdcast stream: " << s.frames << " frames (" << s.tracked << " tracked";
   if (a.realtime) std::cout << ", " << s.dropped << " dropped behind the camera";
   std::cout << "), " << s.keyframes << " new keyframes (" << s.covered << " fully covered, not sent; " << s.coarsened
-            << " coarsened)";
+            << " coarsened, " << s.superseded << " superseded while the link owed too much)";
   if (s.cap_changes > 0) std::cout << ", " << s.cap_changes << " caps read from " << a.link_kbps_file;
   if (s.resumed) std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries
                            << " outbox entries";
   std::cout << "; " << s.sender.acked << " acknowledged (" << s.sender.acked_bytes / 1000.0 << " kB this run, "
-            << s.sender.posts << " posts, " << s.sender.failures << " failed, busy " << s.sender.busy_s << " s), " << s.sender.pending << " pending, "
+            << s.sender.posts << " posts, " << s.sender.failures << " failed, busy " << s.sender.busy_s << " s, "
+            << s.sender.overlap_s << " s of it with 2+ in flight), " << s.sender.pending << " pending, "
             << s.sender.rejected << " rejected; link " << static_cast<int>(s.sender.estimate_kbps) << " kbit/s; "
             << static_cast<int>(s.seconds * 1000) << " ms; outbox " << outbox_dir << "\n";
+  {
+    // The live figures: is the tracker keeping up with the camera, and what a keyframe's reduction costs.
+    const auto fw = stream::percentiles(s.frame_wall_ms), fc = stream::percentiles(s.frame_cpu_ms);
+    const auto fr = stream::percentiles(s.read_cpu_ms), rw = stream::percentiles(s.reduce_ms);
+    std::printf("  tracking: %zu frames read, %zu tracked, %zu dropped; per frame read: due -> tracked wall p50 %.1f / "
+                "p95 %.1f ms, reader CPU p50 %.1f / p95 %.1f ms, tracker CPU p50 %.1f / p95 %.1f ms; keyframe "
+                "reduction (%zu, own thread at nice +%d): wall p50 %.0f / p95 %.0f ms, queue max %zu\n",
+                s.frames - s.dropped, s.tracked, s.dropped, fw.p50, fw.p95, fr.p50, fr.p95, fc.p50, fc.p95,
+                s.reduce_ms.size(), a.reduce_nice, rw.p50, rw.p95, s.reduce_queue_max);
+    std::fflush(stdout);
+  }
   for (const auto& e : s.errors) std::cout << "  " << e << "\n";
   if (s.sender.rejected > 0)
     fail("stream", make_error(ErrorCode::kInternal, std::to_string(s.sender.rejected) +
@@ -195,6 +224,16 @@ void register_stream(CLI::App& app) {
                   "Seconds between progress lines when stderr is not a terminal")
       ->capture_default_str();
   cmd->add_option("--seed", args->seed, "Seed of the retry jitter (0: random)");
+  cmd->add_option("--max-in-flight", args->max_in_flight,
+                  "POSTs in flight at once, one connection each (1-4): a second one crosses the line while the "
+                  "first one's answer is outstanding")
+      ->capture_default_str();
+  cmd->add_flag("--keep-every-keyframe", args->keep_every_keyframe,
+                "Reduce and send every keyframe the tracker picks, even when the link cannot carry them (default: "
+                "a keyframe waiting for a busy link is superseded by a newer one)");
+  cmd->add_option("--reduce-nice", args->reduce_nice,
+                  "Niceness added to the keyframe reduction thread (0-19), so that tracking keeps up with the camera")
+      ->capture_default_str();
   cmd->add_option("--intrinsics", r.intrinsics, "fr1|fr2|fr3|kinect|icl or a JSON file (default: guessed)");
   cmd->add_option("--depth-scale", r.depth_scale, "Raw depth units per metre");
   cmd->add_option("--associations", r.associations, "TUM associations file");

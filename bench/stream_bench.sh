@@ -57,6 +57,7 @@ for ds in $DATASETS; do
       --outage-s 10 --stats "$OUT/$name.relay.json" > "$OUT/$name.relay.log" 2>&1 &
     relay_pid=$!
     for _ in $(seq 100); do curl -sf "http://127.0.0.1:$sport/healthz" >/dev/null && break; sleep 0.1; done
+    for _ in $(seq 100); do curl -sf "http://127.0.0.1:$rport/healthz" >/dev/null && break; sleep 0.1; done   # the relay too
     watcher_pid=
     if [[ $run == *outage ]]; then
       # The outage in the middle: once half of the keyframes of the 2 Mbit/s run are in the outbox.
@@ -65,11 +66,13 @@ for ds in $DATASETS; do
         date +%s.%N > "$OUT/$name.outage_start"; kill -USR1 $relay_pid ) &
       watcher_pid=$!
     fi
+    cut -d' ' -f1 /proc/loadavg > "$OUT/$name.load"   # the 1-minute load average before and after the run
     start=$(date +%s.%N)
     "$BIN" stream --input "${INPUT[$ds]}" --server "http://127.0.0.1:$rport" --mission "$ds$kbps" $REALTIME \
       --outbox "$OUT/$name.outbox" --link-kbps "$kbps" --progress-interval 5 ${STREAM_BENCH_STREAM_ARGS:-} \
       > "$OUT/$name.stream.log" 2> "$OUT/$name.stream.err" || echo "stream exited $?" >> "$OUT/$name.stream.err"
     end=$(date +%s.%N)
+    cut -d' ' -f1 /proc/loadavg >> "$OUT/$name.load"
     echo "{\"start\": $start, \"end\": $end}" > "$OUT/$name.times.json"
     [[ -n $watcher_pid ]] && kill $watcher_pid 2>/dev/null || true
     curl -sf "http://127.0.0.1:$sport/v1/missions/$ds$kbps" > "$OUT/$name.mission.json" || echo '{}' > "$OUT/$name.mission.json"

@@ -1,11 +1,20 @@
 #include "stream/keyframe_stream.h"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <time.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
 
 #include "keyframes/trajectory_io.h"
+#include "stream/camera_reader.h"
 
 namespace rgbdcast::stream {
 
@@ -52,7 +61,44 @@ Eigen::Matrix4d entry_pose(const OutboxEntry& e) {
   return pose_from_tum(p[0], p[1], p[2], p[3], p[4], p[5], p[6]);
 }
 
+double thread_cpu_ms() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
+}
+
+// Linux: niceness is per thread, and threads created later by this one inherit it.
+void renice_this_thread(int increment) {
+  if (increment <= 0) return;
+  const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
+  errno = 0;
+  const int now = ::getpriority(PRIO_PROCESS, tid);
+  if (errno == 0) ::setpriority(PRIO_PROCESS, tid, std::min(19, now + increment));
+}
+
+// A tracked keyframe on its way to the reduction thread.
+struct KeyframeJob {
+  RgbdFrame frame;
+  int frame_index = 0;
+  Eigen::Matrix4d pose;   // camera to world, in the mission's world
+  double captured = 0, tracked = 0;
+};
+
 }  // namespace
+
+Percentiles percentiles(std::vector<double> v) {
+  Percentiles out;
+  if (v.empty()) return out;
+  std::sort(v.begin(), v.end());
+  auto at = [&](double p) {
+    const double k = (static_cast<double>(v.size()) - 1) * p;
+    const size_t lo = static_cast<size_t>(k), hi = std::min(lo + 1, v.size() - 1);
+    return v[lo] + (v[hi] - v[lo]) * (k - static_cast<double>(lo));
+  };
+  out.p50 = at(0.5);
+  out.p95 = at(0.95);
+  return out;
+}
 
 Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Sender& sender,
                                  const StreamOptions& options,
@@ -97,37 +143,30 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     return out;
   };
 
-  // Frame timing.
-  const auto& entries = source.entries();
-  auto stamp = [&](size_t i) {
-    const double t = i < entries.size() ? entries[i].color_timestamp : 0.0;
-    return t > 0 ? t : static_cast<double>(i) / options.fps_without_timestamps;
-  };
-  std::optional<steady::time_point> start_steady;
-  double start_unix = 0, first_stamp = 0, captured = 0;
-  auto due = [&](size_t i) {
-    return *start_steady + std::chrono::duration_cast<steady::duration>(
-                               std::chrono::duration<double>(stamp(i) - first_stamp));
-  };
+  // The camera: a reader thread one frame ahead of the tracker (at the frames' own times in realtime).
+  std::mutex source_mu;  // the reader's and the reduction thread's reads of the source
+  CameraReaderOptions ro;
+  ro.realtime = options.realtime;
+  ro.fps_without_timestamps = options.fps_without_timestamps;
+  ro.from = params.from;
+  ro.last = source.size() == 0 ? 0 : std::min(params.to, source.size() - 1);
+  std::optional<CameraReader> camera;
+  if (source.size() > 0 && ro.from <= ro.last) camera.emplace(source, ro, source_mu);
+  double captured = 0;
+  // Per frame read: when its work began (it was due, or the read started), the reader's CPU time for it and the
+  // tracker thread's CPU clock when the tracker took it.
+  std::optional<steady::time_point> frame_began;
+  double frame_read_cpu_ms = 0, frame_cpu_began = 0;
   auto load = [&](size_t i) -> Result<RgbdFrame> {
     if (should_stop()) return make_error(ErrorCode::kUnavailable, "stopped");
-    if (options.realtime) {
-      if (!start_steady) {
-        start_steady = steady::now();
-        start_unix = unix_now();
-        first_stamp = stamp(i);
-      }
-      const auto now = steady::now();
-      if (i + 1 < source.size() && now >= due(i + 1)) {
-        ++summary.dropped;
-        return make_error(ErrorCode::kUnavailable, "dropped: a newer frame was already due (behind the camera)");
-      }
-      std::this_thread::sleep_until(due(i));
-      captured = start_unix + (stamp(i) - first_stamp);
-    } else {
-      captured = unix_now();
-    }
-    return source.frame(i);
+    if (!camera) return make_error(ErrorCode::kNotFound, "frame " + std::to_string(i) + " is not in the source");
+    auto taken = camera->take(i);
+    if (!taken) return taken.error();
+    captured = taken->captured;
+    frame_began = taken->began;
+    frame_read_cpu_ms = taken->read_cpu_ms;
+    frame_cpu_began = thread_cpu_ms();
+    return std::move(taken->frame);
   };
 
   KeyframeInterval interval;
@@ -137,9 +176,11 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   // --link-kbps-file: a changed value becomes the cap at once (the next budget and the sender's pacing follow it).
   std::optional<CapFile> cap_file;
   if (!options.link_kbps_file.empty()) cap_file.emplace(options.link_kbps_file);
+  std::mutex mu;  // summary, progress and interval: shared by the tracker's and the reduction thread
   auto poll_cap = [&] {
     if (!cap_file) return;
     auto changed = cap_file->poll();
+    std::lock_guard lock(mu);
     if (!changed) {
       summary.errors.push_back(changed.error().message);
       return;
@@ -150,9 +191,10 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   };
   poll_cap();
 
-  auto coarsen_backlog = [&](int newest) {
+  // Runs on the reduction thread only.
+  auto coarsen_backlog = [&](int newest, double interval_s) {
     const double estimate = std::max(sender.estimate_kbps(), 1.0);
-    const double limit_s = std::max(options.max_backlog_s, 2.0 * interval.seconds());
+    const double limit_s = std::max(options.max_backlog_s, 2.0 * interval_s);
     std::vector<OutboxEntry> all = outbox.entries();
     double pending_bytes = 0;
     for (const OutboxEntry& e : all)
@@ -164,12 +206,17 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       const double target_kb = std::max(options.budget.floor_kb, e.budget_kb * options.coarse_factor);
       if (target_kb * 1000.0 >= 0.9 * static_cast<double>(e.bytes)) continue;  // already about that small
       if (!sender.claim(e.seq)) continue;
-      auto frame = source.frame(static_cast<size_t>(e.frame_index));
+      auto frame = [&] {
+        std::lock_guard lock(source_mu);
+        return source.frame(static_cast<size_t>(e.frame_index));
+      }();
       if (frame) {
         frame->index = e.frame_index;
         auto coarse = encode_keyframe(*frame, reduction, target_kb, entry_pose(e), earlier_than(e.seq));
         if (coarse && coarse->glb.size() < e.bytes) {
-          if (Status st = outbox.coarsen(e.seq, coarse->glb, target_kb, coarse->triangles); st) {
+          Status st = outbox.coarsen(e.seq, coarse->glb, target_kb, coarse->triangles);
+          std::lock_guard lock(mu);
+          if (st) {
             pending_bytes -= static_cast<double>(e.bytes - coarse->glb.size());
             ++summary.coarsened;
           } else {
@@ -181,64 +228,170 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     }
   };
 
-  auto on_keyframe = [&](const RgbdFrame& frame, const FrameRecord& record) -> Status {
-    if (summary.resumed && static_cast<int>(record.index) == summary.resumed_at_frame) return ok_status();
-    const Eigen::Matrix4d pose = anchor * record.pose;
-    interval.on_keyframe(std::chrono::duration<double>(steady::now() - t_start).count());
-    const double tracked = unix_now();
-    const double overhead_s = std::max(0.0, tracked - captured) + reduce_s.value() + sender.queue_wait_s() +
+  // The reduction thread's work for one keyframe: budget, the one frame -> scene call, the outbox, the backlog rule.
+  auto reduce_keyframe = [&](const KeyframeJob& job) {
+    double interval_s = 0;
+    {
+      std::lock_guard lock(mu);
+      interval_s = interval.seconds();
+    }
+    const double overhead_s = std::max(0.0, unix_now() - job.captured) + reduce_s.value() + sender.queue_wait_s() +
                               (sender.acknowledged_posts() == 0 ? options.latency.first_post_fixed_s : 0.0);
-    const double budget_kb = next_keyframe_budget_kb(sender.estimate_kbps(), interval.seconds(), overhead_s,
-                                                     options.latency, options.budget);
+    const double budget_kb =
+        next_keyframe_budget_kb(sender.estimate_kbps(), interval_s, overhead_s, options.latency, options.budget);
     const int seq = outbox.next_seq();
     const auto t_reduce = steady::now();
-    auto encoded = encode_keyframe(frame, reduction, budget_kb, pose, earlier_than(seq));
+    auto encoded = encode_keyframe(job.frame, reduction, budget_kb, job.pose, earlier_than(seq));
     const double took = std::chrono::duration<double>(steady::now() - t_reduce).count();
     reduce_s.on_sample(took);
+    {
+      std::lock_guard lock(mu);
+      summary.reduce_ms.push_back(1000.0 * took);
+    }
     if (!encoded) {
+      std::lock_guard lock(mu);
       if (encoded.error().code == ErrorCode::kEmpty) {
         ++summary.covered;
-        return ok_status();
+        return;
       }
       ++summary.failed;
-      summary.errors.push_back("frame " + std::to_string(record.index) + ": " + encoded.error().message);
-      return encoded.error();
+      summary.errors.push_back("frame " + std::to_string(job.frame_index) + ": " + encoded.error().message);
+      return;
     }
     OutboxEntry e;
-    e.frame_index = static_cast<int>(record.index);
-    e.timestamp = frame.timestamp;
-    e.pose = pose_to_tum(pose.data());
-    e.captured = captured;
+    e.frame_index = job.frame_index;
+    e.timestamp = job.frame.timestamp;
+    e.pose = pose_to_tum(job.pose.data());
+    e.captured = job.captured;
     e.budget_kb = budget_kb;
     e.triangles = encoded->triangles;
-    e.tracked = tracked;
+    e.tracked = job.tracked;
     e.reduced = unix_now();
     auto added = outbox.add(e, encoded->glb);
     if (!added) {
+      std::lock_guard lock(mu);
       ++summary.failed;
       summary.errors.push_back(added.error().message);
-      return added.error();
+      return;
     }
-    views.push_back({added->seq, {frame.intrinsics, frame.depth_m, pose}});
-    ++summary.keyframes;
-    progress.keyframes = summary.keyframes;
-    progress.budget_kb = budget_kb;
-    progress.interval_s = interval.seconds();
-    progress.overhead_s = overhead_s;
+    views.push_back({added->seq, {job.frame.intrinsics, job.frame.depth_m, job.pose}});
+    {
+      std::lock_guard lock(mu);
+      ++summary.keyframes;
+      progress.keyframes = summary.keyframes;
+      progress.budget_kb = budget_kb;
+      progress.interval_s = interval_s;
+      progress.overhead_s = overhead_s;
+    }
     sender.notify();
-    coarsen_backlog(added->seq);
+    coarsen_backlog(added->seq, interval_s);
+  };
+
+  std::deque<KeyframeJob> jobs;
+  bool tracking_done = false, reducing = false, holding = false;
+  std::condition_variable jobs_cv;
+  // Hold the next keyframe back while the sender owes more (Sender::owed_s: the paced line's remaining time and the
+  // pending bytes not yet started) than its reduction is expected to take: reduced now, it would wait for the line.
+  auto link_owes_too_much = [&] {
+    return options.supersede && sender.owed_s() > std::max(reduce_s.value(), 0.1);
+  };
+  std::thread reducer([&] {
+    renice_this_thread(options.reduce_nice);
+    for (;;) {
+      KeyframeJob job;
+      std::unique_lock lock(mu);
+      jobs_cv.wait(lock, [&] { return !jobs.empty() || tracking_done; });
+      if (jobs.empty() || should_stop()) return;  // stopped: queued keyframes never reached the outbox
+      // Held back while the link owes too much; a newer keyframe tracked meanwhile supersedes the waiting one.
+      for (;;) {
+        lock.unlock();
+        const bool hold = link_owes_too_much();
+        lock.lock();
+        if (!hold || should_stop()) break;
+        if (!holding) {
+          holding = true;
+          jobs_cv.notify_all();  // a tracker waiting for this reduction goes on (and may supersede it)
+        }
+        while (jobs.size() > 1) {
+          jobs.pop_front();
+          ++summary.superseded;
+        }
+        jobs_cv.wait_for(lock, std::chrono::milliseconds(50));
+      }
+      holding = false;
+      if (should_stop()) return;
+      job = std::move(jobs.front());
+      jobs.pop_front();
+      reducing = true;
+      lock.unlock();
+      reduce_keyframe(job);
+      lock.lock();
+      reducing = false;
+      lock.unlock();
+      jobs_cv.notify_all();
+    }
+  });
+  auto finish_reductions = [&] {
+    {
+      std::lock_guard lock(mu);
+      tracking_done = true;
+    }
+    jobs_cv.notify_all();
+    if (reducer.joinable()) reducer.join();
+  };
+
+  auto on_keyframe = [&](const RgbdFrame& frame, const FrameRecord& record) -> Status {
+    if (summary.resumed && static_cast<int>(record.index) == summary.resumed_at_frame) return ok_status();
+    KeyframeJob job;
+    job.frame = frame;  // the images are shared (cv::Mat), not copied; nothing writes them
+    job.frame_index = static_cast<int>(record.index);
+    job.pose = anchor * record.pose;
+    job.captured = captured;
+    job.tracked = unix_now();
+    {
+      std::lock_guard lock(mu);
+      interval.on_keyframe(std::chrono::duration<double>(steady::now() - t_start).count());
+      jobs.push_back(std::move(job));
+      summary.reduce_queue_max = std::max(summary.reduce_queue_max, jobs.size());
+    }
+    jobs_cv.notify_all();
+    if (!options.realtime) {
+      // As fast as it can: no camera to keep up with, so the tracker waits for the reduction instead of taking the
+      // CPU it needs (but not while the keyframe is held back for the link: a newer one may supersede it).
+      std::unique_lock lock(mu);
+      jobs_cv.wait(lock, [&] { return holding || (jobs.empty() && !reducing) || should_stop(); });
+    }
     return ok_status();
   };
   auto on_frame = [&](const FrameRecord& r, size_t done, size_t total) {
+    if (frame_began) {  // this frame was read (not dropped)
+      const double wall = std::chrono::duration<double, std::milli>(steady::now() - *frame_began).count();
+      const double cpu = thread_cpu_ms() - frame_cpu_began;
+      std::lock_guard lock(mu);
+      summary.frame_wall_ms.push_back(wall);
+      summary.frame_cpu_ms.push_back(cpu);
+      summary.read_cpu_ms.push_back(frame_read_cpu_ms);
+    }
+    frame_began.reset();
     poll_cap();
-    progress.frames_done = done;
-    progress.frames_total = total;
-    progress.tracking = r.tracked ? (r.icp_used ? "tracked (ICP)" : "tracked") : r.message;
-    progress.sender = sender.stats();
-    if (on_progress) on_progress(progress);
+    StreamProgress copy;
+    {
+      std::lock_guard lock(mu);
+      progress.frames_done = done;
+      progress.frames_total = total;
+      progress.tracking = r.tracked ? (r.icp_used ? "tracked (ICP)" : "tracked") : r.message;
+      copy = progress;
+    }
+    copy.sender = sender.stats();
+    if (on_progress) on_progress(copy);
   };
 
   auto result = track_sequence(source.size(), load, params, on_keyframe, on_frame);
+  if (camera) {
+    camera->stop();
+    summary.dropped = camera->dropped();
+  }
+  finish_reductions();
   if (!result) {
     sender.stop();
     return result.error();

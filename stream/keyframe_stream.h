@@ -9,23 +9,43 @@
 // is not sent (counted in `covered`). The GLB holds the mesh in the keyframe's camera frame; its world pose goes in
 // the POST (see stream/uplink.h).
 //
-// Realtime: frame i is due at start + (t_i - t_first) (t from the source's timestamps, else i / fps); the reader
-// waits for it, and a frame whose successor is already due when its turn comes is dropped, as a live camera's
-// driver would replace it (the record says "dropped"). "captured" is the due time (Unix s); without realtime it is
-// the time the frame was read.
+// Reading: a camera reader thread (stream/camera_reader.h) reads the frames one ahead of the tracker; in realtime at
+// their own timestamps, replacing a frame the tracker did not take in time, as a live camera's driver does (the
+// record says "dropped"). "captured" is the due time (Unix s); without realtime it is the time the frame's read
+// started.
+//
+// Threads: tracking runs on the caller's thread and only hands each keyframe (its frame, pose and times) to a
+// reduction thread, which reduces keyframes in order, writes them to the outbox and runs the backlog rule; that
+// thread (and the workers the reduction starts, which inherit it) runs at `reduce_nice` above the caller, so that
+// on a busy machine the tracker keeps reading the camera while a keyframe is being reduced (before, a 0.2-0.4 s
+// reduction on the tracker's thread made the realtime reader drop the frames due meanwhile). Keyframes wait in an
+// unbounded queue for it, in order. Without realtime there is no camera to keep up with, and a tracker running flat
+// out beside the reduction only slows it (measured: 0.15 s became 0.66 s at load 14), so the tracker waits for each
+// reduction to end (not while a keyframe is held back for the link, below). When stop is asked, keyframes still queued are not reduced:
+// they never reached the outbox, and a resumed run tracks their frames again.
 //
 // Budget: the smaller of the rate rule and the latency rule (stream/link_estimator.h). The latency rule's overhead
-// is what is known when the keyframe's pose is: the seconds since its capture (reading, tracking), plus the
+// is what is known when the keyframe's reduction starts: the seconds since its capture (reading, tracking, the
+// reduction queue), plus the
 // earlier keyframes' reduction time (SmoothedDuration: mean + 2 mean deviations; 0.3 s before the first, about what
 // one took on 2 busy cores) and their smoothed wait in the outbox (Sender::queue_wait_s); until a POST was
 // acknowledged, also LatencyRule::first_post_fixed_s (the initial estimate knows no round trip). Each outbox entry keeps its times (tracked, reduced, post_started) so a benchmark can
 // say where a keyframe's latency went.
 //
-// Backlog rule (the link cannot carry what is queued): after each new keyframe, when the pending bytes need more
-// than max(max_backlog_s, 2 x the keyframe interval) at the current estimate, the older never-attempted keyframes
-// are coarsened, oldest first, until the backlog fits: each is re-reduced once (same frame, same coverage views,
-// the same single call) to coarse_factor x its budget (not below the budget floor) and replaces its outbox entry
-// when smaller. Nothing is dropped: a dropped keyframe would leave a hole that later deltas rely on it to cover.
+// Backlog rule (the link cannot carry what is queued), in two steps:
+// - Supersede (on unless `supersede` is false): the next tracked keyframe is reduced only once what the sender owes
+//   (Sender::owed_s: the time left on its paced line plus the pending bytes not yet started, at the estimate) is
+//   no more than the keyframe's expected reduction time (SmoothedDuration below, at least 0.1 s): reduced any
+//   earlier, it would only wait for the line, ageing. Until then it waits, and a newer keyframe tracked meanwhile
+//   supersedes it (the older one is never reduced; counted in `superseded`). So keyframes enter the outbox no
+//   faster than the link carries them, and the one that does is the newest. A superseded keyframe leaves no hole
+//   in the deltas: nothing was reduced against it, since later keyframes are reduced against those in the outbox;
+//   surface that only it saw is not sent (the bench's coverage figure shows what that costs). Entries already in
+//   the outbox are never dropped: later deltas rely on their surface, and the server may hold them.
+// - Coarsen: after each new keyframe, when the pending bytes need more than max(max_backlog_s, 2 x the keyframe
+//   interval) at the current estimate, the older never-attempted keyframes are coarsened, oldest first, until the
+//   backlog fits: each is re-reduced once (same frame, same coverage views, the same single call) to
+//   coarse_factor x its budget (not below the budget floor) and replaces its outbox entry when smaller.
 // The newest keyframe is never coarsened, and the sender posts newest first.
 //
 // Resume: with entries in the outbox, tracking restarts at the last keyframe's frame, whose pose (from the outbox)
@@ -54,6 +74,8 @@ struct StreamOptions {
   std::string link_kbps_file;       // --link-kbps-file: re-read on every frame (and while draining); empty: none
   double max_backlog_s = 2.0;
   double coarse_factor = 0.25;
+  int reduce_nice = 5;              // --reduce-nice: added to the reduction thread's niceness (0: as the caller)
+  bool supersede = true;            // the backlog rule's first step; --keep-every-keyframe turns it off
 };
 
 struct StreamProgress {
@@ -72,6 +94,7 @@ struct StreamSummary {
   size_t keyframes = 0;       // new outbox entries of this run
   size_t covered = 0;         // keyframes with nothing new (not sent)
   size_t coarsened = 0;
+  size_t superseded = 0;      // tracked keyframes never reduced: a newer one replaced them while the link owed too much
   size_t cap_changes = 0;     // values taken from --link-kbps-file
   size_t failed = 0;          // keyframes whose reduction or outbox write failed (message in errors)
   bool resumed = false;
@@ -81,7 +104,18 @@ struct StreamSummary {
   bool stopped = false;       // stop was asked before everything was delivered
   std::vector<std::string> errors;
   SenderStats sender;
+  // Is tracking keeping up: per frame read (not the dropped ones), the wall time from the frame being due (or its
+  // read starting) to its tracking's end, the camera reader's CPU time to read it (stream/camera_reader.h) and the
+  // tracker thread's CPU time to track it; per keyframe, the wall time of its reduction on the reduction thread.
+  // Milliseconds.
+  std::vector<double> frame_wall_ms, frame_cpu_ms, read_cpu_ms, reduce_ms;
+  size_t reduce_queue_max = 0;  // most keyframes waiting for the reduction thread at once
 };
+
+struct Percentiles {
+  double p50 = 0, p95 = 0;  // linear interpolation between order statistics; 0 for no samples
+};
+Percentiles percentiles(std::vector<double> values);
 
 // Errors: the sequence's (kInvalidArgument, kEmpty), an outbox entry whose frame cannot be reloaded on resume
 // (kNotFound), the sender's fatal error (kUnavailable, e.g. a refused token).

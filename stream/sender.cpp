@@ -14,18 +14,24 @@ double unix_now() {
 }  // namespace
 
 Sender::Sender(Outbox& outbox, Uplink& uplink, const SenderParams& params)
+    : Sender(outbox, std::vector<Uplink*>{&uplink}, params) {}
+
+Sender::Sender(Outbox& outbox, std::vector<Uplink*> uplinks, const SenderParams& params)
     : outbox_(outbox),
-      uplink_(uplink),
+      uplinks_(std::move(uplinks)),
       params_(params),
       estimator_(params.link),
       backoff_(params.backoff),
-      rng_(params.seed ? params.seed : std::random_device{}()) {}
+      rng_(params.seed ? params.seed : std::random_device{}()) {
+  stats_.lanes = uplinks_.size();
+}
 
 Sender::~Sender() { stop(); }
 
 void Sender::start() {
   std::lock_guard lock(mu_);
-  if (!thread_.joinable()) thread_ = std::thread([this] { run(); });
+  if (!threads_.empty() || stopping_) return;
+  for (Uplink* u : uplinks_) threads_.emplace_back([this, u] { run(*u); });
 }
 
 void Sender::stop() {
@@ -34,7 +40,8 @@ void Sender::stop() {
     stopping_ = true;
   }
   cv_.notify_all();
-  if (thread_.joinable()) thread_.join();
+  for (std::thread& t : threads_)
+    if (t.joinable()) t.join();
 }
 
 void Sender::notify() { cv_.notify_all(); }
@@ -42,7 +49,7 @@ void Sender::notify() { cv_.notify_all(); }
 bool Sender::claim(int seq) {
   std::lock_guard lock(mu_);
   auto e = outbox_.entry(seq);
-  if (!e || e->attempted || in_flight_ == seq) return false;
+  if (!e || e->attempted || in_flight_.count(seq)) return false;
   claimed_.insert(seq);
   return true;
 }
@@ -70,6 +77,18 @@ size_t Sender::acknowledged_posts() const {
   return estimator_.samples();
 }
 
+double Sender::owed_s() const {
+  std::lock_guard lock(mu_);
+  const double estimate_bps = std::max(estimator_.estimate_kbps(), 1.0) * 1000.0 / 8.0;
+  const bool paced = estimator_.cap_kbps() > 0;
+  double bytes = 0;
+  for (const OutboxEntry& e : outbox_.entries())
+    if (e.pending() && !(paced && (e.attempted || in_flight_.count(e.seq)))) bytes += static_cast<double>(e.bytes);
+  double line_s = 0;
+  if (paced) line_s = std::max(0.0, std::chrono::duration<double>(line_free_ - clock::now()).count());
+  return line_s + bytes / estimate_bps;
+}
+
 void Sender::set_cap_kbps(double cap_kbps) {
   std::lock_guard lock(mu_);
   estimator_.set_cap_kbps(cap_kbps);
@@ -89,18 +108,35 @@ SenderStats Sender::stats() const {
   }
   s.estimate_kbps = estimator_.estimate_kbps();
   s.cap_kbps = estimator_.cap_kbps();
+  const auto now = clock::now();  // the intervals still open
+  if (!in_flight_.empty()) s.busy_s += std::chrono::duration<double>(now - busy_since_).count();
+  if (in_flight_.size() >= 2) s.overlap_s += std::chrono::duration<double>(now - overlap_since_).count();
   return s;
 }
 
-// The newest pending entry that the producer has not claimed; -1 when none.
-int Sender::pick_locked(clock::time_point) const {
+void Sender::flight_begin_locked(int seq) {
+  const auto now = clock::now();
+  in_flight_.insert(seq);
+  if (in_flight_.size() == 1) busy_since_ = now;
+  if (in_flight_.size() == 2) overlap_since_ = now;
+}
+
+void Sender::flight_end_locked(int seq) {
+  if (!in_flight_.erase(seq)) return;
+  const auto now = clock::now();
+  if (in_flight_.empty()) stats_.busy_s += std::chrono::duration<double>(now - busy_since_).count();
+  if (in_flight_.size() == 1) stats_.overlap_s += std::chrono::duration<double>(now - overlap_since_).count();
+}
+
+// The newest pending entry that the producer has not claimed and no lane is posting; -1 when none.
+int Sender::pick_locked() const {
   const auto entries = outbox_.entries();
   for (auto it = entries.rbegin(); it != entries.rend(); ++it)
-    if (it->pending() && !claimed_.count(it->seq)) return it->seq;
+    if (it->pending() && !claimed_.count(it->seq) && !in_flight_.count(it->seq)) return it->seq;
   return -1;
 }
 
-void Sender::run() {
+void Sender::run(Uplink& uplink) {
   for (;;) {
     int seq = -1;
     {
@@ -108,23 +144,33 @@ void Sender::run() {
       for (;;) {
         if (stopping_) return;
         const auto now = clock::now();
-        if (now < not_before_) {
-          cv_.wait_until(lock, not_before_);
+        const auto not_before = std::max(retry_not_before_, estimator_.cap_kbps() > 0 ? line_free_ : now);
+        if (now < not_before) {
+          cv_.wait_until(lock, not_before);
           continue;
         }
-        seq = pick_locked(now);
+        seq = pick_locked();
         if (seq >= 0) break;
         cv_.wait_for(lock, std::chrono::milliseconds(200));
       }
-      in_flight_ = seq;
+      flight_begin_locked(seq);
+      // Pacing: this POST's body takes bytes / cap on the virtual line, after the bodies already on it.
+      if (estimator_.cap_kbps() > 0)
+        if (auto e = outbox_.entry(seq))
+          line_free_ = std::max(line_free_, clock::now()) +
+                       std::chrono::microseconds(static_cast<long long>(
+                           static_cast<double>(e->bytes) * 8.0 / (estimator_.cap_kbps() * 1000.0) * 1e6));
     }
     auto finish = [&](const std::string& fatal) {
-      std::lock_guard lock(mu_);
-      in_flight_ = -1;
-      if (!fatal.empty()) {
-        stats_.fatal = fatal;
-        stopping_ = true;
+      {
+        std::lock_guard lock(mu_);
+        flight_end_locked(seq);
+        if (!fatal.empty()) {
+          stats_.fatal = fatal;
+          stopping_ = true;
+        }
       }
+      cv_.notify_all();  // another lane may wait for this entry (a retry) or for the stop
     };
     std::optional<OutboxEntry> entry = outbox_.entry(seq);
     if (!entry) {
@@ -151,11 +197,10 @@ void Sender::run() {
     const double estimate = std::max(estimate_kbps(), 64.0);
     const double transfer_s = static_cast<double>(glb->size()) * 8.0 / 1000.0 / estimate;
     const double io_timeout_s = std::clamp(3.0 + 4.0 * transfer_s, 3.0, 60.0);
-    const auto started = clock::now();
-    PostResult r = uplink_.post_keyframe(params_.mission, *entry, *glb, io_timeout_s);
+    PostResult r = uplink.post_keyframe(params_.mission, *entry, *glb, io_timeout_s);
     if (r.outcome == PostOutcome::kConflict) {
       // Ours from an earlier run whose answer was lost and whose bytes changed since? Read the mission back.
-      auto mission = uplink_.get_mission(params_.mission);
+      auto mission = uplink.get_mission(params_.mission);
       if (!mission) {
         r.outcome = PostOutcome::kRetry;
         r.error += "; reading the mission back: " + mission.error().message;
@@ -177,16 +222,12 @@ void Sender::run() {
     {
       std::lock_guard lock(mu_);
       ++stats_.posts;
-      stats_.busy_s += r.seconds;
       switch (r.outcome) {
         case PostOutcome::kStored:
           estimator_.on_ack(glb->size(), r.seconds);
           backoff_.reset();
           stats_.acked_bytes += glb->size();
           stats_.link_down = false;
-          if (estimator_.cap_kbps() > 0)
-            not_before_ = started + std::chrono::microseconds(static_cast<long long>(
-                                        glb->size() * 8.0 / (estimator_.cap_kbps() * 1000.0) * 1e6));
           break;
         case PostOutcome::kRetry: {
           estimator_.on_failure();
@@ -194,7 +235,8 @@ void Sender::run() {
           stats_.link_down = true;
           stats_.last_error = r.error;
           const double delay = backoff_.next_delay_s(rng_, r.retry_after_s);
-          not_before_ = clock::now() + std::chrono::microseconds(static_cast<long long>(delay * 1e6));
+          retry_not_before_ = std::max(retry_not_before_, clock::now() + std::chrono::microseconds(
+                                                                         static_cast<long long>(delay * 1e6)));
           break;
         }
         case PostOutcome::kRejected:

@@ -3,8 +3,15 @@
 // link carries.
 //
 // Order: the newest pending keyframe goes first (the operator's picture stays current); older ones follow, newest
-// to oldest, when the link has room. Pacing: with a cap (--link-kbps), the next POST starts no earlier than
-// bytes / cap after the previous one started, so the average rate never exceeds the cap even on a faster link.
+// to oldest, when the link has room.
+// Lanes: one thread per Uplink (each its own keep-alive connection), so up to that many POSTs are in flight; a
+// second POST starts only when another entry is pending, while the first one's answer (round trip + the server's
+// time, about 0.15 s here) is still outstanding, so that the line does not sit idle during it. An entry is in flight
+// on at most one lane at a time.
+// Pacing: with a cap (--link-kbps), POST bodies are scheduled back to back on a virtual line at the cap: a POST
+// starts no earlier than when the previous bodies would have crossed it at the cap (line_free += bytes / cap), so
+// the rate never exceeds the cap even on a faster link, and with one lane it is the old rule (bytes / cap after the
+// previous POST started).
 // Failures: a POST without an answer, a 5xx or a 503/429 is retried after a backoff delay (stream/backoff.h), and
 // lowers the link estimate (stream/link_estimator.h); the same bytes are re-posted, so a POST whose answer was lost
 // is answered 200 by the server's idempotency on (mission, seq). A 409 is resolved by reading the mission back:
@@ -19,6 +26,7 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "stream/backoff.h"
 #include "stream/link_estimator.h"
@@ -41,7 +49,9 @@ struct SenderStats {
   size_t posts = 0, failures = 0;
   double estimate_kbps = 0;
   double cap_kbps = 0;        // the cap now (--link-kbps, or --link-kbps-file's last value); 0: none
-  double busy_s = 0;          // seconds this run had a POST in flight
+  double busy_s = 0;          // seconds this run had at least one POST in flight (the union over the lanes)
+  double overlap_s = 0;       // of which seconds with two or more in flight
+  size_t lanes = 1;
   bool link_down = false;     // the last attempt failed
   std::string last_error;     // of the last failed attempt
   std::string fatal;          // non-empty: the sender stopped for good
@@ -49,13 +59,15 @@ struct SenderStats {
 
 class Sender {
  public:
-  Sender(Outbox& outbox, Uplink& uplink, const SenderParams& params);
+  Sender(Outbox& outbox, Uplink& uplink, const SenderParams& params);  // one lane
+  // One lane per uplink (at least one; each must be a different Uplink: an Uplink is not thread-safe).
+  Sender(Outbox& outbox, std::vector<Uplink*> uplinks, const SenderParams& params);
   ~Sender();
   Sender(const Sender&) = delete;
   Sender& operator=(const Sender&) = delete;
 
   void start();
-  void stop();    // returns once the thread ended (an in-flight POST finishes or times out first)
+  void stop();    // returns once the lanes ended (in-flight POSTs finish or time out first)
   void notify();  // a new entry is in the outbox
   // The producer takes a never-attempted entry out of the sender's reach (to coarsen it); false when it is being
   // sent or was attempted. release() gives it back.
@@ -66,26 +78,33 @@ class Sender {
   // (EWMA, weight 0.3; 0 before the first): part of the overhead the latency rule subtracts (link_estimator.h).
   double queue_wait_s() const;
   size_t acknowledged_posts() const;  // samples of the link estimate so far (0: it is still the initial guess)
+  // Seconds until what is pending would be across the link: with a cap, the time left on the paced virtual line
+  // plus the pending entries not yet started at the estimate; without, every pending byte at the estimate.
+  double owed_s() const;
   void set_cap_kbps(double cap_kbps);
   SenderStats stats() const;
 
  private:
-  void run();
-  int pick_locked(std::chrono::steady_clock::time_point now) const;
+  void run(Uplink& uplink);
+  int pick_locked() const;
+  void flight_begin_locked(int seq);
+  void flight_end_locked(int seq);
 
   Outbox& outbox_;
-  Uplink& uplink_;
+  std::vector<Uplink*> uplinks_;
   SenderParams params_;
   mutable std::mutex mu_;
   std::condition_variable cv_;
-  std::thread thread_;
+  std::vector<std::thread> threads_;
   bool stopping_ = false;
   LinkEstimator estimator_;
   Backoff backoff_;
   std::mt19937 rng_;
   std::set<int> claimed_;
-  int in_flight_ = -1;
-  std::chrono::steady_clock::time_point not_before_{};  // backoff or pacing
+  std::set<int> in_flight_;
+  std::chrono::steady_clock::time_point busy_since_{}, overlap_since_{};
+  std::chrono::steady_clock::time_point retry_not_before_{};  // backoff
+  std::chrono::steady_clock::time_point line_free_{};         // pacing: when the bodies posted so far are across
   std::optional<double> queue_wait_s_;
   SenderStats stats_;
 };

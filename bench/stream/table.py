@@ -3,6 +3,7 @@
 import glob
 import json
 import os
+import re
 import statistics
 import sys
 
@@ -43,9 +44,15 @@ def percentile(vals, p):
 
 
 out, runs = sys.argv[1], sys.argv[2:]
-print("| input | link | keyframes sent | kB/keyframe | utilisation busy / run | goodput kbit/s | latency p50 / p95 s "
-      "| lost / dup | coverage mission / batch | novel-view PSNR mission / batch dB | stream s |")
-print("|---|---|---|---|---|---|---|---|---|---|---|")
+# Utilisation, two ways (acknowledged GLB bytes against the link rate):
+#   busy = bytes / (rate x the seconds the sender had at least one POST in flight: the union over its lanes);
+#   run  = bytes / (rate x the sending window: from the first keyframe being ready in the outbox to the last answer).
+# "busy" says how well a POST uses the line while one is out; "run" also counts the line idle because no keyframe was
+# waiting. overlap = seconds with two POSTs in flight. line = the relay's own count of upstream bytes (HTTP headers
+# and answers' TCP included) over the window: the relay never carries more than its rate.
+print("| input | link | keyframes sent | kB/keyframe | utilisation busy / run | line (relay) | overlap s | "
+      "latency p50 / p95 s | lost / dup | coverage mission / batch | novel-view PSNR mission / batch dB | stream s |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|")
 for ds in ("tum", "icl"):
     batch = evals(f"{out}/{ds}.batch.eval.jsonl")
     for run in runs:
@@ -74,13 +81,24 @@ for ds in ("tum", "icl"):
                 busy = float(log.split("busy ")[1].split(" s")[0])
             except ValueError:
                 busy = None
+        overlap = float("nan")
+        if "with 2+ in flight" in log:
+            try:
+                overlap = float(log.split("busy ")[1].split(" s, ")[1].split(" s of it")[0])
+            except (ValueError, IndexError):
+                pass
+        ready = [e["reduced"] for e in outbox if isinstance(e.get("reduced"), (int, float)) and e["reduced"] > 0]
+        answered = [k["available"] for k in kfs if isinstance(k.get("available"), (int, float))]
+        window = max(answered) - min(ready) if ready and answered else run_s
         util_busy = total_bytes * 8 / 1000 / (kbps * busy) if busy else float("nan")
-        util_run = total_bytes * 8 / 1000 / (kbps * run_s) if run_s > 0 else float("nan")
-        goodput = total_bytes * 8 / 1000 / busy if busy else float("nan")
+        util_run = total_bytes * 8 / 1000 / (kbps * window) if window > 0 else float("nan")
+        relay = load(f"{name}.relay.json", {}) or {}
+        line = relay.get("up_bytes", 0) * 8 / 1000 / (kbps * window) if window > 0 else float("nan")
         ev = evals(f"{name}.eval.jsonl")
         print(f"| {ds} | {run.replace('-outage', ' + 10 s outage')} kbit/s | {len(kfs)} | "
               f"{total_bytes / 1000 / max(len(kfs), 1):.1f} | {100 * util_busy:.0f} % / {100 * util_run:.0f} % | "
-              f"{goodput:.0f} | {percentile(lat, 0.5):.2f} / {percentile(lat, 0.95):.2f} | {lost} / {dup} | "
+              f"{100 * line:.0f} % | {overlap:.2f} | "
+              f"{percentile(lat, 0.5):.2f} / {percentile(lat, 0.95):.2f} | {lost} / {dup} | "
               f"{median_of(ev, 'coverage'):.3f} / {median_of(batch, 'coverage'):.3f} | "
               f"{median_of(ev, 'psnr_valid_db'):.2f} / {median_of(batch, 'psnr_valid_db'):.2f} | {run_s:.0f} |")
 
@@ -117,3 +135,27 @@ for ds in ("tum", "icl"):
         budgets = [r["budget_kb"] for r in rows]
         print(f"| {ds} | {run.replace('-outage', ' + 10 s outage')} kbit/s | {len(rows)} | " + " | ".join(cells) +
               f" | {statistics.median(budgets) if budgets else float('nan'):.1f} | {percentile(lat, 0.95):.2f} |")
+
+# Is the tracker keeping up (the stream's "tracking:" line): frames read / tracked / dropped behind the camera, per
+# frame the wall time from its due time (or read) to its tracking's end, the reader's and the tracker's CPU time, and
+# the keyframes' reduction time on their own thread.
+print()
+print("| input | link | frames read / tracked / dropped | due -> tracked p50 / p95 ms | reader CPU p50 / p95 ms | "
+      "tracker CPU p50 / p95 ms | reduction p50 / p95 ms | load before / after |")
+print("|---|---|---|---|---|---|---|---|")
+for ds in ("tum", "icl"):
+    for run in runs:
+        name = f"{out}/{ds}.{run}"
+        log = open(f"{name}.stream.log").read() if os.path.exists(f"{name}.stream.log") else ""
+        if "tracking:" not in log:
+            continue
+        t = log.split("tracking:")[1].split("\n")[0]
+        m = re.search(r"(\d+) frames read, (\d+) tracked, (\d+) dropped", t)
+        pairs = re.findall(r"p50 ([0-9.]+) / p95 ([0-9.]+)", t)  # due -> tracked, reader, tracker, reduction
+        if not m or len(pairs) < 4:
+            continue
+        nums = [float(x) for x in m.groups()] + [float(x) for pair in pairs[:4] for x in pair]
+        print(f"| {ds} | {run.replace('-outage', ' + 10 s outage')} kbit/s | {nums[0]:.0f} / {nums[1]:.0f} / "
+              f"{nums[2]:.0f} | {nums[3]:.1f} / {nums[4]:.1f} | {nums[5]:.1f} / {nums[6]:.1f} | {nums[7]:.1f} / "
+              f"{nums[8]:.1f} | {nums[9]:.0f} / {nums[10]:.0f} | "
+              f"{' / '.join(open(name + '.load').read().split()) if os.path.exists(name + '.load') else '-'} |")

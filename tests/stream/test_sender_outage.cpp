@@ -91,7 +91,27 @@ int free_port() {
   return ntohs(addr.sin_port);
 }
 
-TEST(SenderOutage, EveryKeyframeIsStoredExactlyOnceAfterTheLinkReturns) {
+// `lanes` uplinks to one server, for a Sender with that many POSTs in flight.
+struct Lanes {
+  std::vector<std::unique_ptr<Uplink>> owned;
+  std::vector<Uplink*> uplinks;
+};
+Lanes make_lanes(int port, size_t lanes) {
+  Lanes out;
+  UplinkOptions uo;
+  uo.server_url = "http://127.0.0.1:" + std::to_string(port);
+  for (size_t i = 0; i < lanes; ++i) {
+    auto uplink = Uplink::create(uo);
+    EXPECT_TRUE(uplink);
+    if (!uplink) continue;
+    out.owned.push_back(std::move(*uplink));
+    out.uplinks.push_back(out.owned.back().get());
+  }
+  return out;
+}
+
+// lanes: POSTs in flight at once (one uplink each).
+void outage_run(size_t lanes) {
   const std::string dir = test::temp_dir("sender_outage");
   auto box = Outbox::open(dir, "outage");
   ASSERT_TRUE(box);
@@ -103,21 +123,20 @@ TEST(SenderOutage, EveryKeyframeIsStoredExactlyOnceAfterTheLinkReturns) {
   }
   const int port = free_port();
   ASSERT_GT(port, 0);
-  UplinkOptions uo;
-  uo.server_url = "http://127.0.0.1:" + std::to_string(port);
-  auto uplink = Uplink::create(uo);
-  ASSERT_TRUE(uplink);
+  Lanes lane_uplinks = make_lanes(port, lanes);
+  ASSERT_EQ(lane_uplinks.uplinks.size(), lanes);
   SenderParams sp;
   sp.mission = "outage";
   sp.seed = 11;
-  Sender sender(**box, **uplink, sp);
+  Sender sender(**box, lane_uplinks.uplinks, sp);
   sender.start();
 
   // Down: connections refused for 1.5 s.
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
   const SenderStats down = sender.stats();
-  EXPECT_GE(down.failures, 2u);          // retried, with backoff (0.2, 0.4, 0.8 s ...)
-  EXPECT_LE(down.failures, 6u);          // not a busy loop
+  EXPECT_EQ(down.lanes, lanes);
+  EXPECT_GE(down.failures, 2u);              // retried, with backoff (0.2, 0.4, 0.8 s ...)
+  EXPECT_LE(down.failures, 6u * lanes);      // not a busy loop (the lanes share one backoff)
   EXPECT_TRUE(down.link_down);
   EXPECT_LT(down.estimate_kbps, 500.0);  // failures lowered the estimate
   EXPECT_EQ(down.pending, 3u);
@@ -139,12 +158,106 @@ TEST(SenderOutage, EveryKeyframeIsStoredExactlyOnceAfterTheLinkReturns) {
   EXPECT_EQ(server.answered_200, 1);  // the keyframe whose answer was lost, re-posted identically
   ASSERT_EQ(server.stored.size(), 3u);
   ASSERT_EQ(server.created_order.size(), 3u);
-  EXPECT_EQ(server.created_order.front(), 2);  // newest first
+  if (lanes == 1) {
+    EXPECT_EQ(server.created_order.front(), 2);  // newest first
+  } else {
+    // Newest first, two at a time: the two newest are stored before the oldest (their order is the network's).
+    EXPECT_EQ(server.created_order.back() == 0 || server.created_order[1] == 0, true);
+    EXPECT_NE(server.created_order.front(), 0);
+  }
   for (int seq = 0; seq < 3; ++seq) {
     EXPECT_EQ(server.stored[seq].size(), static_cast<size_t>(3000 + seq));
     EXPECT_TRUE((*box)->entry(seq)->acked);
   }
   test::remove_tree_quietly(dir);
+}
+
+TEST(SenderOutage, EveryKeyframeIsStoredExactlyOnceAfterTheLinkReturns) { outage_run(1); }
+
+TEST(SenderOutage, EveryKeyframeIsStoredExactlyOnceWithTwoPostsInFlight) { outage_run(2); }
+
+// Two lanes against a server that answers each POST 300 ms after reading it (a round trip plus the service's
+// time): the second POST crosses while the first one's answer is outstanding, bodies are paced back to back at
+// the cap (the server sees them start no closer than bytes / cap), never more than two are in flight, and all six
+// are stored exactly once, in less time than one lane needs.
+TEST(SenderLanes, TwoPostsInFlightArePacedAtTheCapAndStoredExactlyOnce) {
+  struct Run {
+    double seconds = 0;
+    SenderStats stats;
+    std::vector<double> arrivals;  // steady seconds when the server had each POST's body
+    std::vector<size_t> sizes;
+    int max_concurrent = 0;
+    std::map<int, int> stored;     // seq -> times created
+  };
+  auto run = [](size_t lanes) {
+    Run out;
+    const std::string dir = test::temp_dir("sender_lanes");
+    auto box = Outbox::open(dir, "lanes");
+    EXPECT_TRUE(box);
+    for (int i = 0; i < 6; ++i) {
+      OutboxEntry e;
+      e.frame_index = i;
+      e.pose = {0.1 * i, 0, 0, 0, 0, 0, 1};
+      EXPECT_TRUE((*box)->add(e, std::vector<std::uint8_t>(10000, static_cast<std::uint8_t>(i))));
+    }
+    httplib::Server server;
+    std::mutex mu;
+    int concurrent = 0;
+    server.Post(R"(/v1/missions/([A-Za-z0-9_-]+)/keyframes)", [&](const httplib::Request& req, httplib::Response& res) {
+      const int seq = std::stoi(req.get_param_value("seq"));
+      {
+        std::lock_guard lock(mu);
+        out.arrivals.push_back(
+            std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count());
+        out.sizes.push_back(req.body.size());
+        out.max_concurrent = std::max(out.max_concurrent, ++concurrent);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));
+      std::lock_guard lock(mu);
+      --concurrent;
+      res.status = out.stored[seq]++ == 0 ? 201 : 200;
+      res.set_content("{\"seq\":" + std::to_string(seq) + "}", "application/json");
+    });
+    const int port = server.bind_to_any_port("127.0.0.1");
+    std::thread t([&] { server.listen_after_bind(); });
+    Lanes lane_uplinks = make_lanes(port, lanes);
+    SenderParams sp;
+    sp.mission = "lanes";
+    sp.link.cap_kbps = 800;  // 10 kB: 0.1 s at the cap
+    const auto t0 = std::chrono::steady_clock::now();
+    Sender sender(**box, lane_uplinks.uplinks, sp);
+    sender.start();
+    const auto deadline = t0 + std::chrono::seconds(30);
+    while (sender.stats().pending > 0 && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    sender.stop();
+    out.stats = sender.stats();
+    server.stop();
+    t.join();
+    test::remove_tree_quietly(dir);
+    return out;
+  };
+  const Run one = run(1), two = run(2);
+  for (const Run* r : {&one, &two}) {
+    EXPECT_EQ(r->stats.acked, 6u);
+    EXPECT_EQ(r->stats.pending, 0u);
+    ASSERT_EQ(r->stored.size(), 6u);
+    for (const auto& [seq, times] : r->stored) EXPECT_EQ(times, 1) << "seq " << seq;  // no re-post was needed
+    ASSERT_EQ(r->arrivals.size(), 6u);
+    for (size_t i = 1; i < r->arrivals.size(); ++i)  // paced: never closer than the previous body at the cap
+      EXPECT_GE(r->arrivals[i] - r->arrivals[i - 1], 0.9 * r->sizes[i - 1] * 8.0 / 800e3) << i;
+  }
+  EXPECT_EQ(one.max_concurrent, 1);
+  EXPECT_EQ(two.max_concurrent, 2);
+  EXPECT_EQ(one.stats.overlap_s, 0.0);
+  EXPECT_GT(two.stats.overlap_s, 0.5);
+  // One lane: six answers of >= 0.3 s one after another. Two: about half of that.
+  EXPECT_GE(one.seconds, 1.8);
+  EXPECT_LT(two.seconds, 0.75 * one.seconds);
+  // Busy time is the union of the lanes' POSTs: never more than the run took.
+  EXPECT_LE(two.stats.busy_s, two.seconds + 0.05);
+  EXPECT_GT(two.stats.busy_s, 0.9);
 }
 
 TEST(SenderOutage, ARefusedTokenStopsTheSender) {

@@ -10,6 +10,7 @@
 #include <spawn.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -49,10 +50,19 @@ json mission(int port, const std::string& name) {
   return json::parse(res->body);
 }
 
-std::string stream_command(int port, const std::string& mission_name, const std::string& outbox, double kbps) {
+std::string stream_command(int port, const std::string& mission_name, const std::string& outbox, double kbps,
+                           const std::string& extra = "") {
   return rgbdcast_binary() + " stream --input " + data_path(kSequence) + " --to 40 --server http://127.0.0.1:" +
          std::to_string(port) + " --mission " + mission_name + " --outbox " + outbox + " --link-kbps " +
-         std::to_string(kbps) + " --seed 5";
+         std::to_string(kbps) + " --seed 5 " + extra;
+}
+
+// "N superseded" from the summary line; -1 when absent.
+int superseded_count(const std::string& out) {
+  const auto at = out.find(" superseded");
+  if (at == std::string::npos) return -1;
+  const auto start = out.rfind(' ', at - 1);
+  return std::stoi(out.substr(start + 1, at - start - 1));
 }
 
 struct MissionRun {
@@ -133,7 +143,18 @@ TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNoth
   ASSERT_EQ(slow_cmd.exit_code, 0) << slow_cmd.out << slow_cmd.err;
   const MissionRun slow = summarize(server_.port(), "slow", slow_box);
   expect_mission_matches_outbox(slow);
-  EXPECT_EQ(keyframe_frames(slow), keyframe_frames(fast));  // the link changes the bytes, not the keyframes
+  // The link changes the bytes, and which of the tracker's keyframes are sent: while the sender owes the link more
+  // than a reduction takes, a waiting keyframe is superseded by a newer one (never reduced). The tracking is the same, so
+  // the ones sent are the fast run's keyframes less the superseded ones, and the newest is always among them.
+  const std::vector<int> fast_frames = keyframe_frames(fast), slow_frames = keyframe_frames(slow);
+  EXPECT_TRUE(std::includes(fast_frames.begin(), fast_frames.end(), slow_frames.begin(), slow_frames.end()));
+  ASSERT_FALSE(slow_frames.empty());
+  EXPECT_EQ(slow_frames.back(), fast_frames.back());
+  EXPECT_EQ(superseded_count(fast_cmd.out), 0) << fast_cmd.out;
+  EXPECT_EQ(static_cast<size_t>(superseded_count(slow_cmd.out)), fast_frames.size() - slow_frames.size())
+      << slow_cmd.out;
+  // (Whether any is superseded depends on how fast this machine tracks against 3+ s of line per keyframe at
+  // 20 kbit/s: on a quiet one it was 1 of 3; at load 12, 0. The accounting above holds either way.)
   EXPECT_LE(slow.bytes_per_keyframe, 1.02 * fast.bytes_per_keyframe)
       << slow.bytes_per_keyframe << " vs " << fast.bytes_per_keyframe;
   for (const auto& e : fast.outbox) EXPECT_GT(e["budget_kb"].get<double>(), 11.25 + 1e-9) << e.dump();
@@ -148,9 +169,10 @@ TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNoth
   const double span_s = arrivals.back().first - arrivals.front().first;
   EXPECT_LE(paced_bytes * 8 / 1000, 20 * 1.05 * span_s + 1.0) << paced_bytes << " bytes in " << span_s << " s";
 
-  // Killed mid-mission once a keyframe was acknowledged, then started again with the same outbox.
+  // Killed mid-mission once a keyframe was acknowledged, then started again with the same outbox. (With
+  // --keep-every-keyframe nothing is superseded, so the resumed mission must hold exactly the fast run's keyframes.)
   const std::string box = dir_ + "/restart";
-  const std::string cmd = stream_command(server_.port(), "restart", box, 300);
+  const std::string cmd = stream_command(server_.port(), "restart", box, 300, "--keep-every-keyframe");
   pid_t pid = -1;
   const char* argv[] = {"/bin/sh", "-c", nullptr, nullptr};
   const std::string exec_cmd = "exec " + cmd + " >/dev/null 2>&1";
@@ -185,7 +207,7 @@ TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNoth
   EXPECT_NE(again.out.find("resumed at frame"), std::string::npos) << again.out;
   const MissionRun resumed = summarize(server_.port(), "restart", box);
   expect_mission_matches_outbox(resumed);
-  EXPECT_EQ(keyframe_frames(resumed), keyframe_frames(fast));
+  EXPECT_EQ(keyframe_frames(resumed), fast_frames);
   // seq numbering continued: 0..n-1, no gap.
   for (size_t i = 0; i < resumed.outbox.size(); ++i) EXPECT_EQ(resumed.outbox[i]["seq"].get<size_t>(), i);
 }

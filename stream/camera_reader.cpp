@@ -1,0 +1,130 @@
+#include "stream/camera_reader.h"
+
+#include <time.h>
+
+namespace rgbdcast::stream {
+
+using steady = std::chrono::steady_clock;
+
+namespace {
+
+double unix_now() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+double thread_cpu_ms() {
+  timespec ts{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
+}
+
+}  // namespace
+
+CameraReader::CameraReader(const FrameSource& source, const CameraReaderOptions& options, std::mutex& source_mu)
+    : source_(source), options_(options), source_mu_(source_mu), next_to_read_(options.from) {
+  thread_ = std::thread([this] { run(); });
+}
+
+CameraReader::~CameraReader() { stop(); }
+
+void CameraReader::stop() {
+  {
+    std::lock_guard lock(mu_);
+    stopping_ = true;
+  }
+  cv_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+size_t CameraReader::dropped() const {
+  std::lock_guard lock(mu_);
+  return dropped_;
+}
+
+double CameraReader::stamp(size_t i) const {
+  const auto& entries = source_.entries();
+  const double t = i < entries.size() ? entries[i].color_timestamp : 0.0;
+  return t > 0 ? t : static_cast<double>(i) / options_.fps_without_timestamps;
+}
+
+void CameraReader::run() {
+  const auto start = steady::now();
+  const double start_unix = unix_now(), first = stamp(options_.from);
+  auto due = [&](size_t i) {
+    return start + std::chrono::duration_cast<steady::duration>(std::chrono::duration<double>(stamp(i) - first));
+  };
+  for (size_t i = options_.from; i <= options_.last; ++i) {
+    CameraFrame out;
+    {
+      std::unique_lock lock(mu_);
+      cv_.wait(lock, [&] { return stopping_ || !slot_index_; });  // one frame ahead of the tracker, no more
+      if (stopping_) break;
+      if (options_.realtime) {
+        // The newest frame already due; the ones before it are passed over (dropped) without being read.
+        while (i < options_.last && steady::now() >= due(i + 1)) ++i;
+        next_to_read_ = i;
+        cv_.notify_all();
+        if (cv_.wait_until(lock, due(i), [&] { return stopping_; })) break;
+        out.captured = start_unix + (stamp(i) - first);
+        out.began = due(i);
+      } else {
+        // On demand: the frame is read when the tracker asks for it, so that "captured" is not a frame's wait in
+        // the slot while the tracker waited for a reduction (keyframe_stream.h).
+        cv_.wait(lock, [&] { return stopping_ || (wanted_ && *wanted_ >= i); });
+        if (stopping_) break;
+        out.captured = unix_now();
+        out.began = steady::now();
+      }
+    }
+    const double cpu0 = thread_cpu_ms();
+    Result<RgbdFrame> frame = [&] {
+      std::lock_guard lock(source_mu_);
+      return source_.frame(i);
+    }();
+    out.read_cpu_ms = thread_cpu_ms() - cpu0;
+    std::lock_guard lock(mu_);
+    if (stopping_) break;
+    slot_index_ = i;
+    if (frame) {
+      out.frame = std::move(*frame);
+      slot_.emplace(std::move(out));
+    } else {
+      slot_.emplace(frame.error());
+    }
+    next_to_read_ = i + 1;
+    cv_.notify_all();
+  }
+  std::lock_guard lock(mu_);
+  finished_ = true;
+  cv_.notify_all();
+}
+
+Result<CameraFrame> CameraReader::take(size_t i) {
+  std::unique_lock lock(mu_);
+  if (!wanted_ || *wanted_ < i) {
+    wanted_ = i;
+    cv_.notify_all();
+  }
+  for (;;) {
+    if (stopping_) return make_error(ErrorCode::kUnavailable, "stopped");
+    if (slot_index_ && *slot_index_ < i) {  // a frame the tracker did not ask for: never used
+      slot_index_.reset();
+      slot_.reset();
+      cv_.notify_all();
+    }
+    if (slot_index_ && *slot_index_ == i) {
+      Result<CameraFrame> out = std::move(*slot_);
+      slot_index_.reset();
+      slot_.reset();
+      cv_.notify_all();  // the reader may wait for the slot to be empty
+      return out;
+    }
+    if ((slot_index_ && *slot_index_ > i) || next_to_read_ > i || finished_) {
+      ++dropped_;
+      return make_error(ErrorCode::kUnavailable, "dropped: a newer frame was already due (behind the camera)");
+    }
+    cv_.wait(lock);
+  }
+}
+
+}  // namespace rgbdcast::stream

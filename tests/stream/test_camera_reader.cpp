@@ -1,0 +1,80 @@
+// The camera reader of `rgbdcast stream` (stream/camera_reader.h) on real TUM frames: one frame ahead of the tracker,
+// in order; in realtime a tracker slower than the camera gets the newest frame due and the ones it missed are
+// counted as dropped, never handed over late and never decoded.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "input/frame_source.h"
+#include "stream/camera_reader.h"
+#include "tests/common/test_data.h"
+
+namespace rgbdcast::stream {
+namespace {
+
+const char* kTum = "tum/rgbd_dataset_freiburg1_xyz_200_319";
+
+TEST(CameraReader, AsFastAsTheTrackerTakesThemEveryFrameComesInOrder) {
+  REQUIRE_DATA(kTum);
+  auto source = open_frame_source(test::data_path(kTum), SourceOptions{});
+  ASSERT_TRUE(source) << source.error().message;
+  std::mutex source_mu;
+  CameraReaderOptions o;
+  o.from = 3;
+  o.last = 12;
+  CameraReader reader(**source, o, source_mu);
+  for (size_t i = o.from; i <= o.last; ++i) {
+    auto f = reader.take(i);
+    ASSERT_TRUE(f) << i << ": " << f.error().message;
+    EXPECT_EQ(f->frame.index, static_cast<int>(i));
+    EXPECT_EQ(f->frame.depth_m.cols, 640);
+    EXPECT_GT(f->read_cpu_ms, 0.0);
+    EXPECT_GT(f->captured, 1.5e9);  // Unix seconds of the read
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));  // a tracker's work
+  }
+  EXPECT_EQ(reader.dropped(), 0u);
+  EXPECT_FALSE(reader.take(o.last + 1));  // past the range: not handed over
+}
+
+TEST(CameraReader, InRealtimeASlowTrackerGetsTheNewestFrameAndTheMissedOnesAreDropped) {
+  REQUIRE_DATA(kTum);
+  auto source = open_frame_source(test::data_path(kTum), SourceOptions{});
+  ASSERT_TRUE(source) << source.error().message;
+  const auto& entries = (*source)->entries();
+  std::mutex source_mu;
+  CameraReaderOptions o;
+  o.realtime = true;
+  o.from = 0;
+  o.last = 29;  // about 1 s of frames at 30 Hz
+  CameraReader reader(**source, o, source_mu);
+  const auto t0 = std::chrono::steady_clock::now();
+  size_t taken = 0, dropped = 0;
+  double first_captured = 0;
+  for (size_t i = o.from; i <= o.last; ++i) {
+    auto f = reader.take(i);
+    if (!f) {
+      EXPECT_NE(f.error().message.find("dropped"), std::string::npos) << f.error().message;
+      ++dropped;
+      continue;
+    }
+    ++taken;
+    EXPECT_EQ(f->frame.index, static_cast<int>(i));
+    if (first_captured == 0) first_captured = f->captured - (entries[i].color_timestamp - entries[0].color_timestamp);
+    // captured is the frame's due time: its own timestamp on the run's clock.
+    EXPECT_NEAR(f->captured - first_captured, entries[i].color_timestamp - entries[0].color_timestamp, 1e-3);
+    // Handed over within a frame interval plus the read of it after it was due (not a backlog of old frames).
+    const double age_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - f->began).count();
+    EXPECT_LT(age_s, 0.25) << i;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));  // a tracker three times slower than the camera
+  }
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(reader.dropped(), dropped);
+  EXPECT_EQ(taken + dropped, 30u);
+  EXPECT_GE(dropped, 15u);  // 1 s at 0.1 s per frame: about 10 taken
+  EXPECT_LE(taken, 14u);
+  EXPECT_LT(took, 1.6);     // it kept pace with the camera's clock instead of falling behind it
+}
+
+}  // namespace
+}  // namespace rgbdcast::stream
