@@ -276,21 +276,47 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   const bool texture_beside = threads > 1 && earlier.empty() && atlas.mode == TextureMode::kFrame &&
                               atlas.fill_unsampled.value_or(false);
   Result<std::vector<std::vector<std::uint8_t>>> side_jpegs = make_error(ErrorCode::kInternal, "not encoded");
+  // The last mesh's tolerance, collapses' limit, its mesh before them and after: when the outline is straightened
+  // further at the same tolerance, the collapses go on from the collapsed mesh at the new limit, not from a new
+  // extraction (augmented ICL frame 0: 54 against 68 ms a frame, the same mesh within 2 % of its triangles and
+  // 0.05 dB drawn; the outline then stays within the sum of the two limits, which the texture's mask grows by).
+  struct LastMesh {
+    double tolerance = -1, simplify_px = 0;
+    Mesh before;
+    ReducedFrame collapsed;
+  };
+  LastMesh last;
   auto mesh_with_texture_beside = [&](double tolerance, double simplify_px, std::vector<StageReport>* stages,
                                       Status* geometry) -> Result<AtlasResult> {
-    auto reduced = extract_realtime(*prepared, frame, tolerance, 0);
+    const bool go_on = tolerance == last.tolerance && simplify_px > last.simplify_px && last.simplify_px > 0;
+    Result<ReducedFrame> reduced = go_on ? Result<ReducedFrame>(last.collapsed)
+                                         : extract_realtime(*prepared, frame, tolerance, 0);
     if (!reduced) return reduced.error();
     Mesh before;
-    before.positions = reduced->mesh.positions;
-    before.indices = reduced->mesh.indices;
+    if (go_on) {
+      before = std::move(last.before);
+    } else {
+      before.positions = reduced->mesh.positions;
+      before.indices = reduced->mesh.indices;
+    }
     Result<AtlasResult> side_texture = make_error(ErrorCode::kInternal, "not made");
+    const double moved_px = go_on ? last.simplify_px + simplify_px : simplify_px;  // the outline's bound
     std::thread side([&] {
-      side_texture = texture_before_collapses(before, frame, atlas, simplify_px);
+      side_texture = texture_before_collapses(before, frame, atlas, moved_px);
       if (side_texture) side_jpegs = encode_jpegs(side_texture->mesh.texture, {kMaxQuality, kMinQuality}, 1);
       else side_jpegs = side_texture.error();
     });
     Result<AtlasResult> t = [&]() -> Result<AtlasResult> {
       if (auto st = simplify_realtime(*prepared, frame, simplify_px, &*reduced); !st) return st.error();
+      if (go_on) {  // one "simplify" stage: both passes' time, the last count
+        auto& st = reduced->stages;
+        auto first = std::find_if(st.begin(), st.end(), [](const StageReport& r) { return r.name == "simplify"; });
+        if (first != st.end() && first != st.end() - 1 && st.back().name == "simplify") {
+          st.back().ms += first->ms;
+          st.erase(first);
+        }
+      }
+      last.collapsed = *reduced;
       AtlasOptions o = atlas;
       o.fill_unsampled = false;
       o.encode = false;
@@ -300,6 +326,9 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
       return uvs;
     }();
     side.join();
+    last.tolerance = t ? tolerance : -1;
+    last.simplify_px = simplify_px;
+    last.before = std::move(before);
     if (!t) return t.error();
     if (!side_texture) return side_texture.error();
     t->mesh.texture = std::move(side_texture->mesh.texture);
