@@ -24,6 +24,10 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 // Bytes of a GLB kept for the caller's extras (stage lists, intrinsics, capture metadata) when meeting a budget.
 constexpr double kExtrasReserveBytes = 1200;
 constexpr int kMinQuality = 20, kMaxQuality = 92;
+// The texture's floor before the outline is straightened: this quality at budget_outline_texture_scale (below it
+// JPEG's blocks show; on the fr2 desk pair at 40 kB, q25 at full size gave 29.6-29.9 dB over the pixels drawn, the
+// outline at 2 px and q52-53 30.9 dB).
+constexpr int kOutlineFloorQuality = 30;
 // Limits of what a budget may give up: the mesh's tolerance (sigma units), then its outline (the collapses' limit
 // in pixels, doubled up to this), and the texture's resolution (halved down to this). A budget below what they
 // allow is not met; the report says so ("over-budget").
@@ -387,7 +391,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     if (auto s = remesh(geometry_for(geometry_cap), simplify0); !s) return s.error();
   b.rule = b.tolerance_factor > tol0 ? "geometry-capped" : "texture-fitted";
   // Past the largest tolerance the mesh's bytes are its outline's (depth jumps and holes, which split whatever the
-  // tolerance). When they leave the texture less than its floor (the least quality at
+  // tolerance). When they leave the texture less than its floor (kOutlineFloorQuality at
   // budget_outline_texture_scale, full resolution by default), the collapses straighten the outline further, their
   // limit doubled until they do not. The outline then stays within that many pixels of the depth's (a few of its
   // pixels uncovered, so the geometry keeps more than its share before it comes to this); the texture gets what is
@@ -395,9 +399,10 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   while (b.geometry_bytes > 1.1 * geometry_cap && b.tolerance_factor >= kMaxToleranceFactor && simplify0 > 0 &&
          b.simplify_px < kMaxSimplifyPx) {
     const double kept_scale = options.budget_outline_texture_scale;
-    if (bytes_of(kMinQuality, kept_scale) < 0)
-      if (auto s = encode_at(kept_scale, {kMinQuality}, 1); !s) return s.error();
-    if (static_cast<double>(b.geometry_bytes + rest_bytes) + bytes_of(kMinQuality, kept_scale) <= target) break;
+    const int floor_q = kOutlineFloorQuality;
+    if (bytes_of(floor_q, kept_scale) < 0)
+      if (auto s = encode_at(kept_scale, {floor_q}, 1); !s) return s.error();
+    if (static_cast<double>(b.geometry_bytes + rest_bytes) + bytes_of(floor_q, kept_scale) <= target) break;
     if (auto s = remesh(b.tolerance_factor, std::min(kMaxSimplifyPx, 2 * b.simplify_px)); !s) return s.error();
     b.rule = "outline-capped";
   }

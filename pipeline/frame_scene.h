@@ -33,7 +33,7 @@ struct FrameReductionOptions {
   // the tolerance rises until they are. The texture gets the rest (bench/realtime_bench measures the split).
   double budget_geometry_share = 0.45;
   // Past the largest tolerance, the texture resolution the budget keeps before it straightens the mesh's outline:
-  // the collapses' limit is raised only while the least JPEG quality at this scale would not fit beside the mesh.
+  // the collapses' limit is raised only while JPEG quality 30 at this scale would not fit beside the mesh.
   // 0.25..1 (the texture's own limit is a quarter). At 40 kB, 1 against 0.5 (TUM fr1/xyz 0, fr3 0, augmented ICL 0,
   // which then straighten by 2 px instead of halving the texture): PSNR over the pixels drawn +1.9 / +3.5 / +3.0 dB,
   // over all valid pixels +0.9 / +1.8 / +0.6 dB, coverage within 0.0004.
