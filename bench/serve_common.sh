@@ -1,6 +1,6 @@
 # Shared by bench/soak.sh, bench/durability.sh and bench/memory_burst.sh (sourced, not run): the binary, the data,
 # a free loopback port, starting `rgbdcast serve` and uploading TUM fr1/xyz frame 0 as a multipart frame.
-# Expects ROOT and WORK to be set by the caller; sets BIN, TUM, PORT, BASE, SERVER.
+# Expects ROOT and WORK to be set by the caller; sets BIN, TUM, PORT, BASE, SERVER (and ID, by base_scene).
 BIN=${RGBDCAST_BIN:-$ROOT/${BUILD:-build}/app/rgbdcast}
 TUM=${RGBDCAST_DATA:-$ROOT/../shared/data}/tum/rgbd_dataset_freiburg1_xyz
 PORT=${PORT:-$((20000 + RANDOM % 20000))}
@@ -30,3 +30,10 @@ frame_upload() {
 scene_id() { sed -n 's/.*"id":"\([0-9a-f]*\)".*/\1/p' "$1"; }
 # rss_mib: the server's resident set in MiB.
 rss_mib() { awk '/VmRSS/ {printf "%.1f", $2 / 1024}' "/proc/$SERVER/status"; }
+# base_scene: reduces frame 0 on the server (frame_upload); sets ID to its scene and downloads its GLB to
+# $WORK/scene.glb, the body bench/soak.sh and bench/store_rss.sh upload again.
+base_scene() {
+  [ "$(frame_upload "$WORK/first.json")" = 201 ] || { echo "$(basename "$0"): the first frame upload failed"; cat "$WORK/server.log"; exit 1; }
+  ID=$(scene_id "$WORK/first.json")
+  curl -sf -o "$WORK/scene.glb" "$BASE/v1/scenes/$ID/model.glb"
+}

@@ -1,9 +1,14 @@
 #!/usr/bin/env bash
 # Soak test of `rgbdcast serve` (issue 11): 8 clients on loopback mix GLB uploads, views of random sizes and modes,
 # GLB downloads, listings and deletes for DURATION seconds, then the server stops by itself. Reports the number of
-# requests by status class, every 5xx, and RSS after warm-up vs at the end.
+# requests by status class, every 5xx, and RSS after warm-up vs at its peak and at the end.
 #   bench/soak.sh [DURATION_S=1800] [CLIENTS=8] [BUILD_DIR=build]
 # Needs the TUM fr1/xyz frame 0 under ../shared/data (the first scene is reduced from it on the server).
+# The store stays at a steady size, so that RSS measures the server and not how many scenes it holds: each client
+# keeps at most SOAK_OWN_SCENES (default 4) scenes of its own and deletes its oldest right after an upload that
+# takes it past that, besides the random deletes of the mix; the store never holds more than
+# CLIENTS x SOAK_OWN_SCENES + 1 scenes. (Until harden4 uploads outnumbered deletes 10:6 and the store grew by about
+# one scene per second; what a stored scene costs is measured by bench/store_rss.sh.)
 set -euo pipefail
 DURATION=${1:-1800}
 CLIENTS=${2:-8}
@@ -14,12 +19,11 @@ source "$ROOT/bench/serve_common.sh"
 trap 'kill "$SERVER" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$WORK"' EXIT
 
 start_server "$WORK/store"
-[ "$(frame_upload "$WORK/first.json")" = 201 ] || { echo "soak: the first frame upload failed"; cat "$WORK/server.log"; exit 1; }
-ID=$(scene_id "$WORK/first.json")
-curl -sf -o "$WORK/scene.glb" "$BASE/v1/scenes/$ID/model.glb"
+base_scene
 echo "soak: server pid $SERVER, port $PORT, base scene $ID ($(stat -c %s "$WORK/scene.glb") bytes), $CLIENTS clients, ${DURATION} s"
 
 END=$(( $(date +%s) + DURATION ))
+OWN=${SOAK_OWN_SCENES:-4}
 client() {
   local n=$1 log=$WORK/client$n.log mine=() code
   RANDOM=$((n * 7919))
@@ -31,6 +35,11 @@ client() {
         --data-binary "@$WORK/scene.glb" "$BASE/v1/scenes")
       echo "POST $out" >> "$log"
       [ "$out" = 201 ] && mine+=("$(scene_id "$WORK/up$n.json")")
+      if [ ${#mine[@]} -gt "$OWN" ]; then
+        code=$(curl -s -o /dev/null -w '%{http_code}' -X DELETE "$BASE/v1/scenes/${mine[0]}")
+        echo "DELETE $code" >> "$log"
+        mine=("${mine[@]:1}")
+      fi
     elif [ $r -lt 16 ] && [ ${#mine[@]} -gt 0 ]; then
       code=$(curl -s -o /dev/null -w '%{http_code}' -X DELETE "$BASE/v1/scenes/${mine[0]}")
       echo "DELETE $code" >> "$log"
@@ -52,6 +61,7 @@ for n in $(seq "$CLIENTS"); do client "$n" & done
 WARM=$(( DURATION / 10 < 60 ? DURATION / 10 : 60 ))
 sleep "$WARM"
 RSS_WARM=$(rss_mib)
+STORED_WARM=$(curl -s "$BASE/metrics" | awk '$1 == "rgbdcast_scenes_stored" {print $2}')
 : > "$WORK/rss.log"
 stored() { curl -s "$BASE/metrics" | awk '$1 == "rgbdcast_scenes_stored" {print $2}'; }
 anon_file() { awk '/RssAnon|RssFile/ {printf "%.1f ", $2 / 1024}' "/proc/$SERVER/status"; }
@@ -70,7 +80,8 @@ ZERO=$(awk '$2 == "000"' "$WORK/all.log" | wc -l)
 echo "soak: $TOTAL requests in ${DURATION} s by $CLIENTS clients"
 awk '{c[$1" "$2]++} END{for (k in c) print "  " k, c[k]}' "$WORK/all.log" | sort
 echo "soak: 5xx $FIVE, no response $ZERO"
-awk -v w="$RSS_WARM" -v e="$RSS_END" -v m="$RSS_MAX" 'BEGIN{printf "soak: RSS after warm-up %.1f MiB, max %.1f MiB, end (after 6 s idle) %.1f MiB, growth %+.1f %%\n", w, m, e, (e-w)*100.0/w}'
+awk -v w="$RSS_WARM" -v e="$RSS_END" -v m="$RSS_MAX" 'BEGIN{printf "soak: RSS after warm-up %.1f MiB, max %.1f MiB (%+.1f %%), end (after 6 s idle) %.1f MiB, growth %+.1f %%\n", w, m, (m-w)*100.0/w, e, (e-w)*100.0/w}'
+awk -v w="$STORED_WARM" '{if ($3 > m) m = $3; if (n == 0 || $3 < lo) lo = $3; n++; last = $3} END{printf "soak: scenes stored after warm-up %d, during the run %d..%d, at the end %d\n", w, lo, m, last}' "$WORK/rss.log"
 # RSS_LOG=FILE keeps the trace (every 10 s after warm-up): Unix time, RSS in MiB, scenes stored, its anonymous and
 # file-backed parts in MiB.
 [ -n "${RSS_LOG:-}" ] && cp "$WORK/rss.log" "$RSS_LOG"

@@ -352,4 +352,60 @@ Status check_rosbag_file(const std::string& path) {
   return result;
 }
 
+namespace {
+
+// Walks ROS 1 serialized fields over [p, p + n): fixed sizes, and [u32 count] x element size for strings and
+// variable arrays. The first field that does not fit is remembered with its name.
+class MessageWalk {
+ public:
+  MessageWalk(const std::uint8_t* p, size_t n) : p_(p), n_(n) {}
+  MessageWalk& fixed(const char* name, size_t bytes) {
+    if (!failed_ && n_ - at_ < bytes) fail(name, bytes);
+    if (!failed_) at_ += bytes;
+    return *this;
+  }
+  MessageWalk& array(const char* name, size_t element_bytes) {
+    fixed(name, 4);
+    if (failed_) return *this;
+    const std::uint64_t bytes = le(p_ + at_ - 4, 4) * element_bytes;
+    if (bytes > n_ - at_) fail(name, bytes);
+    if (!failed_) at_ += static_cast<size_t>(bytes);
+    return *this;
+  }
+  MessageWalk& header() { return fixed("header.seq", 4).fixed("header.stamp", 8).array("header.frame_id", 1); }
+  Status status(const char* type) const {
+    if (!failed_) return ok_status();
+    return make_error(ErrorCode::kInvalidInput, std::string(type) + " message of " + std::to_string(n_) +
+                                                    " bytes: '" + field_ + "' claims " + std::to_string(claim_) +
+                                                    " bytes at byte " + std::to_string(at_) + ", " +
+                                                    std::to_string(n_ - at_) + " remain");
+  }
+
+ private:
+  void fail(const char* name, std::uint64_t bytes) {
+    failed_ = true;
+    field_ = name;
+    claim_ = bytes;
+  }
+  const std::uint8_t* p_;
+  size_t n_, at_ = 0;
+  bool failed_ = false;
+  const char* field_ = "";
+  std::uint64_t claim_ = 0;
+};
+
+}  // namespace
+
+Status check_ros_message(RosMessageLayout layout, const std::uint8_t* data, size_t size) {
+  MessageWalk w(data, size);
+  w.header().fixed("height", 4).fixed("width", 4);
+  if (layout == RosMessageLayout::kImage) {
+    w.array("encoding", 1).fixed("is_bigendian", 1).fixed("step", 4).array("data", 1);
+    return w.status("sensor_msgs/Image");
+  }
+  w.array("distortion_model", 1).array("D", 8).fixed("K", 72).fixed("R", 72).fixed("P", 96);
+  w.fixed("binning_x", 4).fixed("binning_y", 4).fixed("roi", 17);
+  return w.status("sensor_msgs/CameraInfo");
+}
+
 }  // namespace rgbdcast

@@ -29,6 +29,23 @@ RosImageView view_of(const sensor_msgs::Image& m) {
   return {m.encoding, m.width, m.height, m.step, m.is_bigendian != 0, m.data.data(), m.data.size()};
 }
 
+// m's message as an M, deserialized from its bytes only after check_ros_message walked them: rosbag's instantiate()
+// deserializes straight from the bag, and ROS allocates whatever length a string or an array claims before it finds
+// the bytes missing. A null pointer when m is not an M (as instantiate() gives); kInvalidInput when the bytes do not
+// hold the layout. The bytes themselves are bounded by the record, which check_rosbag_file has placed in its chunk.
+template <class M>
+Result<boost::shared_ptr<M>> read_message(const rosbag::MessageInstance& m, RosMessageLayout layout) {
+  if (!m.isType<M>()) return boost::shared_ptr<M>();
+  std::vector<std::uint8_t> bytes(m.size());
+  ros::serialization::OStream out(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
+  m.write(out);
+  if (auto st = check_ros_message(layout, bytes.data(), bytes.size()); !st) return st.error();
+  auto msg = boost::make_shared<M>();
+  ros::serialization::IStream in(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
+  ros::serialization::deserialize(in, *msg);
+  return msg;
+}
+
 std::string stamp_label(const std::string& bag, const std::string& topic, const ros::Time& t) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%u.%06u", t.sec, t.nsec / 1000);
@@ -96,7 +113,9 @@ Result<std::vector<StampedPath>> RosbagSource::index_images(const std::string& t
   std::vector<StampedPath> stamped;
   rosbag::View view(bag_, rosbag::TopicQuery(topic));
   for (const rosbag::MessageInstance& m : view) {
-    auto img = m.instantiate<sensor_msgs::Image>();
+    auto read = read_message<sensor_msgs::Image>(m, RosMessageLayout::kImage);
+    if (!read) return bad(topic + ": " + read.error().message);
+    const auto& img = *read;
     if (!img) return bad(topic + ": a message is not a sensor_msgs/Image");
     // Decoding the first message finds an unsupported encoding at open time, not at frame N.
     if (refs->empty()) {
@@ -133,7 +152,9 @@ Status RosbagSource::open(const SourceOptions& o) {
           !st)
         return st;
       rosbag::View view(bag_, rosbag::TopicQuery(topics_.camera_info));
-      auto info = view.begin()->instantiate<sensor_msgs::CameraInfo>();
+      auto read = read_message<sensor_msgs::CameraInfo>(*view.begin(), RosMessageLayout::kCameraInfo);
+      if (!read) return bad(topics_.camera_info + ": " + read.error().message);
+      const auto& info = *read;
       if (!info) return bad(topics_.camera_info + ": not a sensor_msgs/CameraInfo");
       RosCameraInfo ci{info->width, info->height, info->distortion_model, info->D, {}};
       std::copy(info->K.begin(), info->K.end(), ci.K.begin());
@@ -177,8 +198,9 @@ Status RosbagSource::open(const SourceOptions& o) {
 Result<sensor_msgs::Image::ConstPtr> RosbagSource::read_image(const std::string& topic, const ImageRef& ref) const {
   rosbag::View view(bag_, rosbag::TopicQuery(topic), ref.bag_time, ref.bag_time);
   for (const rosbag::MessageInstance& m : view) {
-    auto img = m.instantiate<sensor_msgs::Image>();
-    if (img && img->header.stamp == ref.stamp) return sensor_msgs::Image::ConstPtr(img);
+    auto img = read_message<sensor_msgs::Image>(m, RosMessageLayout::kImage);
+    if (!img) return bad(topic + ": " + img.error().message);
+    if (*img && (*img)->header.stamp == ref.stamp) return sensor_msgs::Image::ConstPtr(*img);
   }
   return bad(topic + ": the message stamped " + std::to_string(ref.stamp.toSec()) + " is gone");
 }

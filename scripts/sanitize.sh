@@ -4,7 +4,8 @@
 # UBSan does not recover, ASan aborts, LeakSanitizer reports at exit. The only suppressions are third-party leaks, each
 # with its reason, in tests/sanitizers/lsan.supp. Extra arguments go to ctest:
 #   scripts/sanitize.sh                  # the whole suite (2 cores: see BENCHMARKS.md for the time)
-#   scripts/sanitize.sh -LE render       # what CI runs: every test but those that render (see scripts/test.sh)
+#   scripts/sanitize.sh -R '^(ServiceStore|CameraJson|FuzzRegression)\.'   # a part (CI does not run this script:
+#                                        # see BENCHMARKS.md, "Sanitizers", for the build and test times behind that)
 #   scripts/sanitize.sh -R view_params   # one test
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -57,10 +57,28 @@ Result<std::string> read_text(const std::string& path) {
 
 namespace {
 
+// The listing's fields of a metadata object, where they have their types; the compact text of the whole object.
+void keep_metadata(StoredScene& s, const nlohmann::json& meta) {
+  auto count = [&meta](const char* key) -> std::optional<std::uint64_t> {
+    const auto it = meta.find(key);
+    if (it == meta.end() || !it->is_number_integer()) return std::nullopt;
+    if (it->is_number_unsigned()) return it->get<std::uint64_t>();
+    const std::int64_t n = it->get<std::int64_t>();
+    return n >= 0 ? std::optional<std::uint64_t>(n) : std::nullopt;
+  };
+  s.points = count("points");
+  s.triangles = count("triangles");
+  s.vertices = count("vertices");
+  const auto source = meta.find("source");
+  s.source = source != meta.end() && source->is_string() ? std::optional(source->get<std::string>()) : std::nullopt;
+  s.metadata_json = meta.dump();
+  s.metadata_json.shrink_to_fit();
+}
+
 // The metadata of one stored scene: a JSON object whose bookkeeping fields have their types. Anything else is
 // kInvalidInput with the reason (nlohmann's type errors are caught here, never thrown further).
 Result<StoredScene> parse_metadata(const std::string& id, const std::string& text) {
-  nlohmann::json meta = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  const nlohmann::json meta = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (meta.is_discarded() || !meta.is_object())
     return make_error(ErrorCode::kInvalidInput, "metadata is not a JSON object");
   try {
@@ -70,7 +88,7 @@ Result<StoredScene> parse_metadata(const std::string& id, const std::string& tex
     s.bytes = meta.value("bytes", std::uint64_t{0});
     s.etag = meta.value("etag", std::string());
     s.created_unix_s = meta.value("created_unix_s", 0.0);
-    s.metadata = std::move(meta);
+    keep_metadata(s, meta);
     return s;
   } catch (const nlohmann::json::exception& e) {
     return make_error(ErrorCode::kInvalidInput, std::string("metadata field of the wrong type (") + e.what() + ")");
@@ -92,6 +110,11 @@ Status quarantine(const std::string& data_dir, const std::string& from_dir, cons
     if (ec) return make_error(ErrorCode::kIo, "cannot move " + stem + ext + " to quarantine: " + ec.message());
   }
   return fsync_dir(from_dir);
+}
+
+nlohmann::json StoredScene::metadata() const {
+  nlohmann::json meta = nlohmann::json::parse(metadata_json, nullptr, /*allow_exceptions=*/false);
+  return meta.is_object() ? meta : nlohmann::json::object();
 }
 
 bool is_valid_scene_id(std::string_view id) {
@@ -219,11 +242,11 @@ Result<StoredScene> SceneStore::put(const std::vector<std::uint8_t>& glb, nlohma
   metadata["bytes"] = s.bytes;
   metadata["etag"] = s.etag;
   metadata["created_unix_s"] = s.created_unix_s;
-  s.metadata = std::move(metadata);
+  keep_metadata(s, metadata);
 
   auto st = write_file_atomic(dir_, s.id + ".glb", glb.data(), glb.size());
   if (!st) return st.error();
-  const std::string text = s.metadata.dump(2);
+  const std::string text = metadata.dump(2);
   st = write_file_atomic(dir_, s.id + ".json", text.data(), text.size());
   if (!st) {
     std::error_code ec;

@@ -49,8 +49,10 @@ std::string fmt_ms(double ms) {
 
 nlohmann::json scene_summary(const StoredScene& s) {
   nlohmann::json j = {{"id", s.id}, {"bytes", s.bytes}, {"created_unix_s", s.created_unix_s}};
-  for (const char* key : {"points", "triangles", "vertices", "source"})
-    if (s.metadata.contains(key)) j[key] = s.metadata[key];
+  if (s.points) j["points"] = *s.points;
+  if (s.triangles) j["triangles"] = *s.triangles;
+  if (s.vertices) j["vertices"] = *s.vertices;
+  if (s.source) j["source"] = *s.source;
   j["links"] = {{"self", "/v1/scenes/" + s.id},
                 {"model", "/v1/scenes/" + s.id + "/model.glb"},
                 {"view", "/v1/scenes/" + s.id + "/view?pose=capture"}};
@@ -233,7 +235,7 @@ void ViewService::Impl::post_scene(const httplib::Request& req, httplib::Respons
   auto stored = store->put(ingested->glb, ingested->stats);
   if (!stored) return send_error(res, stored.error());
   res.set_header("Location", "/v1/scenes/" + stored->id);
-  send_json(res, 201, stored->metadata);
+  send_json(res, 201, stored->metadata());
 }
 
 void ViewService::Impl::get_view(const httplib::Request& req, httplib::Response& res) {
@@ -375,7 +377,7 @@ void ViewService::Impl::routes() {
   server->Get(R"(/v1/scenes/([^/]+))", guarded([this](Req req, Res res) {
     auto s = scene_or_error(req, res);
     if (!s) return;
-    nlohmann::json body = s->metadata;
+    nlohmann::json body = s->metadata();
     body["links"] = scene_summary(*s)["links"];
     send_json(res, 200, body);
   }));
@@ -544,12 +546,12 @@ Result<nlohmann::json> ViewService::import_glb_file(const std::string& path) {
   std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
   const std::string etag = etag_of(bytes.data(), bytes.size());
   for (const auto& s : impl_->store->list())
-    if (s.etag == etag) return s.metadata;
+    if (s.etag == etag) return s.metadata();
   auto ingested = ingest_glb(std::move(bytes));
   if (!ingested) return make_error(ingested.error().code, path + ": " + ingested.error().message);
   auto stored = impl_->store->put(ingested->glb, ingested->stats);
   if (!stored) return stored.error();
-  return stored->metadata;
+  return stored->metadata();
 }
 
 int ViewService::port() const { return impl_->port; }

@@ -9,6 +9,7 @@
 
 #include "input/frame_source.h"
 #include "input/intrinsics_io.h"
+#include "input/rosbag_check.h"
 #include "tests/common/test_data.h"
 #include "tests/input/test_bags.h"
 
@@ -277,6 +278,77 @@ TEST(RosbagSource, CompressedChunksThatClaimMoreAreRefusedWithoutAllocatingTheCl
                 std::string::npos) << s.error().message;
     }
   }
+}
+
+// The serialized layout walk in front of ROS deserialization (check_ros_message), on hand-built messages: a whole
+// Image and CameraInfo pass; cut anywhere inside, or with an array that claims more than follows, they fail naming
+// the field.
+TEST(RosbagSource, MessageLayoutsAreWalkedBeforeDeserializing) {
+  auto u32 = [](std::string* s, std::uint32_t v) {
+    for (int i = 0; i < 4; ++i) s->push_back(static_cast<char>((v >> (8 * i)) & 0xff));
+  };
+  auto str = [&u32](std::string* s, const std::string& v) { u32(s, static_cast<std::uint32_t>(v.size())); *s += v; };
+  std::string image;
+  u32(&image, 7), u32(&image, 1), u32(&image, 2), str(&image, "camera");  // header
+  u32(&image, 2), u32(&image, 3), str(&image, "rgb8"), image.push_back('\0'), u32(&image, 9);
+  const size_t data_len_at = image.size();
+  str(&image, std::string(18, 'x'));
+  auto check = [](RosMessageLayout l, const std::string& b) {
+    return check_ros_message(l, reinterpret_cast<const std::uint8_t*>(b.data()), b.size());
+  };
+  EXPECT_TRUE(check(RosMessageLayout::kImage, image).ok());
+  EXPECT_TRUE(check(RosMessageLayout::kImage, image + "trailing").ok());  // ROS allows trailing bytes
+  for (size_t cut = 0; cut < image.size(); ++cut) {
+    auto st = check(RosMessageLayout::kImage, image.substr(0, cut));
+    ASSERT_FALSE(st.ok()) << cut;
+    EXPECT_EQ(st.error().code, ErrorCode::kInvalidInput);
+    EXPECT_EQ(st.error().message.find('\n'), std::string::npos);
+  }
+  std::string lie = image;
+  lie[data_len_at + 3] = '\x7f';  // data claims 2^31 + 18 bytes
+  auto st = check(RosMessageLayout::kImage, lie);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().message.find("'data' claims 2130706450 bytes"), std::string::npos) << st.error().message;
+
+  std::string info;
+  u32(&info, 0), u32(&info, 0), u32(&info, 0), str(&info, "");
+  u32(&info, 640), u32(&info, 480), str(&info, "plumb_bob");
+  const size_t d_at = info.size();
+  u32(&info, 5), info += std::string(5 * 8 + (9 + 9 + 12) * 8, '\0');
+  u32(&info, 0), u32(&info, 0), info += std::string(17, '\0');
+  EXPECT_TRUE(check(RosMessageLayout::kCameraInfo, info).ok());
+  EXPECT_FALSE(check(RosMessageLayout::kCameraInfo, info.substr(0, info.size() - 1)).ok());
+  std::string many = info;
+  many[d_at + 3] = '\x20';  // D claims 2^29 + 5 doubles
+  st = check(RosMessageLayout::kCameraInfo, many);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().message.find("'D' claims 4294967336 bytes"), std::string::npos) << st.error().message;
+}
+
+// Fuzz find (rosbag target, harden4, 22,857 execs): a 30,949-byte bag whose colour image declares 3,275,720,622
+// bytes of data; ROS resized the vector to that before finding the bytes missing (libFuzzer: out-of-memory). It is
+// refused now, naming the field, and the process's peak RSS does not move by the claim.
+TEST(RosbagSource, AnImageThatClaimsGigabytesIsRefusedWithoutAllocatingThem) {
+  const std::string find =
+      std::string(RGBDCAST_SOURCE_DIR) + "/tests/fuzz/crashes/rosbag/rosbag_oom_image_data_length_claims_3_gb";
+  ASSERT_TRUE(fs::exists(find)) << find;
+  const std::string path = test::temp_dir("rosbag-oom") + "/find.bag";  // a bag is known by its extension
+  fs::copy_file(find, path, fs::copy_options::overwrite_existing);
+  auto hwm_kib = [] {
+    std::ifstream in("/proc/self/status");
+    std::string line;
+    while (std::getline(in, line))
+      if (line.rfind("VmHWM:", 0) == 0) return std::stol(line.substr(6));
+    return 0L;
+  };
+  const long before = hwm_kib();
+  auto s = open_frame_source(path, {});
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().code, ErrorCode::kInvalidInput);
+  EXPECT_NE(s.error().message.find("sensor_msgs/Image message of"), std::string::npos) << s.error().message;
+  EXPECT_NE(s.error().message.find("'data' claims 3275720622 bytes"), std::string::npos) << s.error().message;
+  EXPECT_EQ(s.error().message.find('\n'), std::string::npos);
+  EXPECT_LT(hwm_kib() - before, 256L << 10);  // the claim was 3.1 GiB
 }
 
 TEST(RosbagSource, PairsOnlyWithinTheTimeLimit) {

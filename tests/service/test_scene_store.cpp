@@ -45,7 +45,8 @@ TEST(ServiceStore, PutGetListRemoveAndReopen) {
     id_b = b->id;
     EXPECT_EQ((*store)->count(), 2u);
     EXPECT_EQ((*store)->total_bytes(), 13u);
-    EXPECT_EQ(a->metadata["triangles"], 10);
+    EXPECT_EQ(a->metadata()["triangles"], 10);
+    EXPECT_EQ(a->triangles, 10u);
     EXPECT_EQ(a->etag, etag_of(bytes_of("glTF-A").data(), 6));
     EXPECT_NE(a->etag, b->etag);
     auto glb = (*store)->read_glb(id_b);
@@ -61,7 +62,8 @@ TEST(ServiceStore, PutGetListRemoveAndReopen) {
     ASSERT_EQ(list.size(), 2u);
     EXPECT_EQ(list[0].id, id_a);  // oldest first
     EXPECT_EQ(list[1].id, id_b);
-    EXPECT_EQ(list[1].metadata["triangles"], 20);
+    EXPECT_EQ(list[1].metadata()["triangles"], 20);
+    EXPECT_EQ(list[1].triangles, 20u);
     EXPECT_EQ(list[1].bytes, 7u);
     EXPECT_TRUE((*store)->cleaned_on_open().empty());
     ASSERT_TRUE((*store)->remove(id_a).ok());
@@ -142,5 +144,48 @@ TEST(ServiceStore, BadMetadataIsQuarantinedAndTheRestServed) {
     EXPECT_FALSE(fs::exists(scenes + id + ".glb")) << id;
   }
   EXPECT_EQ(files_in(scenes), 2u);
+  fs::remove_all(dir);
+}
+
+// The store holds each scene's metadata as compact JSON text (parsed on demand), and the listing's fields copied out
+// where they have their types: a restart gives the same text, and a field of another type is left out of the
+// listing without refusing the scene (bookkeeping fields of the wrong type still quarantine it, above).
+TEST(ServiceStore, MetadataIsHeldAsCompactTextWithTheListingFields) {
+  const std::string dir = rgbdcast::test::temp_dir("store-compact");
+  const nlohmann::json given = {{"points", 500}, {"triangles", 900}, {"vertices", 480}, {"source", "glb"},
+                                {"stages", {{{"name", "voxel"}, {"points", 22474}, {"ms", 25.125}}}}};
+  std::string id, text, odd;
+  {
+    auto store = SceneStore::open(dir);
+    ASSERT_TRUE(store.ok());
+    auto s = (*store)->put(bytes_of("glTF-compact"), given);
+    ASSERT_TRUE(s.ok());
+    id = s->id;
+    text = s->metadata_json;
+    EXPECT_EQ(s->points, 500u);
+    EXPECT_EQ(s->triangles, 900u);
+    EXPECT_EQ(s->vertices, 480u);
+    EXPECT_EQ(s->source, "glb");
+    const nlohmann::json back = s->metadata();
+    EXPECT_EQ(back["stages"], given["stages"]);
+    EXPECT_EQ(back["id"], id);
+    EXPECT_EQ(back["bytes"], 12);
+    EXPECT_EQ(text, back.dump());  // compact: no indentation
+    // The file is the indented form, longer than what is held.
+    EXPECT_GT(fs::file_size(dir + "/scenes/" + id + ".json"), text.size());
+    odd = (*store)->put(bytes_of("glTF-odd"), {{"points", -3}, {"triangles", "many"}, {"source", 7}})->id;
+  }
+  auto store = SceneStore::open(dir);  // a restart reads the indented file back into the same compact text
+  ASSERT_TRUE(store.ok());
+  auto s = (*store)->get(id);
+  ASSERT_TRUE(s.has_value());
+  EXPECT_EQ(s->metadata_json, text);
+  EXPECT_EQ(s->triangles, 900u);
+  auto o = (*store)->get(odd);
+  ASSERT_TRUE(o.has_value());
+  EXPECT_FALSE(o->points.has_value());
+  EXPECT_FALSE(o->triangles.has_value());
+  EXPECT_FALSE(o->source.has_value());
+  EXPECT_EQ(o->metadata()["triangles"], "many");
   fs::remove_all(dir);
 }
