@@ -9,7 +9,6 @@ BUILD=${3:-build}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 WORK=$(mktemp -d /tmp/rgbdcast-memory.XXXXXX)
 source "$ROOT/bench/serve_common.sh"
-trap 'kill "$SERVER" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$WORK"' EXIT
 start_server "$WORK/store"
 [ "$(frame_upload "$WORK/up.json")" = 201 ] || { echo "memory_burst: upload failed"; exit 1; }
 ID=$(scene_id "$WORK/up.json")

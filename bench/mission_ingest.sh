@@ -13,7 +13,6 @@ ROOT=$(cd "$(dirname "$0")/.." && pwd)
 WORK=$(mktemp -d /tmp/rgbdcast-mission-bench.XXXXXX)
 source "$ROOT/bench/serve_common.sh"
 EXCERPT=${RGBDCAST_DATA:-$ROOT/../shared/data}/tum/rgbd_dataset_freiburg1_xyz_200_319
-trap 'kill "$SERVER" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$WORK"' EXIT
 FRAMES=$(/usr/bin/python3 -c "n=$N; print(' '.join(str(round(i * 119 / max(1, n - 1))) for i in range(n)))")
 for f in $FRAMES; do
   "$BIN" reduce --input "$EXCERPT" --frame "$f" --preset realtime --out "$WORK/kf$f.glb" > /dev/null

@@ -1,6 +1,8 @@
 # Shared by bench/soak.sh, bench/durability.sh and bench/memory_burst.sh (sourced, not run): the binary, the data,
 # a free loopback port, starting `rgbdcast serve` and uploading TUM fr1/xyz frame 0 as a multipart frame.
 # Expects ROOT and WORK to be set by the caller; sets BIN, TUM, PORT, BASE, SERVER (and ID, by base_scene).
+# On exit: the server stopped and WORK removed (a caller that needs another cleanup sets its own trap after this).
+trap 'kill "$SERVER" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$WORK"' EXIT
 BIN=${RGBDCAST_BIN:-$ROOT/${BUILD:-build}/app/rgbdcast}
 TUM=${RGBDCAST_DATA:-$ROOT/../shared/data}/tum/rgbd_dataset_freiburg1_xyz
 PORT=${PORT:-$((20000 + RANDOM % 20000))}

@@ -16,7 +16,6 @@ BUILD=${3:-build}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 WORK=$(mktemp -d /tmp/rgbdcast-soak.XXXXXX)
 source "$ROOT/bench/serve_common.sh"
-trap 'kill "$SERVER" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$WORK"' EXIT
 
 start_server "$WORK/store"
 base_scene

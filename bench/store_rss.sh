@@ -10,7 +10,6 @@ BUILD=${2:-build}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 WORK=$(mktemp -d /tmp/rgbdcast-store-rss.XXXXXX)
 source "$ROOT/bench/serve_common.sh"
-trap 'kill "$SERVER" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$WORK"' EXIT
 
 start_server "$WORK/store"
 base_scene

@@ -1,7 +1,6 @@
 #include "pipeline/frame_scene.h"
 
 #include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -279,7 +278,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   // collapses and the geometry's measurement on this one.
   const bool texture_beside = threads > 1 && earlier.empty() && atlas.mode == TextureMode::kFrame &&
                               atlas.fill_unsampled.value_or(false);
-  Result<std::vector<std::vector<std::uint8_t>>> side_jpegs = make_error(ErrorCode::kInternal, "not encoded");
+  using Jpegs = Result<std::vector<std::vector<std::uint8_t>>>;
   // The last mesh's tolerance, collapses' limit, its mesh before them and after: when the outline is straightened
   // further at the same tolerance, the collapses go on from the collapsed mesh at the new limit, not from a new
   // extraction (augmented ICL frame 0: 54 against 68 ms a frame, the same mesh within 2 % of its triangles and
@@ -290,8 +289,10 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     ReducedFrame collapsed;
   };
   LastMesh last;
+  // The mesh textured, its geometry measured into *geometry and its texture's JPEGs at kMaxQuality and kMinQuality
+  // into *jpegs.
   auto mesh_with_texture_beside = [&](double tolerance, double simplify_px, std::vector<StageReport>* stages,
-                                      Status* geometry) -> Result<AtlasResult> {
+                                      Status* geometry, Jpegs* jpegs) -> Result<AtlasResult> {
     const bool go_on = tolerance == last.tolerance && simplify_px > last.simplify_px && last.simplify_px > 0;
     Result<ReducedFrame> reduced = go_on ? Result<ReducedFrame>(last.collapsed)
                                          : extract_realtime(*prepared, frame, tolerance, 0);
@@ -307,8 +308,8 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     const double moved_px = go_on ? last.simplify_px + simplify_px : simplify_px;  // the outline's bound
     std::thread side([&] {
       side_texture = texture_before_collapses(before, frame, atlas, moved_px);
-      if (side_texture) side_jpegs = encode_jpegs(side_texture->mesh.texture, {kMaxQuality, kMinQuality}, 1);
-      else side_jpegs = side_texture.error();
+      if (side_texture) *jpegs = encode_jpegs(side_texture->mesh.texture, {kMaxQuality, kMinQuality}, 1);
+      else *jpegs = side_texture.error();
     });
     Result<AtlasResult> t = [&]() -> Result<AtlasResult> {
       if (auto st = simplify_realtime(*prepared, frame, simplify_px, &*reduced); !st) return st.error();
@@ -320,7 +321,6 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
           st.erase(first);
         }
       }
-      last.collapsed = *reduced;
       AtlasOptions o = atlas;
       o.fill_unsampled = false;
       o.encode = false;
@@ -341,12 +341,14 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     t->ms = side_texture->ms;
     *stages = reduced->stages;
     stages->push_back({"atlas", "texels", t->texels, t->ms});  // on the second thread
+    last.collapsed = std::move(*reduced);
     return t;
   };
   auto remesh = [&](double tolerance, double simplify_px) -> Status {
     std::vector<StageReport> stages;
     Status geometry = ok_status(), texture = ok_status();
-    auto t = texture_beside ? mesh_with_texture_beside(tolerance, simplify_px, &stages, &geometry)
+    Jpegs side_jpegs = make_error(ErrorCode::kInternal, "not encoded");
+    auto t = texture_beside ? mesh_with_texture_beside(tolerance, simplify_px, &stages, &geometry, &side_jpegs)
                             : texture_at(tolerance, simplify_px, &stages);
     if (!t) return t.error();
     const double extracted = static_cast<double>(counts.at(tolerance));
@@ -399,10 +401,10 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   while (b.geometry_bytes > 1.1 * geometry_cap && b.tolerance_factor >= kMaxToleranceFactor && simplify0 > 0 &&
          b.simplify_px < kMaxSimplifyPx) {
     const double kept_scale = options.budget_outline_texture_scale;
-    const int floor_q = kOutlineFloorQuality;
-    if (bytes_of(floor_q, kept_scale) < 0)
-      if (auto s = encode_at(kept_scale, {floor_q}, 1); !s) return s.error();
-    if (static_cast<double>(b.geometry_bytes + rest_bytes) + bytes_of(floor_q, kept_scale) <= target) break;
+    if (bytes_of(kOutlineFloorQuality, kept_scale) < 0)
+      if (auto s = encode_at(kept_scale, {kOutlineFloorQuality}, 1); !s) return s.error();
+    if (static_cast<double>(b.geometry_bytes + rest_bytes) + bytes_of(kOutlineFloorQuality, kept_scale) <= target)
+      break;
     if (auto s = remesh(b.tolerance_factor, std::min(kMaxSimplifyPx, 2 * b.simplify_px)); !s) return s.error();
     b.rule = "outline-capped";
   }

@@ -99,14 +99,20 @@ Status DepthFilterParams::validate() const {
 }
 
 namespace {
-// Rows 0..h-1 split into `threads` bands, each run by one plain thread (joined here): f(y0, y1, band).
+// f(worker) for worker 0..workers-1, worker 0 on this thread and the others on plain threads joined here (not an
+// OpenMP team: libgomp's idle team spins after a region, see DepthMeshHierarchy::build).
+template <class F>
+void run_workers(int workers, F&& f) {
+  std::vector<std::thread> pool;
+  for (int i = 1; i < workers; ++i) pool.emplace_back([&f, i] { f(i); });
+  f(0);
+  for (auto& t : pool) t.join();
+}
+// Rows 0..h-1 split into `threads` bands, one worker each: f(y0, y1, band).
 template <class F>
 void for_row_bands(int h, int threads, F&& f) {
   const int bands = std::clamp(threads, 1, std::max(1, h / 32));
-  std::vector<std::thread> pool;
-  for (int i = 1; i < bands; ++i) pool.emplace_back([&, i] { f(h * i / bands, h * (i + 1) / bands, i); });
-  f(0, h / bands, 0);
-  for (auto& t : pool) t.join();
+  run_workers(bands, [&](int i) { f(h * i / bands, h * (i + 1) / bands, i); });
 }
 }  // namespace
 
@@ -506,11 +512,7 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
       }
     }
   };
-  const int workers = std::clamp(openmp_threads(threads), 1, tiles);
-  std::vector<std::thread> pool;
-  for (int i = 1; i < workers; ++i) pool.emplace_back(work);
-  work();
-  for (auto& worker : pool) worker.join();
+  run_workers(std::clamp(openmp_threads(threads), 1, tiles), [&](int) { work(); });
 
   // Martini's propagation, finest level first over all tiles (so a midpoint on a tile border holds both tiles'
   // errors before any parent reads it): error(m) = max(own, children's midpoints). Serial: it is a few loads and a
@@ -633,10 +635,7 @@ DepthMeshHierarchy::TriangleCounts DepthMeshHierarchy::counts(double tol, int th
       }
     }
   };
-  std::vector<std::thread> pool;
-  for (int i = 1; i < workers; ++i) pool.emplace_back(work, i);
-  work(0);
-  for (auto& worker : pool) worker.join();
+  run_workers(workers, work);
   c.counts_.resize(bins);
   std::int64_t run = 0;
   for (size_t i = 0; i < bins; ++i) {
