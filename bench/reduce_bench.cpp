@@ -1,6 +1,6 @@
 // Per-stage times of the reduction on real frames: median of N runs per stage, printed as a table.
 // usage: reduce_bench [--input DIR] [--intrinsics fr1 (default: guessed from the input, as reduce does)] [--frame 0] [--runs 5] [--preset paper|realtime]
-//                     [--budget-kb 40] [--threads N (realtime; 0 = OpenMP's default)]
+//                     [--budget-kb 40] [--threads N (realtime; 0 = OpenMP's default)] [--tile 128 (realtime)]
 // The paper preset (default) is timed with both outlier searches. The realtime preset is timed through the one
 // frame -> scene function and the GLB encode, as `rgbdcast reduce` runs it (Draco geometry, the budget), with its
 // stages and the whole wall time (this is the loop to profile: `perf record -g reduce_bench --preset realtime`).
@@ -30,9 +30,10 @@ static double median(std::vector<double> v) {
 
 // The realtime preset through reduce_and_texture + encode_glb: stage medians and the wall time of the whole.
 static int realtime_stages(const RgbdFrame& frame, const std::string& input, int frame_index, int runs,
-                           double budget_kb, int threads) {
+                           double budget_kb, int threads, int tile) {
   FrameReductionOptions o;
   o.params = reduction_preset(Preset::kRealtime);
+  if (tile > 0) o.params.depth_mesh.tile_px = tile;
   o.glb.geometry_codec = GeometryCodec::kDraco;  // as `rgbdcast reduce --preset realtime`
   o.budget_kb = budget_kb;
   o.params.threads = threads;
@@ -77,7 +78,7 @@ int main(int argc, char** argv) {
   int frame_index = 0, runs = 5;
   std::string preset = "paper";
   double budget_kb = 40;
-  int threads = 0;
+  int threads = 0, tile = 0;
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--input")) input = argv[i + 1];
     else if (!std::strcmp(argv[i], "--intrinsics")) intrinsics = argv[i + 1];
@@ -86,6 +87,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--preset")) preset = argv[i + 1];
     else if (!std::strcmp(argv[i], "--budget-kb")) budget_kb = std::atof(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--threads")) threads = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--tile")) tile = std::atoi(argv[i + 1]);
   }
   SourceOptions o;
   o.intrinsics = intrinsics;
@@ -94,7 +96,7 @@ int main(int argc, char** argv) {
   auto frame = (*src)->frame(frame_index);
   if (!frame) return std::fprintf(stderr, "reduce_bench: %s\n", frame.error().message.c_str()), 1;
 
-  if (preset == "realtime") return realtime_stages(*frame, input, frame_index, runs, budget_kb, threads);
+  if (preset == "realtime") return realtime_stages(*frame, input, frame_index, runs, budget_kb, threads, tile);
   if (preset != "paper") return std::fprintf(stderr, "reduce_bench: --preset must be paper or realtime\n"), 1;
 
   // How far the organized outlier search agrees with PCL's k-d tree search on this frame.

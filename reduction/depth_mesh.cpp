@@ -403,6 +403,30 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
   int fit_end = 2;
   while (fit_end < first_leaf && level_len[level_of(fit_end)][1] >= p.fit_min_leg_px - 1e-6) fit_end *= 2;
   const int fit_shift = level_of(first_leaf) - level_of(fit_end / 2);  // leaf id >> fit_shift: its finest fit node
+  // Smooth regions skip the unfitted levels' tests. A triangle of the finest fitted level (a "root": its descendants
+  // are never fitted) whose bounding box holds only valid grid points, inside the image, with every 8-neighbour
+  // step within kSmoothStep, passes all of them: no vertex is invalid, no edge jumps (a path of L steps, each within
+  // kSmoothStep, stays far inside (1 + jump_relative)^L), leaves are emittable, and the texture test cannot fire
+  // (checked below per level, with the ratios such steps allow). Its descendants then only sum their valid pixels
+  // for the hole test, which is kept. The result is the same as the full tests'; the steps' margin (1.06 against
+  // 1.08) is far beyond float rounding.
+  constexpr float kSmoothStep = 1.06f;
+  const int root_level = level_of(fit_end / 2);
+  bool skip_smooth = fit_end > 2 && fit_end < first_leaf && kSmoothStep < 1 + p.jump_relative;
+  for (int d = root_level + 1; d < levels && skip_smooth; ++d) {
+    if (!level_texture_check[d]) continue;
+    const int id = 1 << d;
+    const int px[3] = {t.ax[id], t.bx[id], t.cx[id]}, py[3] = {t.ay[id], t.by[id], t.cy[id]};
+    double edge = 0, R = 1;
+    for (int e = 0; e < 3; ++e) {
+      const int steps = std::max(std::abs(px[e] - px[(e + 1) % 3]), std::abs(py[e] - py[(e + 1) % 3]));
+      const double r = std::pow(double(kSmoothStep), steps);
+      edge = std::max(edge, level_len[d][e] * (r - 1) / (r + 1) / 2);
+      R = std::max(R, r);
+    }
+    const double centroid = 2 * level_len[d][0] * (R / (R + 2) - 1.0 / 3);
+    skip_smooth = std::max(edge, centroid) <= p.texture_deviation_px * 0.99;
+  }
 
   const int tiles = h.tiles_x_ * h.tiles_y_;
   std::vector<float> tri_error(static_cast<size_t>(tiles) * first_leaf, 0.f);
@@ -418,8 +442,38 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
   auto work = [&] {
     std::vector<Moments> m(fit_end);                   // the fitted triangles' pixel moments
     std::vector<std::uint16_t> valid_px(first_leaf);  // every internal triangle's valid pixels
+    std::vector<std::uint8_t> smooth_cell(skip_smooth ? static_cast<size_t>(S) * S : 0);
+    std::vector<std::uint8_t> smooth_root(skip_smooth ? fit_end / 2 : 0);  // by root id - fit_end / 2
     for (int tile; (tile = next_tile++) < tiles;) {
       const int ox = (tile % h.tiles_x_) * S, oy = (tile / h.tiles_x_) * S;
+      if (skip_smooth) {
+        // A unit cell is smooth when its four grid points are valid pixels of the image and its six pairs (edges
+        // and diagonals) are within kSmoothStep; a root is smooth when every cell of its bounding box is.
+        auto step_ok = [](float a, float b) { return a > 0.f && b > 0.f && std::max(a, b) <= std::min(a, b) * kSmoothStep; };
+        const float* g = D.data() + static_cast<size_t>(oy) * GW + ox;
+        const int cells_x = std::min(S, h.width_ - 1 - ox), cells_y = std::min(S, h.height_ - 1 - oy);
+        std::fill(smooth_cell.begin(), smooth_cell.end(), std::uint8_t{0});
+        for (int y = 0; y < cells_y; ++y) {
+          const float* r0 = g + static_cast<size_t>(y) * GW;
+          const float* r1 = r0 + GW;
+          std::uint8_t* out = &smooth_cell[static_cast<size_t>(y) * S];
+          for (int x = 0; x < cells_x; ++x)
+            out[x] = step_ok(r0[x], r0[x + 1]) && step_ok(r1[x], r1[x + 1]) && step_ok(r0[x], r1[x]) &&
+                     step_ok(r0[x + 1], r1[x + 1]) && step_ok(r0[x], r1[x + 1]) && step_ok(r0[x + 1], r1[x]);
+        }
+        for (int root = fit_end / 2; root < fit_end; ++root) {
+          const int x0 = std::min({t.ax[root], t.bx[root], t.cx[root]}),
+                    x1 = std::max({t.ax[root], t.bx[root], t.cx[root]});
+          const int y0 = std::min({t.ay[root], t.by[root], t.cy[root]}),
+                    y1 = std::max({t.ay[root], t.by[root], t.cy[root]});
+          bool smooth = x1 <= cells_x && y1 <= cells_y;
+          for (int y = y0; y < y1 && smooth; ++y) {
+            const std::uint8_t* c = &smooth_cell[static_cast<size_t>(y) * S];
+            for (int x = x0; x < x1 && smooth; ++x) smooth = c[x] != 0;
+          }
+          smooth_root[root - fit_end / 2] = smooth;
+        }
+      }
       const int finest_fit = fit_end / 2;
       for (int id = finest_fit; id < fit_end && fit_end > 2; ++id) m[id] = Moments{};
       std::fill(valid_px.begin() + first_leaf / 2, valid_px.end(), std::uint16_t{0});
@@ -447,7 +501,12 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
       // Leaves: emittable when the three vertices are valid and no edge jumps in depth.
       std::uint8_t* leaf_ok = &h.leaf_ok_[static_cast<size_t>(tile) * (end - first_leaf)];
       const auto& leaf_ratio = level_ratio[levels - 1];
+      const int leaf_root_shift = levels - 1 - root_level;
       for (int id = first_leaf; id < end; ++id) {
+        if (skip_smooth && smooth_root[(id >> leaf_root_shift) - fit_end / 2]) {
+          leaf_ok[id - first_leaf] = 1;
+          continue;
+        }
         const auto& o = vertex_offset[id];
         const float za = base[o[0]], zb = base[o[1]], zc = base[o[2]];
         if (za <= 0 || zb <= 0 || zc <= 0) continue;
@@ -459,6 +518,9 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
         const int level = level_of(id);
         if (id < first_leaf / 2) valid_px[id] = valid_px[2 * id] + valid_px[2 * id + 1];
         const bool fitted = id < fit_end;
+        if (!fitted && skip_smooth && smooth_root[(id >> (level - root_level)) - fit_end / 2] &&
+            t.points_of[id] - valid_px[id] <= p.max_hole_fraction * t.points_of[id])
+          continue;  // a smooth region's unfitted triangle: every test passes, error 0
         if (fitted && id < finest_fit) {  // the moments add up whatever this triangle's verdict
           m[id] = m[2 * id];
           m[id].add(m[2 * id + 1]);
