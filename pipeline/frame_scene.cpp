@@ -7,6 +7,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <future>
 #include <thread>
 
 #include "atlas/texture_encode.h"
@@ -282,19 +283,35 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   // The last mesh's tolerance, collapses' limit, its mesh before them and after: when the outline is straightened
   // further at the same tolerance, the collapses go on from the collapsed mesh at the new limit, not from a new
   // extraction (augmented ICL frame 0: 54 against 68 ms a frame, the same mesh within 2 % of its triangles and
-  // 0.05 dB drawn; the outline then stays within the sum of the two limits, which the texture's mask grows by).
+  // 0.05 dB drawn; the outline then stays within the sum of the limits, moved_px, which the texture's mask grows by).
   struct LastMesh {
-    double tolerance = -1, simplify_px = 0;
+    double tolerance = -1, simplify_px = 0, moved_px = 0;
     Mesh before;
     ReducedFrame collapsed;
   };
   LastMesh last;
+  // Past the largest tolerance the outline may have to be straightened at twice the limit (the loop below). The mesh
+  // at the largest tolerance anticipates it: its texture's mask allows for the further collapses, the texture's floor
+  // (kOutlineFloorQuality) is encoded beside, and when the collapsed mesh's bytes, estimated from its triangles at the
+  // last measured bytes a triangle, leave the floor no room, the collapses go on at twice the limit before the
+  // geometry is measured: one geometry encode and one texture instead of two (augmented ICL, fr3).
+  // It does so only when the extracted mesh is far over the geometry's share: at kKeptPrior of its triangles after
+  // the collapses (they keep 0.71 on TUM fr1/xyz 200-319 frame 0, 0.33 on augmented ICL frame 0, both at 32 sigma
+  // and 1 px), so a mesh the collapses bring under the share keeps the mask of its own collapses and its texture's
+  // bytes.
+  constexpr double kKeptPrior = 0.75;
+  auto anticipates = [&](double tolerance, double simplify_px) {
+    return tolerance >= kMaxToleranceFactor && simplify_px > 0 && 2 * simplify_px <= kMaxSimplifyPx &&
+           options.budget_outline_texture_scale == 1.0 &&
+           static_cast<double>(counts.at(tolerance)) * kKeptPrior * bytes_per_triangle > 1.1 * geometry_cap;
+  };
+  constexpr double kRestPriorBytes = 1500;  // the GLB's JSON and headers before a first measurement
   // The mesh textured, its geometry measured into *geometry and its texture's JPEGs at kMaxQuality and kMinQuality
-  // into *jpegs.
+  // (and kOutlineFloorQuality when it anticipates) into *jpegs; the collapses' limit it ended at into *limit_px.
   auto mesh_with_texture_beside = [&](double tolerance, double simplify_px, std::vector<StageReport>* stages,
-                                      Status* geometry, Jpegs* jpegs) -> Result<AtlasResult> {
+                                      Status* geometry, Jpegs* jpegs, double* limit_px) -> Result<AtlasResult> {
     const bool go_on = tolerance == last.tolerance && simplify_px > last.simplify_px && last.simplify_px > 0;
-    Result<ReducedFrame> reduced = go_on ? Result<ReducedFrame>(last.collapsed)
+    Result<ReducedFrame> reduced = go_on ? Result<ReducedFrame>(std::move(last.collapsed))
                                          : extract_realtime(*prepared, frame, tolerance, 0);
     if (!reduced) return reduced.error();
     Mesh before;
@@ -305,22 +322,56 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
       before.indices = reduced->mesh.indices;
     }
     Result<AtlasResult> side_texture = make_error(ErrorCode::kInternal, "not made");
-    const double moved_px = go_on ? last.simplify_px + simplify_px : simplify_px;  // the outline's bound
+    double moved_px = go_on ? last.moved_px + simplify_px : simplify_px;  // the outline's bound
+    const bool anticipate = !go_on && anticipates(tolerance, simplify_px);  // (a further pass: the loop's)
+    const double mask_px = anticipate ? moved_px + 2 * simplify_px : moved_px;
+    std::promise<double> floor_bytes;  // the texture's floor JPEG, when anticipated (-1: none)
+    std::future<double> floor_ready = floor_bytes.get_future();
     std::thread side([&] {
-      side_texture = texture_before_collapses(before, frame, atlas, moved_px);
-      if (side_texture) *jpegs = encode_jpegs(side_texture->mesh.texture, {kMaxQuality, kMinQuality}, 1);
-      else *jpegs = side_texture.error();
+      side_texture = texture_before_collapses(before, frame, atlas, mask_px);
+      if (!side_texture) {
+        floor_bytes.set_value(-1);
+        *jpegs = side_texture.error();
+        return;
+      }
+      std::vector<int> qualities = {kMaxQuality, kMinQuality};
+      if (anticipate) {
+        auto floor = encode_jpegs(side_texture->mesh.texture, {kOutlineFloorQuality}, 1);
+        floor_bytes.set_value(floor ? static_cast<double>((*floor)[0].size()) : -1);
+        *jpegs = encode_jpegs(side_texture->mesh.texture, qualities, 1);
+        if (floor && *jpegs) (*jpegs)->push_back(std::move((*floor)[0]));
+      } else {
+        floor_bytes.set_value(-1);
+        *jpegs = encode_jpegs(side_texture->mesh.texture, qualities, 1);
+      }
     });
+    double limit = simplify_px;
     Result<AtlasResult> t = [&]() -> Result<AtlasResult> {
       if (auto st = simplify_realtime(*prepared, frame, simplify_px, &*reduced); !st) return st.error();
-      if (go_on) {  // one "simplify" stage: both passes' time, the last count
-        auto& st = reduced->stages;
-        auto first = std::find_if(st.begin(), st.end(), [](const StageReport& r) { return r.name == "simplify"; });
-        if (first != st.end() && first != st.end() - 1 && st.back().name == "simplify") {
-          st.back().ms += first->ms;
-          st.erase(first);
+      if (anticipate) {
+        const double estimate = static_cast<double>(reduced->mesh.triangle_count()) * bytes_per_triangle;
+        const double rest = rest_bytes > 0 ? static_cast<double>(rest_bytes) : kRestPriorBytes;
+        if (estimate > 1.1 * geometry_cap) {
+          const double floor = floor_ready.get();
+          if (floor > 0 && estimate + rest + floor > target) {
+            limit = 2 * simplify_px;
+            moved_px += limit;
+            if (auto st = simplify_realtime(*prepared, frame, limit, &*reduced); !st) return st.error();
+          }
         }
       }
+      // One "simplify" stage: every pass's time, the last count.
+      std::vector<StageReport> merged;
+      for (StageReport& r : reduced->stages) {
+        auto first = std::find_if(merged.begin(), merged.end(), [](const StageReport& m) { return m.name == "simplify"; });
+        if (r.name == "simplify" && first != merged.end()) {
+          first->ms += r.ms;
+          first->count = r.count;
+        } else {
+          merged.push_back(std::move(r));
+        }
+      }
+      reduced->stages = std::move(merged);
       AtlasOptions o = atlas;
       o.fill_unsampled = false;
       o.encode = false;
@@ -331,8 +382,10 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     }();
     side.join();
     last.tolerance = t ? tolerance : -1;
-    last.simplify_px = simplify_px;
+    last.simplify_px = limit;
+    last.moved_px = moved_px;
     last.before = std::move(before);
+    *limit_px = limit;
     if (!t) return t.error();
     if (!side_texture) return side_texture.error();
     t->mesh.texture = std::move(side_texture->mesh.texture);
@@ -348,8 +401,10 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     std::vector<StageReport> stages;
     Status geometry = ok_status(), texture = ok_status();
     Jpegs side_jpegs = make_error(ErrorCode::kInternal, "not encoded");
-    auto t = texture_beside ? mesh_with_texture_beside(tolerance, simplify_px, &stages, &geometry, &side_jpegs)
-                            : texture_at(tolerance, simplify_px, &stages);
+    double limit_px = simplify_px;
+    auto t = texture_beside
+                 ? mesh_with_texture_beside(tolerance, simplify_px, &stages, &geometry, &side_jpegs, &limit_px)
+                 : texture_at(tolerance, simplify_px, &stages);
     if (!t) return t.error();
     const double extracted = static_cast<double>(counts.at(tolerance));
     const double triangles = static_cast<double>(t->mesh.triangle_count());
@@ -358,7 +413,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     ++b.meshes;
     out.stages = std::move(stages);
     b.tolerance_factor = tolerance;
-    b.simplify_px = simplify_px;
+    b.simplify_px = limit_px;
     tried.clear();
     scaled = Image{};
     scaled_at = 1.0;
@@ -367,7 +422,8 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
       if (!side_jpegs) return side_jpegs.error();
       tried.push_back({kMaxQuality, 1.0, std::move((*side_jpegs)[0])});
       tried.push_back({kMinQuality, 1.0, std::move((*side_jpegs)[1])});
-      b.encodes += 2;
+      if (side_jpegs->size() > 2) tried.push_back({kOutlineFloorQuality, 1.0, std::move((*side_jpegs)[2])});
+      b.encodes += static_cast<int>(side_jpegs->size());
     } else if (threads > 1) {
       std::thread side([&] { geometry = measure_geometry(textured->mesh); });
       encode_texture(1);
@@ -391,7 +447,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   // One correction when the prior was off by more than 10 %.
   if (b.geometry_bytes > 1.1 * geometry_cap && b.tolerance_factor < kMaxToleranceFactor)
     if (auto s = remesh(geometry_for(geometry_cap), simplify0); !s) return s.error();
-  b.rule = b.tolerance_factor > tol0 ? "geometry-capped" : "texture-fitted";
+  b.rule = b.simplify_px > simplify0 ? "outline-capped" : b.tolerance_factor > tol0 ? "geometry-capped" : "texture-fitted";
   // Past the largest tolerance the mesh's bytes are its outline's (depth jumps and holes, which split whatever the
   // tolerance). When they leave the texture less than its floor (kOutlineFloorQuality at
   // budget_outline_texture_scale, full resolution by default), the collapses straighten the outline further, their
