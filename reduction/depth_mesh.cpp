@@ -501,26 +501,33 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
       // Leaves: emittable when the three vertices are valid and no edge jumps in depth.
       std::uint8_t* leaf_ok = &h.leaf_ok_[static_cast<size_t>(tile) * (end - first_leaf)];
       const auto& leaf_ratio = level_ratio[levels - 1];
-      const int leaf_root_shift = levels - 1 - root_level;
-      for (int id = first_leaf; id < end; ++id) {
-        if (skip_smooth && smooth_root[(id >> leaf_root_shift) - fit_end / 2]) {
-          leaf_ok[id - first_leaf] = 1;
-          continue;
-        }
+      auto leaf_test = [&](int id) {
         const auto& o = vertex_offset[id];
         const float za = base[o[0]], zb = base[o[1]], zc = base[o[2]];
-        if (za <= 0 || zb <= 0 || zc <= 0) continue;
+        if (za <= 0 || zb <= 0 || zc <= 0) return;
         leaf_ok[id - first_leaf] =
             within(za, zb, leaf_ratio[0]) && within(zb, zc, leaf_ratio[1]) && within(zc, za, leaf_ratio[2]);
+      };
+      // A smooth root's leaves (a contiguous run of ids) are all emittable.
+      const int leaf_depth = levels - 1 - root_level;
+      if (skip_smooth) {
+        for (int root = fit_end / 2; root < fit_end; ++root) {
+          const int lo = root << leaf_depth, hi = (root + 1) << leaf_depth;
+          if (smooth_root[root - fit_end / 2]) std::fill(leaf_ok + (lo - first_leaf), leaf_ok + (hi - first_leaf), 1);
+          else for (int id = lo; id < hi; ++id) leaf_test(id);
+        }
+      } else {
+        for (int id = first_leaf; id < end; ++id) leaf_test(id);
       }
       float* err = &tri_error[static_cast<size_t>(tile) * first_leaf];
-      for (int id = first_leaf - 1; id >= 2; --id) {
+      auto visit = [&](int id) {
         const int level = level_of(id);
-        if (id < first_leaf / 2) valid_px[id] = valid_px[2 * id] + valid_px[2 * id + 1];
         const bool fitted = id < fit_end;
-        if (!fitted && skip_smooth && smooth_root[(id >> (level - root_level)) - fit_end / 2] &&
-            t.points_of[id] - valid_px[id] <= p.max_hole_fraction * t.points_of[id])
-          continue;  // a smooth region's unfitted triangle: every test passes, error 0
+        // A smooth root's pixels are all valid (its subtree was skipped whole).
+        if (id < first_leaf / 2)
+          valid_px[id] = skip_smooth && fitted && id >= fit_end / 2 && smooth_root[id - fit_end / 2]
+                             ? t.points_of[id]
+                             : valid_px[2 * id] + valid_px[2 * id + 1];
         if (fitted && id < finest_fit) {  // the moments add up whatever this triangle's verdict
           m[id] = m[2 * id];
           m[id].add(m[2 * id + 1]);
@@ -535,25 +542,25 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
           // splits whatever the tolerance, so a byte budget trades interior detail, not coverage, for bytes.
           const double lost = std::max(0.0, n - (level_len[level][0] + 1));
           err[id] = lost > max_lost ? kInf : static_cast<float>(lost / p.boundary_px_per_sigma);
-          continue;
+          return;
         }
         const double total = t.points_of[id];
         const auto& ratio = level_ratio[level];
         if (total - n > p.max_hole_fraction * total || !within(za, zb, ratio[0]) || !within(zb, zc, ratio[1]) ||
             !within(zc, za, ratio[2])) {
           err[id] = kInf;
-          continue;
+          return;
         }
-        if (!fitted && !level_texture_check[level]) continue;  // error 0
+        if (!fitted && !level_texture_check[level]) return;  // error 0
         const double z[3] = {za, zb, zc};
         const double px[3] = {sx(t.ax[id]), sx(t.bx[id]), sx(t.cx[id])};
         const double py[3] = {sy(t.ay[id]), sy(t.by[id]), sy(t.cy[id])};
         if (level_texture_check[level] &&
             texture_deviates(px, py, z, level_len[level].data(), p.texture_deviation_px)) {
           err[id] = kInf;
-          continue;
+          return;
         }
-        if (!fitted) continue;  // below fit_min_leg_px: error 0
+        if (!fitted) return;  // below fit_min_leg_px: error 0
         const Moments& mt = m[id];
         // Plane w = alpha u + beta v + gamma through the vertices; SSE of the pixels from their moments.
         const double w[3] = {1 / z[0], 1 / z[1], 1 / z[2]};
@@ -562,16 +569,26 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
         const double cross = du1 * dv2 - dv1 * du2;
         if (cross == 0) {  // squeezed flat by the snap at the image's edge: its pixels belong to its neighbours
           err[id] = 0;
-          continue;
+          return;
         }
         const double alpha = (dw1 * dv2 - dw2 * dv1) / cross, beta = (du1 * dw2 - du2 * dw1) / cross;
         const double gamma = w[0] - alpha * px[0] - beta * py[0];
-        if (mt.n <= 0) continue;  // only holes inside (bounded by max_hole_fraction): error 0
+        if (mt.n <= 0) return;  // only holes inside (bounded by max_hole_fraction): error 0
         const double sse = mt.sww - 2 * (alpha * mt.suw + beta * mt.svw + gamma * mt.sw) + alpha * alpha * mt.suu +
                            2 * alpha * beta * mt.suv + beta * beta * mt.svv + 2 * alpha * gamma * mt.su +
                            2 * beta * gamma * mt.sv + gamma * gamma * mt.n;
         err[id] = static_cast<float>(std::sqrt(std::max(0.0, sse) / mt.n) / sigma_w);
-      }
+      };
+      // The unfitted levels subtree by subtree, finest level first (a triangle reads only its children): a smooth
+      // root's subtree passes every test with error 0 (see kSmoothStep) and is skipped whole. Then the fitted levels.
+      const int internal_depth = levels - 2 - root_level;  // unfitted internal levels below a root
+      if (fit_end < first_leaf)
+        for (int root = fit_end / 2; root < fit_end; ++root) {
+          if (skip_smooth && smooth_root[root - fit_end / 2]) continue;
+          for (int k = internal_depth; k >= 1; --k)
+            for (int id = root << k; id < (root + 1) << k; ++id) visit(id);
+        }
+      for (int id = std::min(fit_end, first_leaf) - 1; id >= 2; --id) visit(id);
     }
   };
   run_workers(std::clamp(openmp_threads(threads), 1, tiles), [&](int) { work(); });
