@@ -26,6 +26,7 @@ json entry_json(const OutboxEntry& e) {
   if (e.rev > 0) {
     j["rev"] = e.rev;
     j["first_bytes"] = e.first_bytes;
+    j["first_budget_kb"] = e.first_budget_kb;
     if (!e.first_ack.empty()) j["first_ack"] = json::parse(e.first_ack, nullptr, false);
   }
   if (e.tracked > 0) j["tracked"] = e.tracked;
@@ -59,6 +60,7 @@ Result<OutboxEntry> parse_entry(const std::string& text, const std::string& name
     e.rev = j.value("rev", 0);
     if (e.rev < 0) return make_error(ErrorCode::kInvalidInput, "outbox entry " + name + ": rev < 0");
     e.first_bytes = j.value("first_bytes", size_t{0});
+    e.first_budget_kb = j.value("first_budget_kb", 0.0);
     if (j.contains("first_ack") && j["first_ack"].is_object()) e.first_ack = j["first_ack"].dump();
     return e;
   } catch (const json::exception& ex) {
@@ -194,6 +196,7 @@ Status Outbox::revise(int seq, const std::vector<std::uint8_t>& glb, double budg
   OutboxEntry e = it->second;
   if (e.rev == 0) {
     e.first_bytes = e.bytes;
+    e.first_budget_kb = e.budget_kb;
     e.first_ack = e.ack_json;
   }
   ++e.rev;

@@ -47,6 +47,7 @@ struct OutboxEntry {
   bool coarsened = false;
   int rev = 0;                    // the revision now in the outbox (0: the keyframe as first sent)
   size_t first_bytes = 0;         // of revision 0 (0 while rev == 0: then it is `bytes`)
+  double first_budget_kb = 0;     // of revision 0 (0 while rev == 0: then it is `budget_kb`)
   std::string first_ack;          // the server's answer to revision 0 (empty while rev == 0: then it is ack_json)
   bool attempted = false;
   bool acked = false;
