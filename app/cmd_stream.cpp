@@ -177,7 +177,10 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
             << s.sender.posts << " posts, " << s.sender.failures << " failed, busy " << s.sender.busy_s << " s, "
             << s.sender.overlap_s << " s of it with 2+ in flight; refinements " << s.sender.refinements_acked << ", "
             << s.sender.refinement_bytes / 1000.0 << " kB), " << s.sender.pending << " pending, "
-            << s.sender.rejected << " rejected; link " << static_cast<int>(s.sender.estimate_kbps) << " kbit/s; "
+            << s.sender.rejected << " rejected; link " << static_cast<int>(s.sender.estimate_kbps)
+            << " kbit/s (POST model: line "
+            << static_cast<int>(s.sender.line_kbps) << " kbit/s + " << static_cast<int>(1000 * s.sender.post_fixed_s)
+            << " ms per POST); "
             << static_cast<int>(s.seconds * 1000) << " ms; outbox " << outbox_dir << "\n";
   {
     // The live figures: is the tracker keeping up with the camera, and what a keyframe's reduction costs.

@@ -365,7 +365,9 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
         const double window_s = last_tracked_s + interval.seconds() -
                                 std::chrono::duration<double>(steady::now() - t_start).count();
         lock.unlock();
-        if (last_tracked_s > 0 && sender.idle()) refine_one(window_s - refine_s.value());
+        // The refinement's POST may overlap the next keyframe's reduction, not its POST: the window runs from the
+        // refinement being reduced to the next keyframe being ready.
+        if (last_tracked_s > 0 && sender.idle()) refine_one(window_s - refine_s.value() + reduce_s.value());
         continue;
       }
       // Held back while the link owes too much; a newer keyframe tracked meanwhile goes first, the older waits.

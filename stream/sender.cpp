@@ -127,6 +127,8 @@ SenderStats Sender::stats() const {
     }
   }
   s.estimate_kbps = estimator_.estimate_kbps();
+  s.line_kbps = estimator_.line_kbps();
+  s.post_fixed_s = estimator_.post_fixed_s();
   s.cap_kbps = estimator_.cap_kbps();
   const auto now = clock::now();  // the intervals still open
   if (!in_flight_.empty()) s.busy_s += std::chrono::duration<double>(now - busy_since_).count();

@@ -50,6 +50,7 @@ struct SenderStats {
   size_t refinements_acked = 0, refinement_bytes = 0;  // of which revisions (rev > 0)
   size_t posts = 0, failures = 0;
   double estimate_kbps = 0;
+  double line_kbps = 0, post_fixed_s = 0;  // the POST model (stream/link_estimator.h)
   double cap_kbps = 0;        // the cap now (--link-kbps, or --link-kbps-file's last value); 0: none
   double busy_s = 0;          // seconds this run had at least one POST in flight (the union over the lanes)
   double overlap_s = 0;       // of which seconds with two or more in flight
