@@ -301,7 +301,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   };
 
   // Refinements: the newest acknowledged keyframe not refined yet, reduced again at what the link carries in
-  // window_s, as its revision 1. Returns false when there is no such keyframe or the window buys too little (1.5 x
+  // window_s, as its revision 1. Returns false when there is no such keyframe or the window buys too little (1.25 x
   // and 8 kB more than its budget); true when one was handled (refined, or given up: it is not tried again).
   std::set<int> refine_done;  // used by the reduction thread while tracking, then by the drain (never both at once)
   auto refine_one = [&](double window_s) {
@@ -315,7 +315,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     const double budget_kb = refinement_budget_kb(sender.line_kbps(), std::min(window_s, options.refine_window_s),
                                                   sender.post_fixed_s(), options.refine_ceiling_kb,
                                                   options.budget.headroom);
-    if (budget_kb < std::max(1.5 * best->budget_kb, best->budget_kb + 8)) return false;
+    if (budget_kb < std::max(1.25 * best->budget_kb, best->budget_kb + 8)) return false;
     refine_done.insert(best->seq);
     auto frame = [&] {
       std::lock_guard lock(source_mu);

@@ -61,7 +61,7 @@
 // the same coverage views as its first revision. Its budget is what the POST model carries in the window before the
 // next keyframe is expected to be ready (the last keyframe's tracking time + the keyframe interval + a keyframe's
 // reduction time, less the refinement's own reduction time), at most refine_window_s of line and refine_ceiling_kb (refinement_budget_kb); it is made
-// only when that is at least 1.5 x (and 8 kB more than) the keyframe's budget, and kept only when the new GLB is at
+// only when that is at least 1.25 x (and 8 kB more than) the keyframe's budget, and kept only when the new GLB is at
 // least 10 % larger. Once every frame was read the window is refine_window_s alone, and the drain (waiting for the
 // sender) refines the remaining keyframes one after another, each reduced once the link owes no more than a
 // reduction takes. The sender posts a first revision before any refinement.
