@@ -56,15 +56,15 @@
 //
 // Refinements (on unless refine_ceiling_kb is 0): spare link capacity re-sends an acknowledged keyframe at a larger
 // budget as its next revision (Outbox::revise; the server replaces the stored keyframe, one surface per seq). Only
-// when the link is idle (Sender::idle: nothing pending or in flight) and no keyframe waits for a reduction; the
-// newest unrefined keyframe first (by capture time), each refined once (rev 1), from its own frame and pose against
-// the same coverage views as its first revision. Its budget is what the POST model carries in the window before the
-// next keyframe is expected to be ready (the last keyframe's tracking time + the keyframe interval + a keyframe's
-// reduction time, less the refinement's own reduction time), at most refine_window_s of line and refine_ceiling_kb (refinement_budget_kb); it is made
-// only when that is at least 1.25 x (and 8 kB more than) the keyframe's budget, and kept only when the new GLB is at
-// least 10 % larger. Once every frame was read the window is refine_window_s alone, and the drain (waiting for the
-// sender) refines the remaining keyframes one after another, each reduced once the link owes no more than a
-// reduction takes. The sender posts a first revision before any refinement.
+// when the link is idle (Sender::idle: nothing pending or in flight), no keyframe waits for a reduction and none
+// was tracked for 1.5 keyframe intervals (the robot slowed down or stopped), or once every frame was read (the
+// drain, which refines the remaining keyframes one after another, each reduced once the link owes no more than a
+// reduction takes). The newest unrefined keyframe first (by capture time), each refined once (rev 1), from its own
+// frame and pose against the same coverage views as its first revision. Its budget is what the POST model carries in
+// refine_window_s of line, at most refine_ceiling_kb (refinement_budget_kb), so a keyframe tracked meanwhile waits at
+// most that long for the line; it is made only when that is at least 1.25 x (and 8 kB more than) the keyframe's
+// budget, and kept only when the new GLB is at least 10 % larger. The sender posts a first revision before any
+// refinement.
 //
 // Resume: with entries in the outbox, tracking restarts at the last keyframe's frame, whose pose (from the outbox)
 // anchors the new run's poses in the same world; that frame is not sent again; sequence numbers continue; the
