@@ -174,7 +174,6 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   };
 
   KeyframeInterval interval;
-  double last_tracked_s = 0;  // steady seconds since t_start when the last keyframe was tracked (guarded by mu)
   FrameReductionOptions reduction = options.reduction;
   SmoothedDuration reduce_s(0.3);  // a keyframe's reduction time: mean + 2 deviations
   SmoothedDuration refine_s(0.5);  // a refinement's (a larger budget takes longer)
@@ -303,7 +302,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   // Refinements: the newest acknowledged keyframe not refined yet, reduced again at what the link carries in
   // window_s, as its revision 1. Returns false when there is no such keyframe or the window buys too little (1.25 x
   // and 8 kB more than its budget); true when one was handled (refined, or given up: it is not tried again).
-  std::set<int> refine_done;  // used by the reduction thread while tracking, then by the drain (never both at once)
+  std::set<int> refine_done;  // used by the drain alone
   auto refine_one = [&](double window_s) {
     if (!(options.refine_ceiling_kb > 0)) return false;
     std::optional<OutboxEntry> best;
@@ -359,15 +358,10 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       jobs_cv.wait_for(lock, std::chrono::milliseconds(50),
                        [&] { return !jobs.empty() || !deferred.empty() || tracking_done; });
       if (should_stop()) return;  // stopped: queued and deferred keyframes never reached the outbox
+      // Nothing to reduce: refinements wait for the drain. One made here between keyframes delays the next
+      // keyframe's reduction, which the latency rule pays for in that keyframe's bytes (BENCHMARKS.md, stop 17).
       if (jobs.empty() && deferred.empty()) {
         if (tracking_done) return;
-        // Nothing to reduce, and no keyframe for 1.5 intervals (the robot slowed down or stopped): an idle link may
-        // carry a refinement. Not sooner: a refinement on this thread delays the next keyframe's reduction, which
-        // the latency rule then pays for in that keyframe's bytes (measured: 18 instead of 34 kB at 2 Mbit/s).
-        const double since_s = std::chrono::duration<double>(steady::now() - t_start).count() - last_tracked_s;
-        const bool stalled = last_tracked_s > 0 && since_s > 1.5 * interval.seconds();
-        lock.unlock();
-        if (stalled && sender.idle()) refine_one(options.refine_window_s);
         continue;
       }
       // Held back while the link owes too much; a newer keyframe tracked meanwhile goes first, the older waits.
@@ -434,8 +428,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     job.tracked = unix_now();
     {
       std::lock_guard lock(mu);
-      last_tracked_s = std::chrono::duration<double>(steady::now() - t_start).count();
-      interval.on_keyframe(last_tracked_s);
+      interval.on_keyframe(std::chrono::duration<double>(steady::now() - t_start).count());
       jobs.push_back(std::move(job));
       summary.reduce_queue_max = std::max(summary.reduce_queue_max, jobs.size());
     }

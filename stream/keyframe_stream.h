@@ -56,10 +56,10 @@
 //
 // Refinements (on unless refine_ceiling_kb is 0): spare link capacity re-sends an acknowledged keyframe at a larger
 // budget as its next revision (Outbox::revise; the server replaces the stored keyframe, one surface per seq). Only
-// when the link is idle (Sender::idle: nothing pending or in flight), no keyframe waits for a reduction and none
-// was tracked for 1.5 keyframe intervals (the robot slowed down or stopped), or once every frame was read (the
-// drain, which refines the remaining keyframes one after another, each reduced once the link owes no more than a
-// reduction takes). The newest unrefined keyframe first (by capture time), each refined once (rev 1), from its own
+// once every frame was read: the drain refines the keyframes one after another, each reduced once the link owes no
+// more than a reduction takes. Not while tracking: a refinement on the reduction thread delays the next keyframe's
+// reduction, and the latency rule takes that out of the keyframe's bytes (measured, BENCHMARKS.md stop 17: between
+// keyframes, first revisions fell from 34 to 18 kB at 2 Mbit/s; "after 1.5 idle intervals", to 8 kB at 500 kbit/s). The newest unrefined keyframe first (by capture time), each refined once (rev 1), from its own
 // frame and pose against the same coverage views as its first revision. Its budget is what the POST model carries in
 // refine_window_s of line, at most refine_ceiling_kb (refinement_budget_kb), so a keyframe tracked meanwhile waits at
 // most that long for the line; it is made only when that is at least 1.25 x (and 8 kB more than) the keyframe's
