@@ -186,6 +186,7 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   if (!marked) return send_error(res, marked.error());
   k = put->keyframe;
   k.available = available;
+  if (k.first_available <= 0) k.first_available = available;  // a first revision (a revision keeps the seq's first)
   send_json(res, 201, k.answer());
 }
 

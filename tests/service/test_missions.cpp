@@ -111,6 +111,8 @@ void expect_answer_shape(const json& a, const std::string& mission, int seq) {
   for (const char* t : {"captured", "received", "available", "first_available"})
     EXPECT_TRUE(a[t].is_number()) << t << ": " << a;
   EXPECT_LE(a["first_available"].get<double>(), a["available"].get<double>()) << a;
+  EXPECT_GT(a["first_available"].get<double>(), 0) << a;
+  if (a["rev"] == 0) EXPECT_EQ(a["first_available"], a["available"]) << a;
   EXPECT_GE(a["available"].get<double>(), a["received"].get<double>()) << a;
 }
 
