@@ -66,10 +66,13 @@
 // budget, and kept only when the new GLB is at least 10 % larger. The sender posts a first revision before any
 // refinement.
 //
-// Resume: with entries in the outbox, tracking restarts at the last keyframe's frame, whose pose (from the outbox)
-// anchors the new run's poses in the same world; that frame is not sent again; sequence numbers continue; the
-// earlier keyframes' frames are reloaded as coverage views. Pending entries are posted as usual (a re-post of a
-// stored one is answered 200 by the server's idempotency).
+// Resume: with entries in the outbox, tracking restarts at the latest keyframe's frame (the highest frame index: a
+// deferred keyframe may have a higher seq but an older frame), whose pose (from the outbox) anchors the new run's
+// poses in the same world; that frame is not sent again; sequence numbers continue; the earlier keyframes' frames
+// are reloaded as coverage views. Pending entries are posted as usual (a re-post of a stored one is answered 200 by
+// the server's idempotency; a pending refinement is posted with its rev). Keyframes that were deferred and not yet
+// reduced when the sender stopped are not in the outbox: their frames lie before the resume point, and are lost
+// (not built: persisting the deferred list).
 #include <functional>
 #include <string>
 
