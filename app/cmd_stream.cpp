@@ -32,6 +32,7 @@ struct StreamArgs {
   std::string server, mission, outbox, token_file, link_kbps_file;
   bool realtime = false;
   double link_kbps = 0, initial_kbps = 500, latency_ms = 1000, max_backlog_s = 2.0, progress_interval_s = 2.0;
+  double refine_kb = 100, refine_window_ms = 1000;
   unsigned seed = 0;
   int max_in_flight = 2;
   int reduce_nice = 5;
@@ -96,6 +97,10 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   }
   if (a.max_in_flight < 1 || a.max_in_flight > 4)
     fail_stream(make_error(ErrorCode::kInvalidArgument, "--max-in-flight must be 1..4"));
+  if (!std::isfinite(a.refine_kb) || a.refine_kb < 0 || a.refine_kb > 1000)
+    fail_stream(make_error(ErrorCode::kInvalidArgument, "--refine-kb must be 0..1000 (0: no refinements)"));
+  if (!std::isfinite(a.refine_window_ms) || a.refine_window_ms <= 0 || a.refine_window_ms > 60000)
+    fail_stream(make_error(ErrorCode::kInvalidArgument, "--refine-window-ms must be in (0, 60000]"));
   if (a.reduce_nice < 0 || a.reduce_nice > 19)
     fail_stream(make_error(ErrorCode::kInvalidArgument, "--reduce-nice must be 0..19"));
   // One uplink (one keep-alive connection) per lane of the sender.
@@ -145,6 +150,8 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   options.link_kbps_file = a.link_kbps_file;
   options.reduce_nice = a.reduce_nice;
   options.supersede = !a.keep_every_keyframe;
+  options.refine_ceiling_kb = a.refine_kb;
+  options.refine_window_s = a.refine_window_ms / 1000.0;
 
   struct sigaction sa {};
   sa.sa_handler = on_signal;
@@ -160,14 +167,20 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   std::cout << "rgbdcast stream: " << s.frames << " frames (" << s.tracked << " tracked";
   if (a.realtime) std::cout << ", " << s.dropped << " dropped behind the camera";
   std::cout << "), " << s.keyframes << " new keyframes (" << s.covered << " fully covered, not sent; " << s.coarsened
-            << " coarsened, " << s.superseded << " superseded while the link owed too much)";
+            << " coarsened, " << s.superseded << " deferred while the link owed too much: " << s.deferred_sent
+            << " of them sent later, coarsened, " << s.deferred_dropped << " dropped; " << s.refined
+            << " refinements)";
   if (s.cap_changes > 0) std::cout << ", " << s.cap_changes << " caps read from " << a.link_kbps_file;
   if (s.resumed) std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries
                            << " outbox entries";
   std::cout << "; " << s.sender.acked << " acknowledged (" << s.sender.acked_bytes / 1000.0 << " kB this run, "
             << s.sender.posts << " posts, " << s.sender.failures << " failed, busy " << s.sender.busy_s << " s, "
-            << s.sender.overlap_s << " s of it with 2+ in flight), " << s.sender.pending << " pending, "
-            << s.sender.rejected << " rejected; link " << static_cast<int>(s.sender.estimate_kbps) << " kbit/s; "
+            << s.sender.overlap_s << " s of it with 2+ in flight; refinements " << s.sender.refinements_acked << ", "
+            << s.sender.refinement_bytes / 1000.0 << " kB), " << s.sender.pending << " pending, "
+            << s.sender.rejected << " rejected; link " << static_cast<int>(s.sender.estimate_kbps)
+            << " kbit/s (POST model: line "
+            << static_cast<int>(s.sender.line_kbps) << " kbit/s + " << static_cast<int>(1000 * s.sender.post_fixed_s)
+            << " ms per POST); "
             << static_cast<int>(s.seconds * 1000) << " ms; outbox " << outbox_dir << "\n";
   {
     // The live figures: is the tracker keeping up with the camera, and what a keyframe's reduction costs.
@@ -229,8 +242,15 @@ void register_stream(CLI::App& app) {
                   "first one's answer is outstanding")
       ->capture_default_str();
   cmd->add_flag("--keep-every-keyframe", args->keep_every_keyframe,
-                "Reduce and send every keyframe the tracker picks, even when the link cannot carry them (default: "
-                "a keyframe waiting for a busy link is superseded by a newer one)");
+                "Reduce and send every keyframe in order, even when the link cannot carry them (default: a "
+                "keyframe waiting for a busy link lets a newer one go first, and follows it coarsened)");
+  cmd->add_option("--refine-kb", args->refine_kb,
+                  "Largest budget of a refinement: an idle link re-sends an acknowledged keyframe at a larger "
+                  "budget as its next revision, which replaces it on the server (0: no refinements)")
+      ->capture_default_str();
+  cmd->add_option("--refine-window-ms", args->refine_window_ms,
+                  "Longest time a refinement may hold the line (a new keyframe waits at most that long)")
+      ->capture_default_str();
   cmd->add_option("--reduce-nice", args->reduce_nice,
                   "Niceness added to the keyframe reduction thread (0-19), so that tracking keeps up with the camera")
       ->capture_default_str();

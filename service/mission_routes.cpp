@@ -38,7 +38,7 @@ std::optional<std::int64_t> parse_seq(const std::string& text) {
 }
 
 std::string event_text(const MissionKeyframe& k) {
-  return "id: " + std::to_string(k.seq) + "\nevent: keyframe\ndata: " + k.answer().dump() + "\n\n";
+  return "id: " + k.event_id() + "\nevent: keyframe\ndata: " + k.answer().dump() + "\n\n";
 }
 
 }  // namespace
@@ -93,15 +93,22 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   };
   auto name = name_or_error(req, res);
   if (!name) return GatedServer::close_after_response();
-  static const std::set<std::string> kKnown = {"seq", "pose", "captured"};
+  static const std::set<std::string> kKnown = {"seq", "rev", "pose", "captured"};
   std::map<std::string, std::string> q;
   for (const auto& [k, v] : req.params) {
-    if (!kKnown.count(k)) return refuse(400, "unknown parameter '" + k.substr(0, 40) + "' (seq, pose, captured)");
+    if (!kKnown.count(k))
+      return refuse(400, "unknown parameter '" + k.substr(0, 40) + "' (seq, rev, pose, captured)");
     if (!q.emplace(k, v).second) return refuse(400, k + ": given more than once");
   }
   if (!q.count("seq")) return refuse(400, "seq: missing (the keyframe's sequence number, 0..2^31-1)");
   auto seq = parse_seq(q["seq"]);
   if (!seq) return refuse(400, "seq: must be an integer 0..2^31-1");
+  std::int64_t rev = 0;  // a revision replaces the stored keyframe of this seq when it is higher (MissionStore)
+  if (q.count("rev")) {
+    auto r = parse_seq(q["rev"]);
+    if (!r) return refuse(400, "rev: must be an integer 0..2^31-1");
+    rev = *r;
+  }
   auto pose = parse_mission_pose(q.count("pose") ? q["pose"] : std::string());
   if (!pose) return refuse(400, pose.error().message);
   double captured = received;
@@ -130,6 +137,7 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   MissionKeyframe k;
   k.mission = *name;
   k.seq = *seq;
+  k.rev = rev;
   k.pose = *pose;
   k.triangles = triangles;
   k.captured = captured;
@@ -146,13 +154,27 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
     body["stored"] = put->keyframe.answer();
     return send_json(res, 409, body);
   }
+  if (put->outcome == PutOutcome::kStale) {
+    nlohmann::json body = nlohmann::json::parse(
+        error_body(409, "keyframe " + std::to_string(*seq) + " of mission " + *name + " is stored at revision " +
+                            std::to_string(put->keyframe.rev) + ", newer than " + std::to_string(rev)));
+    body["error"] = "stale_revision";
+    body["stored"] = put->keyframe.answer();
+    return send_json(res, 409, body);
+  }
   res.set_header("Location", "/v1/missions/" + *name);
   if (put->outcome == PutOutcome::kSame) return send_json(res, 200, put->keyframe.answer());
   // Stored: now every renderer holding the mission uploads this keyframe alone. A failure there only costs the next
-  // view a whole upload (the renderer dropped the mission); the keyframe is stored either way.
+  // view a whole upload (the renderer dropped the mission); the keyframe is stored either way. A revision replaces
+  // nodes a resident mission already has, which Renderer::append cannot do: the renderers drop the mission and the
+  // next view on each uploads it whole (revisions come when the link is idle, and are few).
   auto part = std::make_shared<Scene>(std::move(*placed));
   const auto t_append = std::chrono::steady_clock::now();
-  auto appended = pool_.append(mission_scene_key(*name), part);
+  Status appended = ok_status();
+  if (put->outcome == PutOutcome::kReplaced)
+    pool_.forget(mission_scene_key(*name));
+  else
+    appended = pool_.append(mission_scene_key(*name), part);
   const auto t_done = std::chrono::steady_clock::now();
   auto ms = [](auto a, auto b) { return std::to_string(std::chrono::duration<double, std::milli>(b - a).count()); };
   res.set_header("X-Store-Ms", ms(t_store, t_append));    // both files written and synced
@@ -164,6 +186,7 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   if (!marked) return send_error(res, marked.error());
   k = put->keyframe;
   k.available = available;
+  if (k.first_available <= 0) k.first_available = available;  // a first revision (a revision keeps the seq's first)
   send_json(res, 201, k.answer());
 }
 
@@ -246,7 +269,11 @@ void MissionRoutes::get_view(const httplib::Request& req, httplib::Response& res
   auto request = parse_view_request(params);
   if (!request) return send_error(res, request.error());
   if (capture) {
-    const MissionKeyframe* k = keyframes->empty() ? nullptr : &keyframes->back();  // newest: the highest seq
+    // The robot's camera now: the keyframe captured last (a sender that sends older keyframes after an outage gives
+    // them higher seqs), the higher seq on a tie.
+    const MissionKeyframe* k = nullptr;
+    for (const auto& kf : *keyframes)
+      if (!k || kf.captured >= k->captured) k = &kf;
     if (keyframe_pose) {
       k = nullptr;
       for (const auto& kf : *keyframes)
@@ -266,12 +293,12 @@ void MissionRoutes::get_view(const httplib::Request& req, httplib::Response& res
 void MissionRoutes::get_events(const httplib::Request& req, httplib::Response& res) {
   auto name = name_or_error(req, res);
   if (!name) return;
-  std::optional<std::int64_t> last;
+  std::optional<MissionEventId> last;
   std::string last_text = req.get_header_value("Last-Event-ID");
   if (last_text.empty() && req.has_param("last_event_id")) last_text = req.get_param_value("last_event_id");
   if (!last_text.empty()) {
-    last = parse_seq(last_text);
-    if (!last) return send_error(res, 400, "Last-Event-ID: must be a keyframe seq 0..2^31-1");
+    last = parse_event_id(last_text);
+    if (!last) return send_error(res, 400, "Last-Event-ID: must be an event id, <seq> or <seq>-<rev>");
   }
   for (const auto& [k, v] : req.params)
     if (k != "last_event_id") return send_error(res, 400, "unknown parameter '" + k.substr(0, 40) + "'");

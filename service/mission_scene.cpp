@@ -89,11 +89,20 @@ Result<ViewCamera> mission_view_camera(const MissionKeyframe& keyframe, int widt
 }
 
 Result<Scene> assemble_mission(const MissionStore& store, const std::string& name) {
-  auto keyframes = store.keyframes(name);
-  if (!keyframes) return make_error(ErrorCode::kNotFound, "no mission " + name);
+  // A revision stored between the listing and the read removes the GLB that was listed: list again (a few times).
+  for (int attempt = 0;; ++attempt) {
+    auto keyframes = store.keyframes(name);
+    if (!keyframes) return make_error(ErrorCode::kNotFound, "no mission " + name);
+    auto scene = assemble_keyframes(store, name, *keyframes);
+    if (scene || scene.error().code != ErrorCode::kNotFound || attempt == 3) return scene;
+  }
+}
+
+Result<Scene> assemble_keyframes(const MissionStore& store, const std::string& name,
+                                 const std::vector<MissionKeyframe>& keyframes) {
   Scene mission;
-  for (const MissionKeyframe& k : *keyframes) {
-    auto bytes = store.read_glb(name, k.seq);
+  for (const MissionKeyframe& k : keyframes) {
+    auto bytes = store.read_glb(name, k.seq, k.rev);
     if (!bytes) return bytes.error();
     auto decoded = decode_glb(bytes->data(), bytes->size());
     if (!decoded)
@@ -104,7 +113,7 @@ Result<Scene> assemble_mission(const MissionStore& store, const std::string& nam
     for (auto& node : placed->nodes) mission.nodes.push_back(std::move(node));
     for (auto& cam : placed->cameras) mission.cameras.push_back(std::move(cam));
   }
-  nlohmann::json extras = {{"rgbdcast", {{"mission", name}, {"keyframes", keyframes->size()}}}};
+  nlohmann::json extras = {{"rgbdcast", {{"mission", name}, {"keyframes", keyframes.size()}}}};
   mission.extras_json = extras.dump();
   return mission;
 }

@@ -38,6 +38,10 @@ Result<ViewCamera> mission_view_camera(const MissionKeyframe& keyframe, int widt
 
 // Every keyframe of a mission decoded and placed, in seq order: what a renderer uploads on a cache miss and what
 // model.glb encodes. kNotFound for an unknown mission, kInternal when a stored keyframe no longer decodes.
+// Each keyframe's current revision; a revision stored meanwhile makes it list the mission again.
 Result<Scene> assemble_mission(const MissionStore& store, const std::string& name);
+// The same for a listing the caller made (kNotFound when a listed revision is no longer stored).
+Result<Scene> assemble_keyframes(const MissionStore& store, const std::string& name,
+                                 const std::vector<MissionKeyframe>& keyframes);
 
 }  // namespace rgbdcast::service

@@ -22,12 +22,31 @@ bool is_seq_stem(const std::string& s) {
   return std::stoll(s) <= kMaxKeyframeSeq;
 }
 
+// "<seq>.glb" for rev 0 (as before revisions existed), "<seq>.r<rev>.glb" after.
+std::string glb_name(std::int64_t seq, std::int64_t rev) {
+  return rev == 0 ? std::to_string(seq) + ".glb" : std::to_string(seq) + ".r" + std::to_string(rev) + ".glb";
+}
+
+// The (seq, rev) of a GLB file name made by glb_name; nullopt for any other name.
+std::optional<std::pair<std::int64_t, std::int64_t>> parse_glb_name(const std::string& file) {
+  if (file.size() < 5 || file.compare(file.size() - 4, 4, ".glb") != 0) return std::nullopt;
+  const std::string stem = file.substr(0, file.size() - 4);
+  const auto dot = stem.find(".r");
+  const std::string seq = stem.substr(0, dot);
+  if (!is_seq_stem(seq)) return std::nullopt;
+  if (dot == std::string::npos) return std::make_pair(std::stoll(seq), std::int64_t{0});
+  const std::string rev = stem.substr(dot + 2);
+  if (!is_seq_stem(rev) || rev == "0") return std::nullopt;
+  return std::make_pair(std::stoll(seq), std::stoll(rev));
+}
+
 nlohmann::json stored_json(const MissionKeyframe& k) {
   nlohmann::json j = k.entry();
   j["mission"] = k.mission;
   j["etag"] = k.etag;
   j["camera"] = k.camera;
   if (k.available <= 0) j.erase("available");
+  if (k.first_available <= 0) j.erase("first_available");
   return j;
 }
 
@@ -53,6 +72,11 @@ Result<MissionKeyframe> parse_stored(const std::string& name, std::int64_t seq, 
     if (!std::isfinite(k.pose[i])) return bad("pose is not finite");
   }
   if (j.contains("available") && !j["available"].is_number()) return bad("'available' is not a number");
+  if (j.contains("first_available") && !j["first_available"].is_number())
+    return bad("'first_available' is not a number");
+  if (j.contains("rev") && (!j["rev"].is_number_integer() || j["rev"].get<std::int64_t>() < 0 ||
+                            j["rev"].get<std::int64_t>() > kMaxKeyframeSeq))
+    return bad("'rev' is not a revision 0..2^31-1");
   if (!j["bytes"].is_number_unsigned() || !j["triangles"].is_number_unsigned())
     return bad("bytes and triangles must be counts");
   k.mission = name;
@@ -62,6 +86,8 @@ Result<MissionKeyframe> parse_stored(const std::string& name, std::int64_t seq, 
   k.captured = j["captured"].get<double>();
   k.received = j["received"].get<double>();
   k.available = j.value("available", 0.0);
+  k.first_available = j.value("first_available", k.available);
+  k.rev = j.value("rev", std::int64_t{0});
   k.etag = j["etag"].get<std::string>();
   k.camera = j["camera"];
   return k;
@@ -86,13 +112,40 @@ bool is_valid_mission_name(std::string_view name) {
 }
 
 nlohmann::json MissionKeyframe::answer() const {
-  return {{"mission", mission}, {"seq", seq},         {"bytes", bytes},        {"triangles", triangles},
-          {"captured", captured}, {"received", received}, {"available", available}};
+  return {{"mission", mission},   {"seq", seq},           {"rev", rev},
+          {"bytes", bytes},       {"triangles", triangles}, {"captured", captured},
+          {"received", received}, {"available", available}, {"first_available", first_available}};
 }
 
 nlohmann::json MissionKeyframe::entry() const {
-  return {{"seq", seq},           {"pose", pose},         {"bytes", bytes},        {"triangles", triangles},
-          {"captured", captured}, {"received", received}, {"available", available}};
+  return {{"seq", seq},           {"rev", rev},           {"pose", pose},
+          {"bytes", bytes},       {"triangles", triangles}, {"captured", captured},
+          {"received", received}, {"available", available}, {"first_available", first_available}};
+}
+
+std::string MissionKeyframe::event_id() const {
+  return rev == 0 ? std::to_string(seq) : std::to_string(seq) + "-" + std::to_string(rev);
+}
+
+std::optional<MissionEventId> parse_event_id(const std::string& text) {
+  const auto dash = text.find('-');
+  const std::string seq = text.substr(0, dash);
+  auto number = [](const std::string& s) -> std::optional<std::int64_t> {
+    if (s.empty() || s.size() > 10 || !std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; }))
+      return std::nullopt;
+    const std::int64_t v = std::stoll(s);
+    if (v > kMaxKeyframeSeq) return std::nullopt;
+    return v;
+  };
+  auto s = number(seq);
+  if (!s) return std::nullopt;
+  MissionEventId id{*s, 0};
+  if (dash != std::string::npos) {
+    auto r = number(text.substr(dash + 1));
+    if (!r) return std::nullopt;
+    id.rev = *r;
+  }
+  return id;
 }
 
 Result<std::unique_ptr<MissionStore>> MissionStore::open(const std::string& data_dir) {
@@ -132,10 +185,12 @@ Status MissionStore::load_mission(const std::string& name) {
       continue;
     }
     const std::string stem = entry.path().stem().string(), ext = entry.path().extension().string();
-    if (!is_seq_stem(stem)) continue;  // not ours: left alone
-    if (ext == ".glb") {
+    if (ext == ".glb" && parse_glb_name(file)) {
       glbs.push_back(entry.path());
-    } else if (ext == ".json") {
+      continue;
+    }
+    if (!is_seq_stem(stem)) continue;  // not ours: left alone
+    if (ext == ".json") {
       auto text = read_text(entry.path().string());
       if (!text) return text.error();
       auto k = parse_stored(name, std::stoll(stem), *text);
@@ -151,15 +206,19 @@ Status MissionStore::load_mission(const std::string& name) {
     if (auto st = quarantine(data_dir_, dir, stem, "mission-" + name + "-"); !st) return st;
     quarantined_.push_back("mission " + name + " keyframe " + stem + ": " + why + " (moved to quarantine/)");
   }
-  for (const auto& glb : glbs) {  // a GLB without its JSON was never committed
-    if (!m.by_seq.count(std::stoll(glb.stem().string())) && fs::exists(glb, ec)) {
+  // A GLB that is not its keyframe's current revision was never committed (a put() cut short before its JSON) or
+  // was replaced (a replacement cut short before the old GLB was removed).
+  for (const auto& glb : glbs) {
+    const auto key = parse_glb_name(glb.filename().string());
+    auto it = m.by_seq.find(key->first);
+    if ((it == m.by_seq.end() || it->second.rev != key->second) && fs::exists(glb, ec)) {
       fs::remove(glb, ec);
       cleaned_.push_back(name + "/" + glb.filename().string());
     }
   }
   for (auto it = m.by_seq.begin(); it != m.by_seq.end();) {  // nor is a JSON without its GLB
     const std::string stem = std::to_string(it->first);
-    if (!fs::exists(dir + "/" + stem + ".glb", ec)) {
+    if (!fs::exists(dir + "/" + glb_name(it->first, it->second.rev), ec)) {
       fs::remove(dir + "/" + stem + ".json", ec);
       cleaned_.push_back(name + "/" + stem + ".json");
       it = m.by_seq.erase(it);
@@ -176,12 +235,13 @@ Status MissionStore::load_mission(const std::string& name) {
   std::vector<const MissionKeyframe*> order;
   for (auto& [seq, k] : m.by_seq) {
     if (k.available <= 0) k.available = now;
+    if (k.first_available <= 0) k.first_available = k.available;
     order.push_back(&k);
   }
   std::stable_sort(order.begin(), order.end(), [](const MissionKeyframe* a, const MissionKeyframe* b) {
     return a->available < b->available;
   });
-  for (const auto* k : order) m.arrival.push_back(k->seq);
+  for (const auto* k : order) m.arrival.push_back(*k);
   if (m.by_seq.empty()) {  // an empty folder: what a remove() or a first put() cut short leaves
     fs::remove_all(dir, ec);
     return ok_status();
@@ -198,9 +258,11 @@ Result<PutResult> MissionStore::put(MissionKeyframe k, const std::vector<std::ui
   if (!is_valid_mission_name(k.mission))
     return make_error(ErrorCode::kInvalidArgument, "mission name must be 1..64 of A-Z a-z 0-9 _ -");
   if (k.seq < 0 || k.seq > kMaxKeyframeSeq) return make_error(ErrorCode::kInvalidArgument, "seq must be 0..2^31-1");
+  if (k.rev < 0 || k.rev > kMaxKeyframeSeq) return make_error(ErrorCode::kInvalidArgument, "rev must be 0..2^31-1");
   k.bytes = glb.size();
   k.etag = etag_of(glb.data(), glb.size());
   k.available = 0.0;
+  k.first_available = 0.0;
   std::lock_guard writer(write_mutex_);
   std::optional<MissionKeyframe> existing;
   {
@@ -211,14 +273,16 @@ Result<PutResult> MissionStore::put(MissionKeyframe k, const std::vector<std::ui
       if (it != m->second.by_seq.end()) existing = it->second;
     }
   }
-  if (existing) {
+  if (existing && k.rev < existing->rev) return PutResult{PutOutcome::kStale, *existing};
+  if (existing && k.rev == existing->rev) {
     bool same = existing->etag == k.etag && existing->pose == k.pose;
     if (same) {  // the ETag is a 64-bit hash: the bytes decide
-      auto stored = read_glb(k.mission, k.seq);
+      auto stored = read_glb(k.mission, k.seq, k.rev);
       same = stored && *stored == glb;
     }
     return PutResult{same ? PutOutcome::kSame : PutOutcome::kConflict, *existing};
   }
+  if (existing) k.first_available = existing->first_available;  // a revision: the seq was viewable since then
   const std::string dir = mission_dir(k.mission);
   std::error_code ec;
   const bool fresh_dir = !fs::exists(dir, ec);
@@ -227,17 +291,22 @@ Result<PutResult> MissionStore::put(MissionKeyframe k, const std::vector<std::ui
   if (fresh_dir) {
     if (auto st = fsync_dir(dir_); !st) return st.error();
   }
-  const std::string stem = std::to_string(k.seq);
-  if (auto st = write_file_atomic(dir, stem + ".glb", glb.data(), glb.size()); !st) return st.error();
+  const std::string name = glb_name(k.seq, k.rev);
+  if (auto st = write_file_atomic(dir, name, glb.data(), glb.size()); !st) return st.error();
   if (auto st = write_json(dir, k.seq, k); !st) {
-    fs::remove(dir + "/" + stem + ".glb", ec);
+    fs::remove(dir + "/" + name, ec);
     return st.error();
   }
-  std::lock_guard lock(mutex_);
-  auto [m, created] = missions_.try_emplace(k.mission);
-  if (created) m->second.generation = next_generation_++;
-  m->second.by_seq[k.seq] = k;
-  return PutResult{PutOutcome::kCreated, k};
+  {
+    std::lock_guard lock(mutex_);
+    auto [m, created] = missions_.try_emplace(k.mission);
+    if (created) m->second.generation = next_generation_++;
+    m->second.by_seq[k.seq] = k;
+  }
+  if (!existing) return PutResult{PutOutcome::kCreated, k};
+  // The replaced revision's GLB: the JSON no longer names it (open() would remove it, should this fail).
+  fs::remove(dir + "/" + glb_name(k.seq, existing->rev), ec);
+  return PutResult{PutOutcome::kReplaced, k};
 }
 
 Status MissionStore::mark_available(const std::string& name, std::int64_t seq, double available_unix_s) {
@@ -252,14 +321,16 @@ Status MissionStore::mark_available(const std::string& name, std::int64_t seq, d
   }
   if (k.available > 0) return ok_status();
   k.available = available_unix_s;
+  if (k.first_available <= 0) k.first_available = available_unix_s;
   // The time is kept in memory and in the events even if this write fails: the keyframe is stored either way.
   Status st = write_json(mission_dir(name), seq, k);
   {
     std::lock_guard lock(mutex_);
     auto m = missions_.find(name);
     if (m != missions_.end()) {
-      m->second.by_seq[seq].available = available_unix_s;
-      m->second.arrival.push_back(seq);
+      m->second.by_seq[seq].available = k.available;
+      m->second.by_seq[seq].first_available = k.first_available;
+      m->second.arrival.push_back(m->second.by_seq[seq]);
     }
   }
   changed_.notify_all();
@@ -296,15 +367,20 @@ std::optional<std::vector<MissionKeyframe>> MissionStore::arrivals(const std::st
   auto m = missions_.find(name);
   if (m == missions_.end()) return std::nullopt;
   std::vector<MissionKeyframe> out;
-  for (std::int64_t seq : m->second.arrival) out.push_back(m->second.by_seq.at(seq));
+  for (const MissionKeyframe& k : m->second.arrival) out.push_back(k);
   return out;
 }
 
-Result<std::vector<std::uint8_t>> MissionStore::read_glb(const std::string& name, std::int64_t seq) const {
-  if (!is_valid_mission_name(name) || seq < 0 || seq > kMaxKeyframeSeq)
-    return make_error(ErrorCode::kNotFound, "no keyframe " + std::to_string(seq) + " in mission " + name);
-  std::ifstream in(mission_dir(name) + "/" + std::to_string(seq) + ".glb", std::ios::binary);
-  if (!in) return make_error(ErrorCode::kNotFound, "no keyframe " + std::to_string(seq) + " in mission " + name);
+Result<std::vector<std::uint8_t>> MissionStore::read_glb(const std::string& name, std::int64_t seq,
+                                                         std::int64_t rev) const {
+  auto missing = [&] {
+    return make_error(ErrorCode::kNotFound, "no keyframe " + std::to_string(seq) + " revision " + std::to_string(rev) +
+                                                " in mission " + name);
+  };
+  if (!is_valid_mission_name(name) || seq < 0 || seq > kMaxKeyframeSeq || rev < 0 || rev > kMaxKeyframeSeq)
+    return missing();
+  std::ifstream in(mission_dir(name) + "/" + glb_name(seq, rev), std::ios::binary);
+  if (!in) return missing();
   return std::vector<std::uint8_t>((std::istreambuf_iterator<char>(in)), {});
 }
 
@@ -332,7 +408,7 @@ Status MissionStore::remove(const std::string& name) {
 }
 
 std::optional<EventCursor> MissionStore::cursor_after(const std::string& name,
-                                                      std::optional<std::int64_t> last_event_id) const {
+                                                      std::optional<MissionEventId> last_event_id) const {
   std::lock_guard lock(mutex_);
   auto m = missions_.find(name);
   if (m == missions_.end()) return std::nullopt;
@@ -340,7 +416,9 @@ std::optional<EventCursor> MissionStore::cursor_after(const std::string& name,
   c.generation = m->second.generation;
   if (last_event_id) {
     const auto& a = m->second.arrival;
-    auto it = std::find(a.begin(), a.end(), *last_event_id);
+    auto it = std::find_if(a.begin(), a.end(), [&](const MissionKeyframe& k) {
+      return k.seq == last_event_id->seq && k.rev == last_event_id->rev;
+    });
     if (it != a.end()) c.next = static_cast<size_t>(it - a.begin()) + 1;
   }
   return c;
@@ -360,7 +438,7 @@ EventBatch MissionStore::wait_events(const std::string& name, EventCursor& curso
   if (m == missions_.end() || m->second.generation != cursor.generation) return batch;
   batch.exists = true;
   for (; cursor.next < m->second.arrival.size(); ++cursor.next)
-    batch.events.push_back(m->second.by_seq.at(m->second.arrival[cursor.next]));
+    batch.events.push_back(m->second.arrival[cursor.next]);
   return batch;
 }
 

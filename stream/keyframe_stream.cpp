@@ -11,6 +11,7 @@
 #include <deque>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <thread>
 
 #include "keyframes/trajectory_io.h"
@@ -120,7 +121,10 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   if (!existing.empty()) {
     summary.resumed = true;
     summary.resumed_entries = existing.size();
-    const OutboxEntry& last = existing.back();
+    // The keyframe of the latest frame (after an outage, deferred keyframes have higher seqs but older frames).
+    const OutboxEntry& last = *std::max_element(existing.begin(), existing.end(), [](const auto& a, const auto& b) {
+      return a.frame_index < b.frame_index;
+    });
     summary.resumed_at_frame = last.frame_index;
     params.from = static_cast<size_t>(std::max(0, last.frame_index));
     anchor = entry_pose(last);
@@ -172,6 +176,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   KeyframeInterval interval;
   FrameReductionOptions reduction = options.reduction;
   SmoothedDuration reduce_s(0.3);  // a keyframe's reduction time: mean + 2 deviations
+  SmoothedDuration refine_s(0.5);  // a refinement's (a larger budget takes longer)
 
   // --link-kbps-file: a changed value becomes the cap at once (the next budget and the sender's pacing follow it).
   std::optional<CapFile> cap_file;
@@ -198,11 +203,11 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     std::vector<OutboxEntry> all = outbox.entries();
     double pending_bytes = 0;
     for (const OutboxEntry& e : all)
-      if (e.pending()) pending_bytes += static_cast<double>(e.bytes);
+      if (e.pending() && e.rev == 0) pending_bytes += static_cast<double>(e.bytes);  // refinements go last anyway
     auto backlog_s = [&] { return pending_bytes * 8.0 / 1000.0 / estimate; };
     for (const OutboxEntry& e : all) {
       if (backlog_s() <= limit_s) break;
-      if (!e.pending() || e.attempted || e.coarsened || e.seq == newest) continue;
+      if (!e.pending() || e.attempted || e.coarsened || e.rev > 0 || e.seq == newest) continue;
       const double target_kb = std::max(options.budget.floor_kb, e.budget_kb * options.coarse_factor);
       if (target_kb * 1000.0 >= 0.9 * static_cast<double>(e.bytes)) continue;  // already about that small
       if (!sender.claim(e.seq)) continue;
@@ -229,7 +234,9 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   };
 
   // The reduction thread's work for one keyframe: budget, the one frame -> scene call, the outbox, the backlog rule.
-  auto reduce_keyframe = [&](const KeyframeJob& job) {
+  // `deferred`: a keyframe the backlog rule held back while a newer one went first; it is coarsened. Returns whether
+  // it reached the outbox.
+  auto reduce_keyframe = [&](const KeyframeJob& job, bool deferred) {
     double interval_s = 0;
     {
       std::lock_guard lock(mu);
@@ -237,8 +244,11 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     }
     const double overhead_s = std::max(0.0, unix_now() - job.captured) + reduce_s.value() + sender.queue_wait_s() +
                               (sender.acknowledged_posts() == 0 ? options.latency.first_post_fixed_s : 0.0);
+    const double line_kbps = sender.line_kbps(), fixed_s = sender.post_fixed_s();
     const double budget_kb =
-        next_keyframe_budget_kb(sender.estimate_kbps(), interval_s, overhead_s, options.latency, options.budget);
+        deferred ? std::max(options.budget.floor_kb,
+                            options.coarse_factor * keyframe_budget_kb(line_kbps, interval_s, options.budget, fixed_s))
+                 : next_keyframe_budget_kb(line_kbps, interval_s, overhead_s, options.latency, options.budget, fixed_s);
     const int seq = outbox.next_seq();
     const auto t_reduce = steady::now();
     auto encoded = encode_keyframe(job.frame, reduction, budget_kb, job.pose, earlier_than(seq));
@@ -252,11 +262,11 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       std::lock_guard lock(mu);
       if (encoded.error().code == ErrorCode::kEmpty) {
         ++summary.covered;
-        return;
+        return false;
       }
       ++summary.failed;
       summary.errors.push_back("frame " + std::to_string(job.frame_index) + ": " + encoded.error().message);
-      return;
+      return false;
     }
     OutboxEntry e;
     e.frame_index = job.frame_index;
@@ -267,12 +277,13 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     e.triangles = encoded->triangles;
     e.tracked = job.tracked;
     e.reduced = unix_now();
+    e.coarsened = deferred;
     auto added = outbox.add(e, encoded->glb);
     if (!added) {
       std::lock_guard lock(mu);
       ++summary.failed;
       summary.errors.push_back(added.error().message);
-      return;
+      return false;
     }
     views.push_back({added->seq, {job.frame.intrinsics, job.frame.depth_m, job.pose}});
     {
@@ -285,9 +296,54 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     }
     sender.notify();
     coarsen_backlog(added->seq, interval_s);
+    return true;
+  };
+
+  // Refinements: the newest acknowledged keyframe not refined yet, reduced again at what the link carries in
+  // window_s, as its revision 1. Returns false when there is no such keyframe or the window buys too little (1.25 x
+  // and 8 kB more than its budget); true when one was handled (refined, or given up: it is not tried again).
+  std::set<int> refine_done;  // used by the drain alone
+  auto refine_one = [&](double window_s) {
+    if (!(options.refine_ceiling_kb > 0)) return false;
+    std::optional<OutboxEntry> best;
+    for (const OutboxEntry& e : outbox.entries())
+      if (e.acked && e.rev == 0 && !refine_done.count(e.seq) &&
+          (!best || e.captured > best->captured || (e.captured == best->captured && e.seq > best->seq)))
+        best = e;
+    if (!best) return false;
+    const double budget_kb = refinement_budget_kb(sender.line_kbps(), std::min(window_s, options.refine_window_s),
+                                                  sender.post_fixed_s(), options.refine_ceiling_kb,
+                                                  options.budget.headroom);
+    if (budget_kb < std::max(1.25 * best->budget_kb, best->budget_kb + 8)) return false;
+    refine_done.insert(best->seq);
+    auto frame = [&] {
+      std::lock_guard lock(source_mu);
+      return source.frame(static_cast<size_t>(best->frame_index));
+    }();
+    if (!frame) {
+      std::lock_guard lock(mu);
+      summary.errors.push_back("refining keyframe " + std::to_string(best->seq) + ": " + frame.error().message);
+      return true;
+    }
+    frame->index = best->frame_index;
+    const auto t0 = steady::now();
+    auto fine = encode_keyframe(*frame, reduction, budget_kb, entry_pose(*best), earlier_than(best->seq));
+    refine_s.on_sample(std::chrono::duration<double>(steady::now() - t0).count());
+    if (!fine || static_cast<double>(fine->glb.size()) < 1.1 * static_cast<double>(best->bytes)) return true;
+    Status st = outbox.revise(best->seq, fine->glb, budget_kb, fine->triangles);
+    {
+      std::lock_guard lock(mu);
+      if (st)
+        ++summary.refined;
+      else
+        summary.errors.push_back(st.error().message);
+    }
+    sender.notify();
+    return true;
   };
 
   std::deque<KeyframeJob> jobs;
+  std::deque<KeyframeJob> deferred;  // held back while a newer keyframe went first, oldest first
   bool tracking_done = false, reducing = false, holding = false;
   std::condition_variable jobs_cv;
   // Hold the next keyframe back while the sender owes more (Sender::owed_s: the paced line's remaining time and the
@@ -298,35 +354,57 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   std::thread reducer([&] {
     renice_this_thread(options.reduce_nice);
     for (;;) {
-      KeyframeJob job;
       std::unique_lock lock(mu);
-      jobs_cv.wait(lock, [&] { return !jobs.empty() || tracking_done; });
-      if (jobs.empty() || should_stop()) return;  // stopped: queued keyframes never reached the outbox
-      // Held back while the link owes too much; a newer keyframe tracked meanwhile supersedes the waiting one.
-      for (;;) {
+      jobs_cv.wait_for(lock, std::chrono::milliseconds(50),
+                       [&] { return !jobs.empty() || !deferred.empty() || tracking_done; });
+      if (should_stop()) return;  // stopped: queued and deferred keyframes never reached the outbox
+      // Nothing to reduce: refinements wait for the drain. One made here between keyframes delays the next
+      // keyframe's reduction, which the latency rule pays for in that keyframe's bytes (BENCHMARKS.md, stop 17).
+      if (jobs.empty() && deferred.empty()) {
+        if (tracking_done) return;
+        continue;
+      }
+      // Held back while the link owes too much; a newer keyframe tracked meanwhile goes first, the older waits.
+      lock.unlock();
+      const bool hold = link_owes_too_much();
+      lock.lock();
+      if (should_stop()) return;
+      if (hold) {
         lock.unlock();
-        const bool hold = link_owes_too_much();
+        if (!sender.stats().fatal.empty()) return;  // the sender stopped for good: the link will not free
         lock.lock();
-        if (!hold || should_stop()) break;
         if (!holding) {
           holding = true;
           jobs_cv.notify_all();  // a tracker waiting for this reduction goes on (and may supersede it)
         }
         while (jobs.size() > 1) {
+          deferred.push_back(std::move(jobs.front()));
           jobs.pop_front();
           ++summary.superseded;
         }
+        while (deferred.size() > options.max_deferred) {
+          deferred.pop_front();
+          ++summary.deferred_dropped;
+        }
         jobs_cv.wait_for(lock, std::chrono::milliseconds(50));
+        continue;
       }
       holding = false;
-      if (should_stop()) return;
-      job = std::move(jobs.front());
-      jobs.pop_front();
+      const bool is_deferred = jobs.empty();
+      KeyframeJob job;
+      if (is_deferred) {  // the newest deferred one first
+        job = std::move(deferred.back());
+        deferred.pop_back();
+      } else {
+        job = std::move(jobs.front());
+        jobs.pop_front();
+      }
       reducing = true;
       lock.unlock();
-      reduce_keyframe(job);
+      const bool written = reduce_keyframe(job, is_deferred);
       lock.lock();
       reducing = false;
+      if (is_deferred && written) ++summary.deferred_sent;
       lock.unlock();
       jobs_cv.notify_all();
     }
@@ -399,17 +477,20 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   summary.frames = result->frames.size();
   summary.tracked = result->tracked;
 
-  // Drain: until the sender has nothing pending, stops for good, or stop is asked.
+  // Drain: until the sender has nothing pending and no refinement is left to make, stops for good, or stop is asked.
+  // The next refinement is reduced once the link owes no more than that takes, so it is ready when the line frees.
   progress.draining = true;
   for (;;) {
     poll_cap();
     progress.sender = sender.stats();
     if (on_progress) on_progress(progress);
-    if (progress.sender.pending == 0 || !progress.sender.fatal.empty()) break;
+    if (!progress.sender.fatal.empty()) break;
     if (should_stop()) {
       summary.stopped = true;
       break;
     }
+    if (sender.owed_s(true) <= std::max(refine_s.value(), 0.1) && refine_one(options.refine_window_s)) continue;
+    if (sender.stats().pending == 0) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   sender.stop();

@@ -24,7 +24,8 @@
 // reduction to end (not while a keyframe is held back for the link, below). When stop is asked, keyframes still queued are not reduced:
 // they never reached the outbox, and a resumed run tracks their frames again.
 //
-// Budget: the smaller of the rate rule and the latency rule (stream/link_estimator.h). The latency rule's overhead
+// Budget: the smaller of the rate rule and the latency rule (stream/link_estimator.h), both on the POST model (line
+// rate and fixed cost per POST, Sender::line_kbps / post_fixed_s). The latency rule's overhead
 // is what is known when the keyframe's reduction starts: the seconds since its capture (reading, tracking, the
 // reduction queue), plus the
 // earlier keyframes' reduction time (SmoothedDuration: mean + 2 mean deviations; 0.3 s before the first, about what
@@ -33,25 +34,45 @@
 // say where a keyframe's latency went.
 //
 // Backlog rule (the link cannot carry what is queued), in two steps:
-// - Supersede (on unless `supersede` is false): the next tracked keyframe is reduced only once what the sender owes
-//   (Sender::owed_s: the time left on its paced line plus the pending bytes not yet started, at the estimate) is
-//   no more than the keyframe's expected reduction time (SmoothedDuration below, at least 0.1 s): reduced any
-//   earlier, it would only wait for the line, ageing. Until then it waits, and a newer keyframe tracked meanwhile
-//   supersedes it (the older one is never reduced; counted in `superseded`). So keyframes enter the outbox no
-//   faster than the link carries them, and the one that does is the newest. A superseded keyframe leaves no hole
-//   in the deltas: nothing was reduced against it, since later keyframes are reduced against those in the outbox;
-//   surface that only it saw is not sent (the bench's coverage figure shows what that costs). Entries already in
-//   the outbox are never dropped: later deltas rely on their surface, and the server may hold them.
+// - Newest first, older ones deferred (on unless `supersede` is false): the next tracked keyframe is reduced only
+//   once what the sender owes (Sender::owed_s: the time left on its paced line plus the pending first revisions not
+//   yet started, at the estimate) is no more than the keyframe's expected reduction time (SmoothedDuration below, at
+//   least 0.1 s): reduced any earlier, it would only wait for the line, ageing. Until then it waits, and when a newer
+//   keyframe is tracked meanwhile, the newer one takes its place and the older one is deferred (counted in
+//   `superseded`). Once the link has room, the newest waiting keyframe is reduced first (at the usual budget), then
+//   the deferred ones, newest first, each coarsened: coarse_factor x the rate rule's budget (not below the floor),
+//   each again only once the link owes no more than a reduction takes. So keyframes enter the outbox no faster than
+//   the link carries them, the newest goes first (the sender posts by capture time), and over an outage no keyframe
+//   is lost: every one reaches the mission, the older ones coarser. A deferred keyframe gets a higher seq than the
+//   newer one reduced before it, and is reduced against it (its delta drops what the newer one covers). At most
+//   max_deferred wait; beyond that the oldest is dropped (counted in `deferred_dropped`): a backlog of that many is
+//   not one the link will carry while the robot is still moving. Entries already in the outbox are never dropped: later
+//   deltas rely on their surface, and the server may hold them.
 // - Coarsen: after each new keyframe, when the pending bytes need more than max(max_backlog_s, 2 x the keyframe
 //   interval) at the current estimate, the older never-attempted keyframes are coarsened, oldest first, until the
 //   backlog fits: each is re-reduced once (same frame, same coverage views, the same single call) to
 //   coarse_factor x its budget (not below the budget floor) and replaces its outbox entry when smaller.
 // The newest keyframe is never coarsened, and the sender posts newest first.
 //
-// Resume: with entries in the outbox, tracking restarts at the last keyframe's frame, whose pose (from the outbox)
-// anchors the new run's poses in the same world; that frame is not sent again; sequence numbers continue; the
-// earlier keyframes' frames are reloaded as coverage views. Pending entries are posted as usual (a re-post of a
-// stored one is answered 200 by the server's idempotency).
+// Refinements (on unless refine_ceiling_kb is 0): spare link capacity re-sends an acknowledged keyframe at a larger
+// budget as its next revision (Outbox::revise; the server replaces the stored keyframe, one surface per seq). Only
+// once every frame was read: the drain refines the keyframes one after another, each reduced once the link owes no
+// more than a reduction takes. Not while tracking: a refinement on the reduction thread delays the next keyframe's
+// reduction, and the latency rule takes that out of the keyframe's bytes (measured, BENCHMARKS.md stop 17: between
+// keyframes, first revisions fell from 34 to 18 kB at 2 Mbit/s; "after 1.5 idle intervals", to 8 kB at 500 kbit/s). The newest unrefined keyframe first (by capture time), each refined once (rev 1), from its own
+// frame and pose against the same coverage views as its first revision. Its budget is what the POST model carries in
+// refine_window_s of line, at most refine_ceiling_kb (refinement_budget_kb), so a keyframe tracked meanwhile waits at
+// most that long for the line; it is made only when that is at least 1.25 x (and 8 kB more than) the keyframe's
+// budget, and kept only when the new GLB is at least 10 % larger. The sender posts a first revision before any
+// refinement.
+//
+// Resume: with entries in the outbox, tracking restarts at the latest keyframe's frame (the highest frame index: a
+// deferred keyframe may have a higher seq but an older frame), whose pose (from the outbox) anchors the new run's
+// poses in the same world; that frame is not sent again; sequence numbers continue; the earlier keyframes' frames
+// are reloaded as coverage views. Pending entries are posted as usual (a re-post of a stored one is answered 200 by
+// the server's idempotency; a pending refinement is posted with its rev). Keyframes that were deferred and not yet
+// reduced when the sender stopped are not in the outbox: their frames lie before the resume point, and are lost
+// (not built: persisting the deferred list).
 #include <functional>
 #include <string>
 
@@ -76,6 +97,9 @@ struct StreamOptions {
   double coarse_factor = 0.25;
   int reduce_nice = 5;              // --reduce-nice: added to the reduction thread's niceness (0: as the caller)
   bool supersede = true;            // the backlog rule's first step; --keep-every-keyframe turns it off
+  size_t max_deferred = 16;         // deferred keyframes waiting at most (beyond: the oldest is dropped)
+  double refine_ceiling_kb = 100;   // --refine-kb: a refinement's largest budget (0: no refinements)
+  double refine_window_s = 1.0;     // --refine-window-ms: a refinement's longest time on the line
 };
 
 struct StreamProgress {
@@ -94,7 +118,10 @@ struct StreamSummary {
   size_t keyframes = 0;       // new outbox entries of this run
   size_t covered = 0;         // keyframes with nothing new (not sent)
   size_t coarsened = 0;
-  size_t superseded = 0;      // tracked keyframes never reduced: a newer one replaced them while the link owed too much
+  size_t superseded = 0;      // tracked keyframes deferred: a newer one went first while the link owed too much
+  size_t deferred_sent = 0;   // of which reduced later (coarsened) and written to the outbox
+  size_t deferred_dropped = 0;  // deferred keyframes dropped (more than max_deferred waited)
+  size_t refined = 0;         // refinements written to the outbox (revisions)
   size_t cap_changes = 0;     // values taken from --link-kbps-file
   size_t failed = 0;          // keyframes whose reduction or outbox write failed (message in errors)
   bool resumed = false;

@@ -22,7 +22,35 @@ LinkEstimator::LinkEstimator(const LinkEstimatorParams& params)
     : params_(params),
       average_kbps_(params.cap_kbps > 0 ? std::min(params.initial_kbps, params.cap_kbps) : params.initial_kbps) {}
 
+void PostCostModel::on_sample(size_t bytes, double seconds) {
+  if (!std::isfinite(seconds)) return;
+  const double x = static_cast<double>(bytes), y = std::max(seconds, 1e-3);
+  w_ = forget_ * w_ + 1;
+  sx_ = forget_ * sx_ + x;
+  sy_ = forget_ * sy_ + y;
+  sxx_ = forget_ * sxx_ + x * x;
+  sxy_ = forget_ * sxy_ + x * y;
+  const double mx = sx_ / w_, my = sy_ / w_;
+  const double var = std::max(0.0, sxx_ / w_ - mx * mx);
+  fitted_ = false;
+  if (var > 0 && std::sqrt(var) >= min_spread_ * mx) {
+    const double slope = (sxy_ / w_ - mx * my) / var;  // s per byte
+    const double fixed = my - slope * mx;
+    if (slope > 0 && fixed >= 0 && fixed <= max_fixed_s_ && fixed < my) {
+      fixed_s_ = fixed;
+      rate_ = 1.0 / slope;
+      fitted_ = true;
+    }
+  }
+  if (!fitted_) {
+    fixed_s_ = std::min(fixed_s_, 0.9 * my);  // what is left for the bytes must stay positive
+    rate_ = mx / (my - fixed_s_);
+  }
+}
+
 void LinkEstimator::on_ack(size_t body_bytes, double seconds) {
+  model_.on_sample(body_bytes, seconds);
+  failure_scale_ = std::min(1.0, failure_scale_ / params_.failure_factor);
   const double sample_kbps = static_cast<double>(body_bytes) * 8.0 / 1000.0 / std::max(seconds, 1e-3);
   // The first sample replaces the guess; later ones are averaged in.
   const double a = sample_kbps >= average_kbps_ ? params_.alpha : params_.alpha_down;
@@ -34,7 +62,17 @@ void LinkEstimator::on_ack(size_t body_bytes, double seconds) {
 void LinkEstimator::on_failure() {
   // From the capped value: a failure on a link far faster than the cap must still lower what is reported.
   average_kbps_ = std::max(estimate_kbps() * params_.failure_factor, params_.floor_kbps);
+  failure_scale_ *= params_.failure_factor;
 }
+
+double LinkEstimator::line_kbps() const {
+  if (model_.empty()) return estimate_kbps();
+  double kbps = std::max(model_.rate_bytes_per_s() * 8.0 / 1000.0 * failure_scale_, params_.floor_kbps);
+  if (params_.cap_kbps > 0) kbps = std::min(kbps, params_.cap_kbps);
+  return kbps;
+}
+
+double LinkEstimator::post_fixed_s() const { return model_.empty() ? 0.0 : model_.fixed_s(); }
 
 void LinkEstimator::set_cap_kbps(double cap_kbps) { params_.cap_kbps = std::max(0.0, cap_kbps); }
 
@@ -55,8 +93,8 @@ void KeyframeInterval::on_keyframe(double wall_time_s) {
 
 double KeyframeInterval::seconds() const { return std::clamp(average_.value_or(initial_s_), min_s_, max_s_); }
 
-double keyframe_budget_kb(double estimate_kbps, double interval_s, const BudgetRule& rule) {
-  const double kb = estimate_kbps / 8.0 * interval_s * rule.headroom;  // kbit/s / 8 = kB/s
+double keyframe_budget_kb(double rate_kbps, double interval_s, const BudgetRule& rule, double fixed_s) {
+  const double kb = rate_kbps / 8.0 * (interval_s * rule.headroom - std::max(fixed_s, 0.0));  // kbit/s / 8 = kB/s
   if (!std::isfinite(kb)) return rule.floor_kb;
   return std::clamp(kb, rule.floor_kb, rule.ceiling_kb);
 }
@@ -76,18 +114,25 @@ void SmoothedDuration::on_sample(double seconds) {
 
 double SmoothedDuration::value() const { return samples_ == 0 ? initial_s_ : mean_ + k_ * deviation_; }
 
-double latency_budget_kb(double estimate_kbps, double overhead_s, const LatencyRule& latency, const BudgetRule& rule) {
+double latency_budget_kb(double estimate_kbps, double overhead_s, const LatencyRule& latency, const BudgetRule& rule,
+                         double fixed_s) {
   if (!(latency.target_s > 0)) return rule.ceiling_kb;
   const double post_s = std::max(latency.target_s - std::max(overhead_s, 0.0), latency.min_post_share * latency.target_s);
-  const double kb = estimate_kbps / 8.0 * post_s * rule.headroom;
+  const double kb = estimate_kbps / 8.0 * (post_s * rule.headroom - std::max(fixed_s, 0.0));
   if (!std::isfinite(kb)) return rule.floor_kb;
   return std::clamp(kb, rule.floor_kb, rule.ceiling_kb);
 }
 
 double next_keyframe_budget_kb(double estimate_kbps, double interval_s, double overhead_s, const LatencyRule& latency,
-                               const BudgetRule& rule) {
-  return std::min(keyframe_budget_kb(estimate_kbps, interval_s, rule),
-                  latency_budget_kb(estimate_kbps, overhead_s, latency, rule));
+                               const BudgetRule& rule, double fixed_s) {
+  return std::min(keyframe_budget_kb(estimate_kbps, interval_s, rule, fixed_s),
+                  latency_budget_kb(estimate_kbps, overhead_s, latency, rule, fixed_s));
+}
+
+double refinement_budget_kb(double rate_kbps, double window_s, double fixed_s, double ceiling_kb, double headroom) {
+  const double kb = rate_kbps / 8.0 * (window_s * headroom - std::max(fixed_s, 0.0));
+  if (!std::isfinite(kb) || kb <= 0) return 0;
+  return std::min(kb, ceiling_kb);
 }
 
 Result<std::optional<double>> CapFile::poll() {

@@ -23,6 +23,12 @@ json entry_json(const OutboxEntry& e) {
             {"pose", e.pose},         {"captured", e.captured}, {"budget_kb", e.budget_kb},
             {"bytes", e.bytes},       {"triangles", e.triangles}, {"coarsened", e.coarsened},
             {"attempted", e.attempted}, {"acked", e.acked},      {"rejected", e.rejected}};
+  if (e.rev > 0) {
+    j["rev"] = e.rev;
+    j["first_bytes"] = e.first_bytes;
+    j["first_budget_kb"] = e.first_budget_kb;
+    if (!e.first_ack.empty()) j["first_ack"] = json::parse(e.first_ack, nullptr, false);
+  }
   if (e.tracked > 0) j["tracked"] = e.tracked;
   if (e.reduced > 0) j["reduced"] = e.reduced;
   if (e.post_started > 0) j["post_started"] = e.post_started;
@@ -51,6 +57,11 @@ Result<OutboxEntry> parse_entry(const std::string& text, const std::string& name
     e.acked = j.at("acked").get<bool>();
     e.rejected = j.value("rejected", std::string());
     if (j.contains("ack") && j["ack"].is_object()) e.ack_json = j["ack"].dump();
+    e.rev = j.value("rev", 0);
+    if (e.rev < 0) return make_error(ErrorCode::kInvalidInput, "outbox entry " + name + ": rev < 0");
+    e.first_bytes = j.value("first_bytes", size_t{0});
+    e.first_budget_kb = j.value("first_budget_kb", 0.0);
+    if (j.contains("first_ack") && j["first_ack"].is_object()) e.first_ack = j["first_ack"].dump();
     return e;
   } catch (const json::exception& ex) {
     return make_error(ErrorCode::kInvalidInput, "outbox entry " + name + ": " + ex.what());
@@ -91,18 +102,22 @@ Result<std::unique_ptr<Outbox>> Outbox::open(const std::string& dir, const std::
     if (!text) return text.error();
     auto e = parse_entry(*text, item.path().string());
     if (!e) return e.error();
-    if (!fs::exists(box->path(e->seq, ".glb")))
+    if (!fs::exists(box->glb_path(e->seq, e->rev)))
       return make_error(ErrorCode::kInvalidInput, "outbox entry " + name + " has no GLB beside it");
-    e->bytes = fs::file_size(box->path(e->seq, ".glb"));  // a coarsening cut short between its two writes
+    e->bytes = fs::file_size(box->glb_path(e->seq, e->rev));  // a coarsening cut short between its two writes
     box->entries_[e->seq] = std::move(*e);
   }
   if (ec) return make_error(ErrorCode::kIo, "outbox " + dir + ": " + ec.message());
-  // A GLB without its JSON was never sent: its seq is free again.
+  // A GLB without its JSON was never sent: its seq is free again. A GLB that is not its entry's current revision
+  // is a revision cut short (before its JSON) or one replaced (before the older GLB was removed).
   for (const auto& item : fs::directory_iterator(dir, ec)) {
     const std::string name = item.path().filename().string();
     if (name.rfind("kf-", 0) != 0 || item.path().extension() != ".glb") continue;
-    int seq = -1;
-    if (std::sscanf(name.c_str(), "kf-%d.glb", &seq) == 1 && !box->entries_.count(seq)) fs::remove(item.path(), ec);
+    int seq = -1, rev = 0;
+    if (std::sscanf(name.c_str(), "kf-%d.r%d.glb", &seq, &rev) < 1) continue;
+    auto it = box->entries_.find(seq);
+    if (it == box->entries_.end() || fs::path(box->glb_path(seq, it->second.rev)).filename() != item.path().filename())
+      fs::remove(item.path(), ec);
   }
   return box;
 }
@@ -111,6 +126,11 @@ std::string Outbox::path(int seq, const char* ext) const {
   char name[32];
   std::snprintf(name, sizeof name, "kf-%08d%s", seq, ext);
   return (fs::path(dir_) / name).string();
+}
+
+std::string Outbox::glb_path(int seq, int rev) const {
+  if (rev == 0) return path(seq, ".glb");
+  return path(seq, (".r" + std::to_string(rev) + ".glb").c_str());
 }
 
 Status Outbox::write_meta(const OutboxEntry& e) const {
@@ -153,13 +173,46 @@ Status Outbox::coarsen(int seq, const std::vector<std::uint8_t>& glb, double bud
   if (it == entries_.end()) return make_error(ErrorCode::kNotFound, "outbox: no keyframe " + std::to_string(seq));
   if (it->second.attempted)
     return make_error(ErrorCode::kInvalidArgument, "outbox: keyframe " + std::to_string(seq) + " was already sent");
+  if (it->second.rev > 0)
+    return make_error(ErrorCode::kInvalidArgument, "outbox: keyframe " + std::to_string(seq) + " is a refinement");
   OutboxEntry e = it->second;
   e.bytes = glb.size();
   e.budget_kb = budget_kb;
   e.triangles = triangles;
   e.coarsened = true;
-  if (auto st = glb::write_file_atomically(path(seq, ".glb"), glb); !st) return st;
+  if (auto st = glb::write_file_atomically(glb_path(seq, e.rev), glb); !st) return st;
   if (auto st = write_meta(e); !st) return st;
+  it->second = e;
+  return ok_status();
+}
+
+Status Outbox::revise(int seq, const std::vector<std::uint8_t>& glb, double budget_kb, size_t triangles) {
+  std::lock_guard lock(mu_);
+  auto it = entries_.find(seq);
+  if (it == entries_.end()) return make_error(ErrorCode::kNotFound, "outbox: no keyframe " + std::to_string(seq));
+  if (!it->second.acked)
+    return make_error(ErrorCode::kInvalidArgument,
+                      "outbox: keyframe " + std::to_string(seq) + " is not acknowledged yet: nothing to revise");
+  OutboxEntry e = it->second;
+  if (e.rev == 0) {
+    e.first_bytes = e.bytes;
+    e.first_budget_kb = e.budget_kb;
+    e.first_ack = e.ack_json;
+  }
+  ++e.rev;
+  e.bytes = glb.size();
+  e.budget_kb = budget_kb;
+  e.triangles = triangles;
+  e.attempted = e.acked = false;
+  e.ack_json.clear();
+  if (auto st = glb::write_file_atomically(glb_path(seq, e.rev), glb); !st) return st;
+  if (auto st = write_meta(e); !st) {
+    std::error_code ec;
+    fs::remove(glb_path(seq, e.rev), ec);
+    return st;
+  }
+  std::error_code ec;
+  fs::remove(glb_path(seq, it->second.rev), ec);  // open() would remove it, should this fail
   it->second = e;
   return ok_status();
 }
@@ -195,7 +248,13 @@ Status Outbox::mark_rejected(int seq, const std::string& reason) {
 }
 
 Result<std::vector<std::uint8_t>> Outbox::read_glb(int seq) const {
-  return glb::read_file_bytes(path(seq, ".glb"), size_t{1} << 30);
+  int rev = 0;
+  {
+    std::lock_guard lock(mu_);
+    auto it = entries_.find(seq);
+    if (it != entries_.end()) rev = it->second.rev;
+  }
+  return glb::read_file_bytes(glb_path(seq, rev), size_t{1} << 30);
 }
 
 std::array<double, 7> pose_to_tum(const double* m) {

@@ -3,7 +3,8 @@
 // the server or the sender itself goes away, and a restarted sender resumes where it stopped.
 //
 // Layout of DIR: `mission.json` ({"mission": name}: an outbox serves one mission), and per keyframe
-// `kf-<seq, 8 digits>.glb` (the body exactly as posted) and `kf-<seq>.json` (its state, below). Each file is written
+// `kf-<seq, 8 digits>.glb` (the body exactly as posted; `kf-<seq>.r<rev>.glb` for a revision rev > 0) and
+// `kf-<seq>.json` (its state, below). Each file is written
 // by the project's one atomic writer (gltf/atomic_file.h: temp file, fsync, rename), the GLB before its JSON: an
 // entry exists when its JSON does; a GLB without one (a crash between the two writes) was never sent and is
 // removed when the outbox is opened. Sequence numbers continue after the highest one on disk.
@@ -11,6 +12,10 @@
 // States: queued -> attempted (persisted before the first POST: from then on its bytes never change, since the
 // server may already hold them; only a never-attempted entry may be coarsened) -> acked (the server's answer kept)
 // or rejected (a 4xx other than 409 that retrying cannot fix; kept with the reason, counted as lost).
+// Revisions: an acked entry may be revised (a refinement: the same keyframe reduced again at a larger budget, posted
+// with rev + 1, which the server stores in place of the older one). revise() writes the new GLB under its own name,
+// then the JSON (the commit: rev + 1, queued again), then removes the older GLB; open() removes a GLB that is not
+// its entry's current revision. The entry keeps its first revision's answer and size (first_ack, first_bytes).
 // Thread-safe: one mutex around the index; file writes happen under it (they are small and rare).
 #include <array>
 #include <cstdint>
@@ -40,6 +45,10 @@ struct OutboxEntry {
   size_t bytes = 0;               // of the GLB on disk
   size_t triangles = 0;
   bool coarsened = false;
+  int rev = 0;                    // the revision now in the outbox (0: the keyframe as first sent)
+  size_t first_bytes = 0;         // of revision 0 (0 while rev == 0: then it is `bytes`)
+  double first_budget_kb = 0;     // of revision 0 (0 while rev == 0: then it is `budget_kb`)
+  std::string first_ack;          // the server's answer to revision 0 (empty while rev == 0: then it is ack_json)
   bool attempted = false;
   bool acked = false;
   std::string rejected;           // non-empty: the server refused it for good (the reason)
@@ -59,8 +68,11 @@ class Outbox {
   int next_seq() const;
   // Writes a new entry (seq assigned: next_seq()) and returns it.
   Result<OutboxEntry> add(OutboxEntry entry, const std::vector<std::uint8_t>& glb);
-  // Replaces a never-attempted entry's GLB by a coarser one (kInvalidArgument when it was attempted).
+  // Replaces a never-attempted entry's GLB by a coarser one (kInvalidArgument when it was attempted, or is a
+  // refinement: rev > 0).
   Status coarsen(int seq, const std::vector<std::uint8_t>& glb, double budget_kb, size_t triangles);
+  // An acked entry's next revision (rev + 1, queued again; kInvalidArgument when the entry is not acked).
+  Status revise(int seq, const std::vector<std::uint8_t>& glb, double budget_kb, size_t triangles);
   // Persisted before the first POST; post_started (Unix s) is kept from the first attempt.
   Status mark_attempted(int seq, double post_started = 0);
   Status mark_acked(int seq, const std::string& ack_json);
@@ -70,6 +82,7 @@ class Outbox {
  private:
   Outbox(std::string dir, std::string mission) : dir_(std::move(dir)), mission_(std::move(mission)) {}
   std::string path(int seq, const char* ext) const;
+  std::string glb_path(int seq, int rev) const;
   Status write_meta(const OutboxEntry& e) const;
   Status update(int seq, const std::function<void(OutboxEntry&)>& change);
 

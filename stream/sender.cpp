@@ -77,16 +77,36 @@ size_t Sender::acknowledged_posts() const {
   return estimator_.samples();
 }
 
-double Sender::owed_s() const {
+double Sender::line_kbps() const {
+  std::lock_guard lock(mu_);
+  return estimator_.line_kbps();
+}
+
+double Sender::post_fixed_s() const {
+  std::lock_guard lock(mu_);
+  return estimator_.post_fixed_s();
+}
+
+double Sender::owed_s(bool include_refinements) const {
   std::lock_guard lock(mu_);
   const double estimate_bps = std::max(estimator_.estimate_kbps(), 1.0) * 1000.0 / 8.0;
   const bool paced = estimator_.cap_kbps() > 0;
   double bytes = 0;
   for (const OutboxEntry& e : outbox_.entries())
-    if (e.pending() && !(paced && (e.attempted || in_flight_.count(e.seq)))) bytes += static_cast<double>(e.bytes);
+    if (e.pending() && !(paced && (e.attempted || in_flight_.count(e.seq))) &&
+        (include_refinements || e.rev == 0 || in_flight_.count(e.seq)))
+      bytes += static_cast<double>(e.bytes);
   double line_s = 0;
   if (paced) line_s = std::max(0.0, std::chrono::duration<double>(line_free_ - clock::now()).count());
   return line_s + bytes / estimate_bps;
+}
+
+bool Sender::idle() const {
+  std::lock_guard lock(mu_);
+  if (!in_flight_.empty()) return false;
+  for (const OutboxEntry& e : outbox_.entries())
+    if (e.pending()) return false;
+  return true;
 }
 
 void Sender::set_cap_kbps(double cap_kbps) {
@@ -107,6 +127,8 @@ SenderStats Sender::stats() const {
     }
   }
   s.estimate_kbps = estimator_.estimate_kbps();
+  s.line_kbps = estimator_.line_kbps();
+  s.post_fixed_s = estimator_.post_fixed_s();
   s.cap_kbps = estimator_.cap_kbps();
   const auto now = clock::now();  // the intervals still open
   if (!in_flight_.empty()) s.busy_s += std::chrono::duration<double>(now - busy_since_).count();
@@ -128,12 +150,19 @@ void Sender::flight_end_locked(int seq) {
   if (in_flight_.size() == 1) stats_.overlap_s += std::chrono::duration<double>(now - overlap_since_).count();
 }
 
-// The newest pending entry that the producer has not claimed and no lane is posting; -1 when none.
+// The newest pending entry (first revisions before refinements, then by capture time, then seq) that the producer
+// has not claimed and no lane is posting; -1 when none.
 int Sender::pick_locked() const {
+  const OutboxEntry* best = nullptr;
   const auto entries = outbox_.entries();
-  for (auto it = entries.rbegin(); it != entries.rend(); ++it)
-    if (it->pending() && !claimed_.count(it->seq) && !in_flight_.count(it->seq)) return it->seq;
-  return -1;
+  auto before = [](const OutboxEntry& a, const OutboxEntry& b) {  // a goes before b
+    if ((a.rev == 0) != (b.rev == 0)) return a.rev == 0;
+    if (a.captured != b.captured) return a.captured > b.captured;
+    return a.seq > b.seq;
+  };
+  for (const OutboxEntry& e : entries)
+    if (e.pending() && !claimed_.count(e.seq) && !in_flight_.count(e.seq) && (!best || before(e, *best))) best = &e;
+  return best ? best->seq : -1;
 }
 
 void Sender::run(Uplink& uplink) {
@@ -208,11 +237,14 @@ void Sender::run(Uplink& uplink) {
         auto j = nlohmann::json::parse(*mission, nullptr, false);
         bool same = false;
         if (j.is_object() && j.contains("keyframes") && j["keyframes"].is_array())
-          for (const auto& k : j["keyframes"])
-            if (k.value("seq", -1) == seq && k.value("bytes", size_t{0}) == glb->size()) {
+          for (const auto& k : j["keyframes"]) {
+            if (k.value("seq", -1) != seq) continue;
+            const int stored_rev = k.value("rev", 0);
+            if ((stored_rev == entry->rev && k.value("bytes", size_t{0}) == glb->size()) || stored_rev > entry->rev) {
               same = true;
               r.body = k.dump();
             }
+          }
         r.outcome = same ? PostOutcome::kStored : PostOutcome::kRejected;
       }
     }
@@ -227,6 +259,10 @@ void Sender::run(Uplink& uplink) {
           estimator_.on_ack(glb->size(), r.seconds);
           backoff_.reset();
           stats_.acked_bytes += glb->size();
+          if (entry->rev > 0) {
+            ++stats_.refinements_acked;
+            stats_.refinement_bytes += glb->size();
+          }
           stats_.link_down = false;
           break;
         case PostOutcome::kRetry: {

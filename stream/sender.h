@@ -3,7 +3,8 @@
 // link carries.
 //
 // Order: the newest pending keyframe goes first (the operator's picture stays current); older ones follow, newest
-// to oldest, when the link has room.
+// to oldest, when the link has room. "Newest" is by capture time, then seq (after an outage the keyframes held back
+// get higher seqs than the newer one reduced first). A first revision (rev 0) goes before any refinement (rev > 0).
 // Lanes: one thread per Uplink (each its own keep-alive connection), so up to that many POSTs are in flight; a
 // second POST starts only when another entry is pending, while the first one's answer (round trip + the server's
 // time, about 0.15 s here) is still outstanding, so that the line does not sit idle during it. An entry is in flight
@@ -14,9 +15,9 @@
 // previous POST started).
 // Failures: a POST without an answer, a 5xx or a 503/429 is retried after a backoff delay (stream/backoff.h), and
 // lowers the link estimate (stream/link_estimator.h); the same bytes are re-posted, so a POST whose answer was lost
-// is answered 200 by the server's idempotency on (mission, seq). A 409 is resolved by reading the mission back:
-// when it holds this seq with the same byte count, it is acknowledged; otherwise the entry is rejected (counted as
-// lost). Another 4xx rejects the entry. A 401/403 stops the sender (fatal): the token is wrong.
+// is answered 200 by the server's idempotency on (mission, seq, rev). A 409 is resolved by reading the mission back:
+// when it holds this seq at this rev with the same byte count, or at a higher rev (this revision is stale: a newer
+// one is stored), it is acknowledged; otherwise the entry is rejected (counted as lost). Another 4xx rejects the entry. A 401/403 stops the sender (fatal): the token is wrong.
 // Thread-safety: every public method may be called from any thread.
 #include <condition_variable>
 #include <functional>
@@ -45,9 +46,11 @@ struct SenderParams {
 struct SenderStats {
   size_t acked = 0, rejected = 0, pending = 0;  // outbox entries
   size_t pending_bytes = 0;
-  size_t acked_bytes = 0;     // acknowledged by this run
+  size_t acked_bytes = 0;     // acknowledged by this run (refinements included)
+  size_t refinements_acked = 0, refinement_bytes = 0;  // of which revisions (rev > 0)
   size_t posts = 0, failures = 0;
   double estimate_kbps = 0;
+  double line_kbps = 0, post_fixed_s = 0;  // the POST model (stream/link_estimator.h)
   double cap_kbps = 0;        // the cap now (--link-kbps, or --link-kbps-file's last value); 0: none
   double busy_s = 0;          // seconds this run had at least one POST in flight (the union over the lanes)
   double overlap_s = 0;       // of which seconds with two or more in flight
@@ -80,7 +83,13 @@ class Sender {
   size_t acknowledged_posts() const;  // samples of the link estimate so far (0: it is still the initial guess)
   // Seconds until what is pending would be across the link: with a cap, the time left on the paced virtual line
   // plus the pending entries not yet started at the estimate; without, every pending byte at the estimate.
-  double owed_s() const;
+  // Refinements not yet started count only with include_refinements: a new keyframe goes before them.
+  double owed_s(bool include_refinements = false) const;
+  // The link estimator's POST model (stream/link_estimator.h): line rate (kbit/s) and fixed cost per POST (s).
+  double line_kbps() const;
+  double post_fixed_s() const;
+  // Nothing pending and nothing in flight: the link is idle (a refinement may use it).
+  bool idle() const;
   void set_cap_kbps(double cap_kbps);
   SenderStats stats() const;
 

@@ -68,7 +68,8 @@ PostResult Uplink::post_keyframe(const std::string& mission, const OutboxEntry& 
   char captured[32];
   std::snprintf(captured, sizeof captured, "%.6f", e.captured);
   const std::string target = "/v1/missions/" + mission + "/keyframes?seq=" + std::to_string(e.seq) +
-                             "&pose=" + pose_query(e.pose) + "&captured=" + captured;
+                             "&pose=" + pose_query(e.pose) + "&captured=" + captured +
+                             (e.rev > 0 ? "&rev=" + std::to_string(e.rev) : std::string());
   const auto t0 = std::chrono::steady_clock::now();
   auto res = impl_->client.Post(target.c_str(), reinterpret_cast<const char*>(glb.data()), glb.size(),
                                 "model/gltf-binary");

@@ -20,7 +20,7 @@ struct UplinkOptions {
 enum class PostOutcome {
   kStored,     // 201, or 200 (an identical re-post: the server already had it)
   kRetry,      // no answer (connection, timeout), 5xx, 503/429 (retry_after_s may be set)
-  kConflict,   // 409: the server holds this (mission, seq) with other bytes or another pose
+  kConflict,   // 409: the server holds this (mission, seq, rev) with other bytes or another pose, or a newer rev
   kRejected,   // any other 4xx: retrying the same bytes cannot succeed
   kFatal,      // 401/403: the token is wrong; the sender stops
 };
@@ -42,7 +42,8 @@ class Uplink {
 
   // GET /healthz: kUnavailable with the connection error when the server cannot be reached.
   Status check_reachable();
-  // POST /v1/missions/{mission}/keyframes?seq=&pose=&captured=; io_timeout_s bounds the send and the wait.
+  // POST /v1/missions/{mission}/keyframes?seq=&pose=&captured=[&rev=, when entry.rev > 0]; io_timeout_s bounds the
+  // send and the wait.
   PostResult post_keyframe(const std::string& mission, const OutboxEntry& entry, const std::vector<std::uint8_t>& glb,
                            double io_timeout_s);
   // GET /v1/missions/{mission}: the JSON text; kNotFound for an unknown mission, kUnavailable without an answer.

@@ -50,9 +50,15 @@ out, runs = sys.argv[1], sys.argv[2:]
 # "busy" says how well a POST uses the line while one is out; "run" also counts the line idle because no keyframe was
 # waiting. overlap = seconds with two POSTs in flight. line = the relay's own count of upstream bytes (HTTP headers
 # and answers' TCP included) over the window: the relay never carries more than its rate.
-print("| input | link | keyframes sent | kB/keyframe | utilisation busy / run | line (relay) | overlap s | "
-      "latency p50 / p95 s | lost / dup | coverage mission / batch | novel-view PSNR mission / batch dB | stream s |")
-print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+# Refinements (revisions rev > 0 that replaced a keyframe on the server): the acknowledged bytes are the sender's
+# own count ("kB this run": every acknowledged POST body, first revisions and refinements); "run, first revisions"
+# counts only the keyframes as first sent, over the window up to the last of them becoming viewable, so it compares
+# with a stream that does not refine. kB/keyframe is of the first revisions; latency is first_available - captured
+# (when the keyframe first became viewable; a refinement comes later and replaces it).
+print("| input | link | keyframes sent | kB/keyframe (first rev) | refinements (kB) | utilisation busy / run | "
+      "run, first revisions | line (relay) | overlap s | latency p50 / p95 s | lost / dup | coverage mission / batch | "
+      "novel-view PSNR mission / batch dB | stream s |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 for ds in ("tum", "icl"):
     batch = evals(f"{out}/{ds}.batch.eval.jsonl")
     for run in runs:
@@ -66,16 +72,23 @@ for ds in ("tum", "icl"):
         outbox = [e for e in outbox if e]
         server_seqs = [k["seq"] for k in kfs]
         server = {k["seq"]: k for k in kfs}
-        lost = sum(1 for e in outbox if e["seq"] not in server or server[e["seq"]]["bytes"] != e["bytes"])
+        lost = sum(1 for e in outbox if e["seq"] not in server or server[e["seq"]]["bytes"] != e["bytes"] or
+                   server[e["seq"]].get("rev", 0) != e.get("rev", 0))
         frames = [e["frame"] for e in outbox]
         dup = (len(server_seqs) - len(set(server_seqs))) + (len(frames) - len(set(frames)))
         dup += sum(1 for s in server_seqs if s not in {e["seq"] for e in outbox})
-        total_bytes = sum(k["bytes"] for k in kfs)
-        lat = [k["available"] - k["captured"] for k in kfs if "available" in k and "captured" in k]
+        first_bytes = [e["first_bytes"] if e.get("rev", 0) > 0 else e["bytes"] for e in outbox]
+        refined = [e for e in outbox if e.get("rev", 0) > 0]
+        refine_kb = sum(e["bytes"] for e in refined) / 1000
+        first_avail = {k["seq"]: k.get("first_available", k.get("available")) for k in kfs}
+        lat = [first_avail[k["seq"]] - k["captured"] for k in kfs
+               if isinstance(first_avail.get(k["seq"]), (int, float)) and "captured" in k]
         times = load(f"{name}.times.json", {}) or {}
         run_s = times.get("end", 0) - times.get("start", 0)
         busy = None
         log = open(f"{name}.stream.log").read() if os.path.exists(f"{name}.stream.log") else ""
+        m_acked = re.search(r"\(([0-9.]+) kB this run", log)
+        total_bytes = 1000 * float(m_acked.group(1)) if m_acked else sum(k["bytes"] for k in kfs)
         if "busy " in log:
             try:
                 busy = float(log.split("busy ")[1].split(" s")[0])
@@ -90,13 +103,17 @@ for ds in ("tum", "icl"):
         ready = [e["reduced"] for e in outbox if isinstance(e.get("reduced"), (int, float)) and e["reduced"] > 0]
         answered = [k["available"] for k in kfs if isinstance(k.get("available"), (int, float))]
         window = max(answered) - min(ready) if ready and answered else run_s
+        first_answered = [v for v in first_avail.values() if isinstance(v, (int, float))]
+        first_window = max(first_answered) - min(ready) if ready and first_answered else float("nan")
+        util_first = sum(first_bytes) * 8 / 1000 / (kbps * first_window) if first_window > 0 else float("nan")
         util_busy = total_bytes * 8 / 1000 / (kbps * busy) if busy else float("nan")
         util_run = total_bytes * 8 / 1000 / (kbps * window) if window > 0 else float("nan")
         relay = load(f"{name}.relay.json", {}) or {}
         line = relay.get("up_bytes", 0) * 8 / 1000 / (kbps * window) if window > 0 else float("nan")
         ev = evals(f"{name}.eval.jsonl")
         print(f"| {ds} | {run.replace('-outage', ' + 10 s outage')} kbit/s | {len(kfs)} | "
-              f"{total_bytes / 1000 / max(len(kfs), 1):.1f} | {100 * util_busy:.0f} % / {100 * util_run:.0f} % | "
+              f"{sum(first_bytes) / 1000 / max(len(outbox), 1):.1f} | {len(refined)} ({refine_kb:.0f}) | "
+              f"{100 * util_busy:.0f} % / {100 * util_run:.0f} % | {100 * util_first:.0f} % | "
               f"{100 * line:.0f} % | {overlap:.2f} | "
               f"{percentile(lat, 0.5):.2f} / {percentile(lat, 0.95):.2f} | {lost} / {dup} | "
               f"{median_of(ev, 'coverage'):.3f} / {median_of(batch, 'coverage'):.3f} | "
@@ -119,12 +136,15 @@ for ds in ("tum", "icl"):
             continue  # not run (STREAM_BENCH_INPUTS / STREAM_BENCH_RUNS)
         outbox = [load(p) for p in sorted(glob.glob(f"{name}.outbox/kf-*.json"))]
         rows = []
-        for e in outbox:
-            if not e or not isinstance(e.get("ack"), dict):
+        for e in outbox:  # the first revision's times (a refinement's answer comes later)
+            ack = e.get("first_ack") if e and e.get("rev", 0) > 0 else (e or {}).get("ack")
+            if not isinstance(ack, dict):
                 continue
             t = dict(e)
-            t["received"] = e["ack"].get("received")
-            t["available"] = e["ack"].get("available")
+            t["received"] = ack.get("received")
+            t["available"] = ack.get("available")
+            if e.get("rev", 0) > 0:
+                t["budget_kb"] = e.get("first_budget_kb", e["budget_kb"])
             rows.append(t)
         cells = []
         for a, b in stages:

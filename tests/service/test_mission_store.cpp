@@ -77,19 +77,19 @@ TEST(MissionStore, EventsInArrivalOrderWithCursorsAndWakeups) {
   }
   EXPECT_EQ(seqs(*s.keyframes("m")), (std::vector<std::int64_t>{0, 1, 2, 3, 4, 5}));
   EXPECT_EQ(seqs(*s.arrivals("m")), (std::vector<std::int64_t>{0, 1, 2, 5, 3, 4}));
-  auto after5 = s.cursor_after("m", 5);
+  auto after5 = s.cursor_after("m", MissionEventId{5});
   ASSERT_TRUE(after5);
   auto batch = s.wait_events("m", *after5, std::chrono::milliseconds(0));
   EXPECT_TRUE(batch.exists);
   EXPECT_EQ(seqs(batch.events), (std::vector<std::int64_t>{3, 4}));  // what came after 5, though lower
   auto fresh = s.cursor_after("m", std::nullopt);
   EXPECT_EQ(s.wait_events("m", *fresh, std::chrono::milliseconds(0)).events.size(), 6u);
-  auto unknown_id = s.cursor_after("m", 99);  // not a keyframe: everything
+  auto unknown_id = s.cursor_after("m", MissionEventId{99});  // not a keyframe: everything
   EXPECT_EQ(s.wait_events("m", *unknown_id, std::chrono::milliseconds(0)).events.size(), 6u);
   EXPECT_FALSE(s.cursor_after("nope", std::nullopt));
 
   // A waiting stream wakes when a keyframe becomes available, not when it is only stored.
-  auto cursor = *s.cursor_after("m", 4);
+  auto cursor = *s.cursor_after("m", MissionEventId{4});
   std::thread writer([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     (void)s.put(keyframe("m", 6), bytes("glb-6"));
@@ -147,5 +147,86 @@ TEST(MissionStore, OpenRestoresOrderAndCleansWhatACrashLeft) {
   EXPECT_FALSE(fs::exists(m + "/9.glb"));
   EXPECT_FALSE(fs::exists(dir + "/missions/.deleting-old-123"));
   EXPECT_TRUE(fs::exists(m + "/notes.txt"));
+  rgbdcast::test::remove_tree_quietly(dir);
+}
+
+// Revisions (a refinement of a keyframe sent when the link is idle): (seq, rev) is the idempotency key, a higher rev
+// replaces the keyframe (one surface per seq, one GLB on disk), a lower one is stale, and a restart keeps the newest.
+TEST(MissionStore, AHigherRevisionReplacesTheKeyframeAndALowerOneIsStale) {
+  const std::string dir = rgbdcast::test::temp_dir("mission-store-rev");
+  const std::string m = dir + "/missions/m";
+  {
+    auto store = MissionStore::open(dir);
+    ASSERT_TRUE(store);
+    auto& s = **store;
+    ASSERT_EQ(s.put(keyframe("m", 0), bytes("coarse-0"))->outcome, PutOutcome::kCreated);
+    ASSERT_TRUE(s.mark_available("m", 0, 1000.0));
+    ASSERT_EQ(s.put(keyframe("m", 1), bytes("coarse-1"))->outcome, PutOutcome::kCreated);
+    ASSERT_TRUE(s.mark_available("m", 1, 1001.0));
+
+    auto fine = keyframe("m", 0);
+    fine.rev = 1;
+    fine.triangles = 99;
+    auto replaced = s.put(fine, bytes("a finer keyframe 0"));
+    ASSERT_TRUE(replaced);
+    EXPECT_EQ(replaced->outcome, PutOutcome::kReplaced);
+    EXPECT_EQ(replaced->keyframe.rev, 1);
+    EXPECT_DOUBLE_EQ(replaced->keyframe.first_available, 1000.0);  // viewable since its first revision
+    EXPECT_FALSE(fs::exists(m + "/0.glb"));  // the replaced revision's GLB is gone
+    EXPECT_TRUE(fs::exists(m + "/0.r1.glb"));
+    ASSERT_TRUE(s.mark_available("m", 0, 1002.0));
+
+    // The same (seq, rev) and body again: kSame; another body under it: kConflict; the older rev: kStale.
+    EXPECT_EQ(s.put(fine, bytes("a finer keyframe 0"))->outcome, PutOutcome::kSame);
+    EXPECT_EQ(s.put(fine, bytes("yet another body"))->outcome, PutOutcome::kConflict);
+    auto stale = s.put(keyframe("m", 0), bytes("coarse-0"));
+    ASSERT_TRUE(stale);
+    EXPECT_EQ(stale->outcome, PutOutcome::kStale);
+    EXPECT_EQ(stale->keyframe.rev, 1);
+
+    const auto ks = *s.keyframes("m");
+    ASSERT_EQ(ks.size(), 2u);  // one keyframe per seq
+    EXPECT_EQ(ks[0].rev, 1);
+    EXPECT_EQ(ks[0].bytes, 18u);
+    EXPECT_EQ(ks[0].triangles, 99u);
+    EXPECT_DOUBLE_EQ(ks[0].available, 1002.0);
+    EXPECT_DOUBLE_EQ(ks[0].first_available, 1000.0);
+    auto glb = s.read_glb("m", 0, 1);
+    ASSERT_TRUE(glb);
+    EXPECT_EQ(*glb, bytes("a finer keyframe 0"));
+    EXPECT_FALSE(s.read_glb("m", 0, 0));
+
+    // The revision is an event of its own, with its own id; a cursor after it or after the first revision.
+    const auto events = *s.arrivals("m");
+    ASSERT_EQ(events.size(), 3u);
+    EXPECT_EQ(events[0].event_id(), "0");
+    EXPECT_EQ(events[1].event_id(), "1");
+    EXPECT_EQ(events[2].event_id(), "0-1");
+    EXPECT_EQ(events[0].rev, 0);  // what arrived then, not what is stored now
+    EXPECT_EQ(s.cursor_after("m", MissionEventId{0, 0})->next, 1u);
+    EXPECT_EQ(s.cursor_after("m", MissionEventId{0, 1})->next, 3u);
+    EXPECT_EQ(s.cursor_after("m", MissionEventId{0, 7})->next, 0u);  // unknown: from the start
+  }
+  // A replacement cut short after its JSON (the old GLB still there) and one cut short before it (a newer GLB
+  // without its JSON): open() keeps the committed revision and removes the other files.
+  std::ofstream(m + "/0.glb") << "coarse-0";
+  std::ofstream(m + "/1.r4.glb") << "never committed";
+  auto store = MissionStore::open(dir);
+  ASSERT_TRUE(store) << store.error().message;
+  auto& s = **store;
+  const auto ks = *s.keyframes("m");
+  ASSERT_EQ(ks.size(), 2u);
+  EXPECT_EQ(ks[0].rev, 1);
+  EXPECT_EQ(ks[1].rev, 0);
+  EXPECT_DOUBLE_EQ(ks[0].first_available, 1000.0);
+  EXPECT_FALSE(fs::exists(m + "/0.glb"));
+  EXPECT_FALSE(fs::exists(m + "/1.r4.glb"));
+  EXPECT_TRUE(fs::exists(m + "/0.r1.glb"));
+  EXPECT_TRUE(fs::exists(m + "/1.glb"));
+  EXPECT_EQ(*s.read_glb("m", 0, 1), bytes("a finer keyframe 0"));
+  EXPECT_EQ(s.put(keyframe("m", 0), bytes("coarse-0"))->outcome, PutOutcome::kStale);  // still stale after it
+  EXPECT_EQ(parse_event_id("12-3")->rev, 3);
+  EXPECT_EQ(parse_event_id("12")->seq, 12);
+  for (const char* bad : {"", "-1", "1-", "a", "1-b", "99999999999"}) EXPECT_FALSE(parse_event_id(bad)) << bad;
   rgbdcast::test::remove_tree_quietly(dir);
 }

@@ -101,13 +101,18 @@ double covered(const std::string& jpeg) {
 // The answer JSON of the wire contract, field by field.
 void expect_answer_shape(const json& a, const std::string& mission, int seq) {
   ASSERT_TRUE(a.is_object()) << a;
-  EXPECT_EQ(a.size(), 7u) << a;
+  EXPECT_EQ(a.size(), 9u) << a;
   EXPECT_EQ(a["mission"], mission);
   EXPECT_EQ(a["seq"], seq);
+  EXPECT_TRUE(a["rev"].is_number_unsigned()) << a;
   EXPECT_TRUE(a["bytes"].is_number_unsigned()) << a;
   EXPECT_TRUE(a["triangles"].is_number_unsigned()) << a;
   EXPECT_GT(a["triangles"].get<int>(), 100) << a;
-  for (const char* t : {"captured", "received", "available"}) EXPECT_TRUE(a[t].is_number()) << t << ": " << a;
+  for (const char* t : {"captured", "received", "available", "first_available"})
+    EXPECT_TRUE(a[t].is_number()) << t << ": " << a;
+  EXPECT_LE(a["first_available"].get<double>(), a["available"].get<double>()) << a;
+  EXPECT_GT(a["first_available"].get<double>(), 0) << a;
+  if (a["rev"] == 0) EXPECT_EQ(a["first_available"], a["available"]) << a;
   EXPECT_GE(a["available"].get<double>(), a["received"].get<double>()) << a;
 }
 
@@ -151,7 +156,7 @@ class SseClient {
   }
   std::vector<SseEvent> events() const {
     std::vector<SseEvent> out;
-    std::regex re(R"(id: (\d+)\nevent: (\w+)\ndata: (\{[^\n]*\})\n\n)");
+    std::regex re(R"(id: ([0-9-]+)\nevent: (\w+)\ndata: (\{[^\n]*\})\n\n)");
     for (std::sregex_iterator it(text_.begin(), text_.end(), re), end; it != end; ++it)
       out.push_back({(*it)[1], (*it)[2], (*it)[3]});
     return out;
@@ -553,4 +558,98 @@ TEST(Missions, WritesNeedTheTokenWhenOneIsSet) {
   auto del = c->Delete("/v1/missions/m", auth);
   ASSERT_TRUE(del);
   EXPECT_EQ(del->status, 204);
+}
+
+// A refinement: the sender re-posts keyframe 0 under rev=1 with a finer body. It replaces the stored keyframe (the
+// mission keeps one node per seq, views and model.glb show the new body), a re-post of (0, 1) is idempotent, another
+// body under (0, 1) is a 409, rev 0 again is a 409 "stale_revision", the revision is an SSE event "0-1", and a
+// restart keeps revision 1.
+TEST(Missions, ARevisionReplacesTheKeyframeIdempotentlyAndSurvivesARestart) {
+  REQUIRE_KEYFRAMES();
+  const auto& k = keyframes();
+  const TestDir test_dir("missions-rev");
+  const std::string dir = test_dir.path;
+  std::string error;
+  json after_revision;
+  {
+    ServerProcess server;
+    ASSERT_TRUE(server.start(dir, {}, &error)) << error;
+    auto c = client(server.port());
+    ASSERT_EQ(post_keyframe(*c, "m", 0, k[0])->status, 201);
+    ASSERT_EQ(post_keyframe(*c, "m", 1, k[1])->status, 201);
+    const json first = json::parse(c->Get("/v1/missions/m")->body);
+    auto view_before = c->Get("/v1/missions/m/view?pose=keyframe:0&width=320&height=240");
+    ASSERT_TRUE(view_before);
+    ASSERT_EQ(view_before->status, 200);
+
+    // Revision 1 of seq 0: another real keyframe's body (k[2]) at seq 0's pose.
+    const std::string rev1 = keyframe_path("m", 0, k[0].pose, k[0].captured) + "&rev=1";
+    auto replaced = c->Post(rev1.c_str(), k[2].glb, "model/gltf-binary");
+    ASSERT_TRUE(replaced);
+    ASSERT_EQ(replaced->status, 201) << replaced->body;
+    const json r = json::parse(replaced->body);
+    expect_answer_shape(r, "m", 0);
+    EXPECT_EQ(r["rev"], 1);
+    EXPECT_EQ(r["bytes"], k[2].glb.size());
+    EXPECT_EQ(r["first_available"], first["keyframes"][0]["available"]);  // the seq was viewable since then
+    EXPECT_GE(r["available"].get<double>(), r["first_available"].get<double>());
+    EXPECT_EQ(files_under(dir + "/missions"), 4u);  // 0.r1.glb, 0.json, 1.glb, 1.json: the old body is gone
+
+    auto again = c->Post(rev1.c_str(), k[2].glb, "model/gltf-binary");
+    ASSERT_TRUE(again);
+    EXPECT_EQ(again->status, 200) << again->body;
+    EXPECT_EQ(json::parse(again->body), r);
+    auto other = c->Post(rev1.c_str(), k[3].glb, "model/gltf-binary");
+    expect_json_error(other, 409, "another body under the same revision");
+    EXPECT_EQ(json::parse(other->body)["error"], "conflict");
+    auto stale = post_keyframe(*c, "m", 0, k[0]);
+    expect_json_error(stale, 409, "the older revision");
+    EXPECT_EQ(json::parse(stale->body)["error"], "stale_revision");
+    EXPECT_EQ(json::parse(stale->body)["stored"]["rev"], 1);
+    expect_json_error(c->Post((keyframe_path("m", 0, k[0].pose) + "&rev=x").c_str(), k[2].glb, "model/gltf-binary"),
+                      400, "a rev that is not a number");
+    EXPECT_EQ(files_under(dir + "/missions"), 4u);
+
+    after_revision = json::parse(c->Get("/v1/missions/m")->body);
+    ASSERT_EQ(after_revision["keyframes"].size(), 2u);
+    EXPECT_EQ(after_revision["keyframes"][0]["rev"], 1);
+    EXPECT_EQ(after_revision["keyframes"][0]["bytes"], k[2].glb.size());
+    EXPECT_EQ(after_revision["bytes"], k[2].glb.size() + k[1].glb.size());
+
+    // The merged model: one node per seq, seq 0's being the revision (k[2]'s triangles).
+    auto glb = c->Get("/v1/missions/m/model.glb");
+    ASSERT_TRUE(glb);
+    auto scene = rgbdcast::decode_glb(reinterpret_cast<const std::uint8_t*>(glb->body.data()), glb->body.size());
+    ASSERT_TRUE(scene) << scene.error().message;
+    ASSERT_EQ(scene->nodes.size(), 2u);
+    EXPECT_EQ(scene->triangle_count(), after_revision["triangles"].get<size_t>());
+    EXPECT_EQ(after_revision["keyframes"][0]["triangles"], r["triangles"]);
+    // The view from keyframe 0 now draws the revision's surface: it changed.
+    auto view_after = c->Get("/v1/missions/m/view?pose=keyframe:0&width=320&height=240");
+    ASSERT_TRUE(view_after);
+    ASSERT_EQ(view_after->status, 200);
+    EXPECT_NE(view_after->body, view_before->body);
+
+    SseClient sse(server.port(), "/v1/missions/m/events");
+    ASSERT_TRUE(sse.read_until([](const std::string& t) { return t.find("id: 0-1") != std::string::npos; }, 5.0))
+        << sse.text();
+    EXPECT_EQ(ids_of(sse.events()), (std::vector<std::string>{"0", "1", "0-1"})) << sse.text();
+    SseClient resumed(server.port(), "/v1/missions/m/events", "1");
+    ASSERT_TRUE(resumed.read_until([](const std::string& t) { return t.find("id: 0-1") != std::string::npos; }, 5.0));
+    EXPECT_EQ(ids_of(resumed.events()), (std::vector<std::string>{"0-1"})) << resumed.text();
+    server.kill9();
+  }
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {}, &error)) << error;
+  auto c = client(server.port());
+  EXPECT_EQ(json::parse(c->Get("/v1/missions/m")->body), after_revision);
+  EXPECT_EQ(json::parse(post_keyframe(*c, "m", 0, k[0])->body)["error"], "stale_revision");
+  auto again = c->Post((keyframe_path("m", 0, k[0].pose, k[0].captured) + "&rev=1").c_str(), k[2].glb,
+                       "model/gltf-binary");
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->status, 200) << again->body;
+  auto glb = c->Get("/v1/missions/m/model.glb");
+  auto scene = rgbdcast::decode_glb(reinterpret_cast<const std::uint8_t*>(glb->body.data()), glb->body.size());
+  ASSERT_TRUE(scene);
+  EXPECT_EQ(scene->nodes.size(), 2u);
 }

@@ -129,6 +129,72 @@ TEST(LatencyBudget, ConvergesToPostsThatTakeTheirShareOnALinkWithAFixedCostPerPo
   EXPECT_NEAR(budget, 62.5 * ((1.0 - overhead_s) * 0.9 - fixed_s), 0.5);
 }
 
+// The POST model: a 500 kbit/s line with 0.15 s per POST (round trip + server). POSTs of two sizes separate the two
+// terms; POSTs of one size cannot, and keep the last good fixed cost.
+TEST(PostCostModel, FitsTheFixedCostAndTheLineRateFromPostsOfSeveralSizes) {
+  PostCostModel m;
+  EXPECT_TRUE(m.empty());
+  m.on_sample(20000, post_seconds(20000, 500, 0.15));
+  EXPECT_FALSE(m.fitted());                     // one size: no fit yet, the goodput stands in
+  EXPECT_DOUBLE_EQ(m.fixed_s(), 0);
+  EXPECT_NEAR(m.rate_bytes_per_s(), 20000 / 0.47, 1);
+  for (size_t bytes : {8000u, 30000u, 15000u, 40000u}) m.on_sample(bytes, post_seconds(bytes, 500, 0.15));
+  EXPECT_TRUE(m.fitted());
+  EXPECT_NEAR(m.fixed_s(), 0.15, 1e-6);
+  EXPECT_NEAR(m.rate_bytes_per_s() * 8 / 1000, 500, 1e-3);
+  // The link slows to 250 kbit/s: the model follows within a few POSTs (older samples are forgotten).
+  for (int i = 0; i < 12; ++i)
+    for (size_t bytes : {10000u, 30000u}) m.on_sample(bytes, post_seconds(bytes, 250, 0.15));
+  EXPECT_NEAR(m.rate_bytes_per_s() * 8 / 1000, 250, 5);
+  EXPECT_NEAR(m.fixed_s(), 0.15, 0.02);
+  // Then the line speeds up to 400 kbit/s while the POSTs are of one size: they cannot tell the two terms apart, so
+  // the fits made while the old sizes fade give some of the change to the fixed cost; once the sizes no longer
+  // spread, the fixed cost is kept and the rate is what is left. What holds: the model predicts the POSTs it sees,
+  // and never a fixed cost above the true one (it errs toward the goodput rule, the conservative side).
+  for (int i = 0; i < 30; ++i) m.on_sample(20000, post_seconds(20000, 400, 0.15));
+  EXPECT_FALSE(m.fitted());
+  EXPECT_LE(m.fixed_s(), 0.15 + 1e-9);
+  EXPECT_NEAR(m.fixed_s() + 20000 / m.rate_bytes_per_s(), post_seconds(20000, 400, 0.15), 0.01);
+}
+
+TEST(LinkEstimator, ReportsTheLineRateUnderTheCapAndFailuresLowerIt) {
+  LinkEstimatorParams p;
+  p.cap_kbps = 500;
+  LinkEstimator e(p);
+  EXPECT_DOUBLE_EQ(e.line_kbps(), 500);  // before any POST: the goodput guess (capped)
+  EXPECT_DOUBLE_EQ(e.post_fixed_s(), 0);
+  for (int i = 0; i < 4; ++i)
+    for (size_t bytes : {10000u, 30000u}) e.on_ack(bytes, post_seconds(bytes, 500, 0.15));
+  EXPECT_NEAR(e.line_kbps(), 500, 1);     // the line, not the goodput of these POSTs ...
+  EXPECT_LT(e.estimate_kbps(), 400);      // ... which the round trip dilutes
+  EXPECT_NEAR(e.post_fixed_s(), 0.15, 1e-3);
+  e.on_failure();
+  EXPECT_NEAR(e.line_kbps(), 250, 1);
+  e.on_ack(20000, post_seconds(20000, 500, 0.15));
+  EXPECT_NEAR(e.line_kbps(), 500, 2);
+  e.set_cap_kbps(100);
+  EXPECT_DOUBLE_EQ(e.line_kbps(), 100);
+}
+
+// With the POST model the budgets use the line rate less the fixed cost: from the first keyframe, the POST takes
+// the time it was given (the goodput rule reaches that only after several POSTs), and the refinement budget is what
+// an idle window carries.
+TEST(KeyframeBudget, TheFixedCostPerPostComesOffTheWindowOnce) {
+  const double fixed_s = 0.15;
+  // Rate rule: 62.5 kB/s x (0.7 s x 0.9 - 0.15 s).
+  EXPECT_NEAR(keyframe_budget_kb(500, 0.7, BudgetRule{}, fixed_s), 62.5 * (0.7 * 0.9 - 0.15), 1e-9);
+  // Latency rule: 0.3 s before the POST leaves 0.7 s; 62.5 x (0.7 x 0.9 - 0.15) = 30 kB, whose POST then takes
+  // 0.15 + 30 / 62.5 = 0.63 s = 0.7 x 0.9.
+  const double kb = latency_budget_kb(500, 0.3, LatencyRule{}, BudgetRule{}, fixed_s);
+  EXPECT_NEAR(kb, 30, 1e-9);
+  EXPECT_NEAR(fixed_s + kb / 62.5, 0.7 * 0.9, 1e-9);
+  // Refinements: 2 Mbit/s for 1 s: 250 x (0.9 - 0.15) = 187.5 kB, held to the ceiling; 100 kbit/s: 9.4 kB; a
+  // window shorter than the fixed cost buys nothing.
+  EXPECT_DOUBLE_EQ(refinement_budget_kb(2000, 1.0, fixed_s, 100), 100);
+  EXPECT_NEAR(refinement_budget_kb(100, 1.0, fixed_s, 100), 12.5 * 0.75, 1e-9);
+  EXPECT_DOUBLE_EQ(refinement_budget_kb(2000, 0.1, fixed_s, 100), 0);
+}
+
 TEST(SmoothedDuration, IsTheMeanPlusTwoDeviationsAndStaysHighAfterASpike) {
   SmoothedDuration d(0.15);
   EXPECT_DOUBLE_EQ(d.value(), 0.15);  // before the first sample

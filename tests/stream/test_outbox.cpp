@@ -74,6 +74,49 @@ TEST(Outbox, OnlyNeverAttemptedEntriesAreCoarsened) {
   test::remove_tree_quietly(dir);
 }
 
+// A refinement: an acknowledged entry's next revision, under its own GLB name, queued again; the first revision's
+// answer and size are kept; only acknowledged entries are revised; a reopen keeps the revision and removes the GLB
+// a revision cut short left.
+TEST(Outbox, AnAcknowledgedEntryIsRevisedUnderItsOwnGlbAndSurvivesAReopen) {
+  const std::string dir = test::temp_dir("outbox_revise");
+  {
+    auto box = Outbox::open(dir, "m1");
+    ASSERT_TRUE(box);
+    ASSERT_TRUE((*box)->add(OutboxEntry{}, bytes(4000, 1)));
+    ASSERT_TRUE((*box)->add(OutboxEntry{}, bytes(4000, 2)));
+    EXPECT_FALSE((*box)->revise(0, bytes(9000, 3), 90, 50));  // not acknowledged yet
+    ASSERT_TRUE((*box)->mark_acked(0, R"({"seq":0,"available":7.5})"));
+    ASSERT_TRUE((*box)->revise(0, bytes(9000, 3), 90, 50));
+    const auto e = *(*box)->entry(0);
+    EXPECT_EQ(e.rev, 1);
+    EXPECT_TRUE(e.pending());
+    EXPECT_FALSE(e.attempted);
+    EXPECT_EQ(e.bytes, 9000u);
+    EXPECT_EQ(e.first_bytes, 4000u);
+    EXPECT_NE(e.first_ack.find("7.5"), std::string::npos);
+    EXPECT_DOUBLE_EQ(e.budget_kb, 90);
+    EXPECT_EQ(*(*box)->read_glb(0), bytes(9000, 3));
+    EXPECT_FALSE(fs::exists(dir + "/kf-00000000.glb"));
+    EXPECT_TRUE(fs::exists(dir + "/kf-00000000.r1.glb"));
+    EXPECT_FALSE((*box)->coarsen(0, bytes(100, 4), 1, 1));  // a refinement is never coarsened
+    EXPECT_EQ((*box)->entry(0)->bytes, 9000u);
+  }
+  std::ofstream(dir + "/kf-00000000.r2.glb") << "a second revision cut short before its JSON";
+  std::ofstream(dir + "/kf-00000000.glb") << "the first revision, not yet removed";
+  auto box = Outbox::open(dir, "m1");
+  ASSERT_TRUE(box) << box.error().message;
+  const auto e = *(*box)->entry(0);
+  EXPECT_EQ(e.rev, 1);
+  EXPECT_EQ(e.bytes, 9000u);
+  EXPECT_EQ(e.first_bytes, 4000u);
+  EXPECT_EQ(*(*box)->read_glb(0), bytes(9000, 3));
+  EXPECT_FALSE(fs::exists(dir + "/kf-00000000.r2.glb"));
+  EXPECT_FALSE(fs::exists(dir + "/kf-00000000.glb"));
+  EXPECT_EQ((*box)->entry(1)->rev, 0);
+  EXPECT_EQ(*(*box)->read_glb(1), bytes(4000, 2));
+  test::remove_tree_quietly(dir);
+}
+
 TEST(Outbox, AGlbWithoutItsJsonIsRemovedAndItsSeqReused) {
   const std::string dir = test::temp_dir("outbox_orphan");
   {
