@@ -299,7 +299,9 @@ TEST(Uplink, BadUrlsAndTokenFilesGetOneLineErrors) {
     uo.server_url = url;
     auto u = Uplink::create(uo);
     EXPECT_FALSE(u) << url;
-    if (!u) EXPECT_EQ(u.error().message.find('\n'), std::string::npos);
+    if (!u) {
+      EXPECT_EQ(u.error().message.find('\n'), std::string::npos);
+    }
   }
   const std::string dir = test::temp_dir("token_files");
   EXPECT_EQ(read_token_file(dir + "/missing").error().code, ErrorCode::kNotFound);
