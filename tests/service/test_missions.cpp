@@ -281,7 +281,9 @@ TEST(Missions, ViewsGrowIncrementallyAndModelIsOneValidGlb) {
     auto v = c->Get(fixed.c_str());
     ASSERT_TRUE(v);
     ASSERT_EQ(v->status, 200) << v->body;
-    if (i > 0) EXPECT_FALSE(v->has_header("X-Upload-Ms")) << "view after keyframe " << i << " uploaded the mission";
+    if (i > 0) {
+      EXPECT_FALSE(v->has_header("X-Upload-Ms")) << "view after keyframe " << i << " uploaded the mission";
+    }
     coverage.push_back(covered(v->body));
   }
   for (size_t i = 1; i < coverage.size(); ++i) EXPECT_GE(coverage[i], coverage[i - 1] - 1e-3) << i;
