@@ -1,7 +1,5 @@
 #include "service/render_pool.h"
 
-#include "service/image_encode.h"
-
 #include <malloc.h>
 
 #include <chrono>
@@ -264,14 +262,10 @@ void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> st
       w->heap_dirty = true;
       if (static_cast<long long>(job->request.width) * job->request.height > options_.large_view_px)
         w->rendered_large = true;
+      out.color = std::move(rendered->color);
       out.render_ms = rendered->timings.render_ms;
       out.readback_ms = rendered->timings.readback_ms;
-      const auto t_encode = std::chrono::steady_clock::now();
-      auto encoded = encode_image(rendered->color, job->request.format, job->request.quality);
-      if (!encoded) return encoded.error();
-      out.encoded = std::move(*encoded);
-      out.encode_ms = ms_since(t_encode);
-      return std::move(out);  // the decoded image is freed here, on the worker
+      return std::move(out);
     };
     Result<RenderOutput> result = make_error(ErrorCode::kInternal, "render failed");
     try {

@@ -1,7 +1,7 @@
 #pragma once
 // A fixed set of renderers, each owned by one worker thread (a Renderer is used by one thread at a time, and an
 // OSMesa context belongs to the thread that made it), fed by one bounded queue. Contract:
-// - render() blocks until the view is rendered and encoded, or fails at once with kUnavailable "render queue full" when every
+// - render() blocks until the view is rendered, or fails at once with kUnavailable "render queue full" when every
 //   worker is busy and `queue_capacity` jobs are already waiting (the HTTP layer answers 503 with Retry-After): load sheds instead of
 //   piling up.
 // - Each worker keeps up to `resident_scenes` scenes uploaded (least recently used goes first); forget() drops a
@@ -10,7 +10,6 @@
 // - append() grows a resident scene in place (a live mission gains a keyframe): each worker that holds the scene
 //   uploads only the new nodes (Renderer::append); a worker that does not hold it loads it whole on its next view.
 #include <condition_variable>
-#include <cstdint>
 #include <deque>
 #include <functional>
 #include <future>
@@ -40,15 +39,10 @@ struct RenderPoolOptions {
   int large_view_px = 1920 * 1080;
 };
 
-// A view as the client asked for it: encoded (JPEG or PNG, request.format and quality) by the worker that rendered it.
-// The decoded image never leaves the worker, so at most `workers` of them exist at once, however many HTTP threads
-// wait for views (a 4096x4096 view is 64 MiB of RGBA and 48 MiB more for the encoder's BGR copy; with the encoding on
-// the HTTP threads, each of up to 32 held them at once).
 struct RenderOutput {
-  std::vector<std::uint8_t> encoded;
+  Image color;               // RGBA8
   double render_ms = 0.0;    // renderer: submission to idle
   double readback_ms = 0.0;
-  double encode_ms = 0.0;
   double upload_ms = 0.0;    // > 0 only when this request uploaded the scene
   double load_ms = 0.0;      // GLB decode on a cache miss
   double queue_ms = 0.0;     // waiting for a worker
