@@ -80,6 +80,11 @@ echo "soak: $TOTAL requests in ${DURATION} s by $CLIENTS clients"
 awk '{c[$1" "$2]++} END{for (k in c) print "  " k, c[k]}' "$WORK/all.log" | sort
 echo "soak: 5xx $FIVE, no response $ZERO"
 awk -v w="$RSS_WARM" -v e="$RSS_END" -v m="$RSS_MAX" 'BEGIN{printf "soak: RSS after warm-up %.1f MiB, max %.1f MiB (%+.1f %%), end (after 6 s idle) %.1f MiB, growth %+.1f %%\n", w, m, (m-w)*100.0/w, e, (e-w)*100.0/w}'
+# The trend without one sample's luck: medians of the first and last 30 samples (5 minutes each in a long run).
+sort_median() { sort -n | awk '{v[NR] = $1} END{if (NR == 0) print 0; else print (NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2)}'; }
+MED_FIRST=$(head -n 30 "$WORK/rss.log" | awk '{print $2}' | sort_median)
+MED_LAST=$(tail -n 30 "$WORK/rss.log" | awk '{print $2}' | sort_median)
+awk -v w="$RSS_WARM" -v a="$MED_FIRST" -v b="$MED_LAST" -v n="$(wc -l < "$WORK/rss.log")" 'BEGIN{printf "soak: %d RSS samples; median of the first 30 %.1f MiB (%+.1f %%), of the last 30 %.1f MiB (%+.1f %%)\n", n, a, (a-w)*100.0/w, b, (b-w)*100.0/w}'
 awk -v w="$STORED_WARM" '{if ($3 > m) m = $3; if (n == 0 || $3 < lo) lo = $3; n++; last = $3} END{printf "soak: scenes stored after warm-up %d, during the run %d..%d, at the end %d\n", w, lo, m, last}' "$WORK/rss.log"
 # RSS_LOG=FILE keeps the trace (every 10 s after warm-up): Unix time, RSS in MiB, scenes stored, its anonymous and
 # file-backed parts in MiB.

@@ -5,6 +5,14 @@
 #include <cstring>
 #include <vector>
 
+#if defined(__SANITIZE_ADDRESS__)
+#include <dlfcn.h>
+#include <link.h>
+
+#include <algorithm>
+#include <string>
+#endif
+
 namespace rgbdcast::vk {
 
 Error vk_error(VkResult r, const char* call) {
@@ -55,10 +63,42 @@ int device_rank(VkPhysicalDeviceType t) {
   }
 }
 
+#if defined(__SANITIZE_ADDRESS__)
+// Sanitized builds only (scripts/sanitize.sh, gcc's -fsanitize=address). The Vulkan loader unloads the driver it
+// opened (lavapipe) in vkDestroyInstance. What the driver allocates once per process (its state built under
+// pthread_once during vkCreateInstance, never freed) is then reported by LeakSanitizer at exit with frames in
+// "<unknown module>", which no suppression can name, and the fast unwinder stops inside the driver (no frame
+// pointers), so the loader's module is not on the stack either. Keeping the objects that instance creation mapped
+// (the driver, its LLVM, a layer) loaded with RTLD_NODELETE gives those frames their module's name, which
+// tests/sanitizers/lsan.supp matches. It changes when the driver's code is unmapped, nothing of what it runs; release
+// builds do not compile it.
+std::vector<std::string> loaded_objects() {
+  std::vector<std::string> names;
+  dl_iterate_phdr(
+      [](dl_phdr_info* info, size_t, void* out) {
+        auto* names = static_cast<std::vector<std::string>*>(out);
+        if (info->dlpi_name && info->dlpi_name[0]) names->push_back(info->dlpi_name);
+        return 0;
+      },
+      &names);
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+void keep_loaded_since(const std::vector<std::string>& before) {
+  for (const std::string& name : loaded_objects())
+    if (!std::binary_search(before.begin(), before.end(), name))
+      dlopen(name.c_str(), RTLD_LAZY | RTLD_NOLOAD | RTLD_NODELETE);  // a reference never closed: pinned on purpose
+}
+#endif
+
 }  // namespace
 
 Result<std::unique_ptr<Context>> Context::create(bool validation) {
   std::unique_ptr<Context> ctx(new Context());
+#if defined(__SANITIZE_ADDRESS__)
+  const std::vector<std::string> loaded_before = loaded_objects();
+#endif
   uint32_t loader_version = 0;
   if (vkEnumerateInstanceVersion(&loader_version) != VK_SUCCESS || loader_version < VK_API_VERSION_1_3)
     return make_error(ErrorCode::kUnavailable, "Vulkan: the loader does not offer Vulkan 1.3");
@@ -93,6 +133,9 @@ Result<std::unique_ptr<Context>> Context::create(bool validation) {
   if (validation && debug_utils) ici.pNext = &dbg;  // also catches errors of instance creation itself
   if (VkResult r = vkCreateInstance(&ici, nullptr, &ctx->instance_); r != VK_SUCCESS)
     return vk_error(r, "vkCreateInstance");
+#if defined(__SANITIZE_ADDRESS__)
+  keep_loaded_since(loaded_before);
+#endif
   if (validation && debug_utils) {
     auto create_messenger = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
         vkGetInstanceProcAddr(ctx->instance_, "vkCreateDebugUtilsMessengerEXT"));
