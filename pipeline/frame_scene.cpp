@@ -57,6 +57,43 @@ int guess_quality(int q_lo, double lo_bytes, int q_hi, double hi_bytes, double t
   return static_cast<int>(std::floor(quality_of_log_scale(x)));
 }
 
+// A JPEG encode of the texture tried by the budget: quality, resolution scale, bytes.
+struct Tried {
+  int quality;
+  double scale;
+  std::vector<std::uint8_t> bytes;
+};
+
+// The bytes of an encode tried at (q, scale), or -1.
+double tried_bytes(const std::vector<Tried>& tried, int q, double scale) {
+  for (const Tried& t : tried)
+    if (t.quality == q && t.scale == scale) return static_cast<double>(t.bytes.size());
+  return -1;
+}
+
+// [*q_lo, *q_hi] (q_lo fits `target` bytes, q_hi does not) narrowed to the closest qualities tried at `scale`.
+void narrow_to_tried(const std::vector<Tried>& tried, double scale, double target, int* q_lo, int* q_hi) {
+  for (const Tried& t : tried)
+    if (t.scale == scale && t.quality > *q_lo && t.quality < *q_hi) {
+      if (static_cast<double>(t.bytes.size()) <= target) *q_lo = t.quality;
+      else *q_hi = t.quality;
+    }
+}
+
+// The next qualities to try for `target` bytes strictly between q_lo and q_hi (both tried at `scale`): two either
+// side of guess_quality's.
+std::vector<int> next_qualities(const std::vector<Tried>& tried, double scale, int q_lo, int q_hi, double target) {
+  std::vector<int> qs;
+  if (q_hi - q_lo < 2) return qs;  // nothing between them
+  const int guess =
+      guess_quality(q_lo, tried_bytes(tried, q_lo, scale), q_hi, tried_bytes(tried, q_hi, scale), target);
+  for (int q : {guess - 2, guess + 2}) {
+    q = std::clamp(q, q_lo + 1, q_hi - 1);
+    if (std::find(qs.begin(), qs.end(), q) == qs.end()) qs.push_back(q);
+  }
+  return qs;
+}
+
 TextureMode resolve_texture(const FrameReductionOptions& o) {
   if (o.texture != TextureMode::kAuto) return o.texture;
   return o.params.preset == Preset::kRealtime ? TextureMode::kFrame : TextureMode::kAuto;
@@ -259,11 +296,6 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   // The mesh at a tolerance, textured (pixels only) and its geometry measured; then its texture at the best quality.
   // JPEG encodes tried on the current mesh's texture: (quality, scale) -> bytes. A remesh changes the texture's
   // fill, so it clears them.
-  struct Tried {
-    int quality;
-    double scale;
-    std::vector<std::uint8_t> bytes;
-  };
   std::vector<Tried> tried;
   const int threads = openmp_threads(options.params.threads);
   Image scaled;  // the texture at scaled_at < 1, made when needed
@@ -279,11 +311,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     b.encodes += static_cast<int>(qualities.size());
     return ok_status();
   };
-  auto bytes_of = [&](int q, double scale) -> double {
-    for (const Tried& t : tried)
-      if (t.quality == q && t.scale == scale) return static_cast<double>(t.bytes.size());
-    return -1;
-  };
+  auto bytes_of = [&](int q, double scale) { return tried_bytes(tried, q, scale); };
   // The mesh at a tolerance, textured, its geometry measured (Draco or meshopt, in a GLB) and, beside it on a
   // second thread when the reduction may use two, its texture at the best and the least quality (the search that
   // may follow needs both).
@@ -380,24 +408,10 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
         return;
       }
       const double left = predicted_ready.get();
-      const double hi_bytes = static_cast<double>(out[out.size() - 2].bytes.size());
-      const double lo_bytes = static_cast<double>(out.back().bytes.size());
-      if (left > lo_bytes && left < hi_bytes) {
+      if (left > tried_bytes(out, kMinQuality, 1.0) && left < tried_bytes(out, kMaxQuality, 1.0)) {
         int q_lo = kMinQuality, q_hi = kMaxQuality;
-        double b_lo = lo_bytes, b_hi = hi_bytes;
-        for (const Tried& t : out) {
-          const double n = static_cast<double>(t.bytes.size());
-          if (t.quality > q_lo && t.quality < q_hi) {
-            if (n <= left) q_lo = t.quality, b_lo = n;
-            else q_hi = t.quality, b_hi = n;
-          }
-        }
-        const int guess = guess_quality(q_lo, b_lo, q_hi, b_hi, left);
-        std::vector<int> qs;
-        for (int q : {guess - 2, guess + 2}) {
-          q = std::clamp(q, q_lo + 1, q_hi - 1);
-          if (q < q_hi && std::find(qs.begin(), qs.end(), q) == qs.end()) qs.push_back(q);
-        }
+        narrow_to_tried(out, 1.0, left, &q_lo, &q_hi);
+        const std::vector<int> qs = next_qualities(out, 1.0, q_lo, q_hi, left);
         if (!qs.empty()) st = add(qs);
       }
       if (st) *jpegs = std::move(out);
@@ -406,9 +420,10 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     double limit = simplify_px;
     Result<AtlasResult> t = [&]() -> Result<AtlasResult> {
       if (auto st = simplify_realtime(*prepared, frame, simplify_px, &*reduced); !st) return st.error();
+      const double rest = rest_bytes > 0 ? static_cast<double>(rest_bytes) : kRestPriorBytes;
+      auto estimate_geometry = [&] { return static_cast<double>(reduced->mesh.triangle_count()) * bytes_per_triangle; };
       if (anticipate) {
-        const double estimate = static_cast<double>(reduced->mesh.triangle_count()) * bytes_per_triangle;
-        const double rest = rest_bytes > 0 ? static_cast<double>(rest_bytes) : kRestPriorBytes;
+        const double estimate = estimate_geometry();
         if (estimate > 1.1 * geometry_cap) {
           const double floor = floor_ready.get();
           if (floor > 0 && estimate + rest + floor > target) {
@@ -418,8 +433,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
           }
         }
       }
-      predict(target - static_cast<double>(reduced->mesh.triangle_count()) * bytes_per_triangle -
-              (rest_bytes > 0 ? static_cast<double>(rest_bytes) : kRestPriorBytes));
+      predict(target - estimate_geometry() - rest);
       // One "simplify" stage: every pass's time, the last count.
       std::vector<StageReport> merged;
       for (StageReport& r : reduced->stages) {
@@ -554,19 +568,10 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
       if (auto s = encode_at(scale, {kMinQuality, kMaxQuality}, threads); !s) return s.error();
     }
     if (bytes_of(q_lo, scale) <= texture_target && bytes_of(q_hi, scale) > texture_target) {
-      for (const Tried& t : tried)  // the closest qualities already tried (the floor's, when encoded) bracket it
-        if (t.scale == scale && t.quality > q_lo && t.quality < q_hi) {
-          if (static_cast<double>(t.bytes.size()) <= texture_target) q_lo = t.quality;
-          else q_hi = t.quality;
-        }
+      // The closest qualities already tried (the floor's and the second thread's first step) bracket it.
+      narrow_to_tried(tried, scale, texture_target, &q_lo, &q_hi);
       for (int step = 0; step < 3 && q_hi - q_lo > 2 && bytes_of(q_lo, scale) < 0.95 * texture_target; ++step) {
-        const double lo_bytes = bytes_of(q_lo, scale), hi_bytes = bytes_of(q_hi, scale);
-        const int guess = guess_quality(q_lo, lo_bytes, q_hi, hi_bytes, texture_target);
-        std::vector<int> qs;
-        for (int q : {guess - 2, guess + 2}) {
-          q = std::clamp(q, q_lo + 1, q_hi - 1);
-          if (std::find(qs.begin(), qs.end(), q) == qs.end()) qs.push_back(q);
-        }
+        const std::vector<int> qs = next_qualities(tried, scale, q_lo, q_hi, texture_target);
         if (auto s = encode_at(scale, qs, threads); !s) return s.error();
         for (int q : qs) {
           if (bytes_of(q, scale) <= texture_target) q_lo = std::max(q_lo, q);

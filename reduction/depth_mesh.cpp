@@ -318,6 +318,18 @@ struct Moments {
 // Affine texture interpolation against the projective mapping: the largest deviation (pixels) at the edge midpoints
 // and the centroid, from the vertices' pixels p_i, depths z_i and edge lengths (the true image point of barycentre b
 // is sum b_i z_i p_i / sum b_i z_i). Compares against `limit` without square roots.
+// The largest texture deviation (pixels) a triangle with these edge lengths can have when the depths at the ends of
+// edge e are within a ratio r[e] of each other: an edge of length L deviates at most L (r - 1) / (r + 1) / 2 at its
+// midpoint, and the centroid at most 2 L_max (R / (R + 2) - 1/3) for depths within R (the largest r) of each other.
+double texture_deviation_bound(const float len[3], const double r[3]) {
+  double edge = 0, R = 1;
+  for (int e = 0; e < 3; ++e) {
+    edge = std::max(edge, len[e] * (r[e] - 1) / (r[e] + 1) / 2);
+    R = std::max(R, r[e]);
+  }
+  return std::max(edge, 2 * len[0] * (R / (R + 2) - 1.0 / 3));
+}
+
 bool texture_deviates(const double px[3], const double py[3], const double z[3], const float len[3], double limit) {
   for (int i = 0; i < 3; ++i) {
     const int j = (i + 1) % 3;
@@ -381,18 +393,12 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
     }
   }
   // Levels whose triangles can deviate in texture by more than the limit once no edge jumps (else the test is
-  // skipped): an edge of length L between depths within a ratio r deviates at most L (r - 1) / (r + 1) / 2 at its
-  // midpoint, and the centroid at most 2 L_max (R / (R + 2) - 1/3) for depths within R of each other.
+  // skipped; texture_deviation_bound).
   std::vector<std::uint8_t> level_texture_check(levels, 0);
   for (int d = 1; d < levels; ++d) {
-    double edge = 0, R = 1;
-    for (int e = 0; e < 3; ++e) {
-      const double r = level_ratio[d][e];
-      edge = std::max(edge, level_len[d][e] * (r - 1) / (r + 1) / 2);
-      R = std::max(R, r);
-    }
-    const double centroid = 2 * level_len[d][0] * (R / (R + 2) - 1.0 / 3);
-    level_texture_check[d] = p.texture_deviation_px > 0 && std::max(edge, centroid) > p.texture_deviation_px * 0.999;
+    const double r[3] = {level_ratio[d][0], level_ratio[d][1], level_ratio[d][2]};
+    level_texture_check[d] =
+        p.texture_deviation_px > 0 && texture_deviation_bound(level_len[d].data(), r) > p.texture_deviation_px * 0.999;
   }
   // Each triangle's vertices as tile-local grid offsets (internal triangles, then leaves).
   std::vector<std::array<std::int32_t, 3>> vertex_offset(end);
@@ -407,9 +413,9 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
   // are never fitted) whose bounding box holds only valid grid points, inside the image, with every 8-neighbour
   // step within kSmoothStep, passes all of them: no vertex is invalid, no edge jumps (a path of L steps, each within
   // kSmoothStep, stays far inside (1 + jump_relative)^L), leaves are emittable, and the texture test cannot fire
-  // (checked below per level, with the ratios such steps allow). Its descendants then only sum their valid pixels
-  // for the hole test, which is kept. The result is the same as the full tests'; the steps' margin (1.06 against
-  // 1.08) is far beyond float rounding.
+  // (checked below per level, with the ratios such steps allow), and no pixel is a hole. Its whole subtree is then
+  // skipped: leaves emittable, errors 0, its valid pixels all of its points. The result is the same as the full
+  // tests'; the steps' margin (1.06 against 1.08) is far beyond float rounding.
   constexpr float kSmoothStep = 1.06f;
   const int root_level = level_of(fit_end / 2);
   bool skip_smooth = fit_end > 2 && fit_end < first_leaf && kSmoothStep < 1 + p.jump_relative;
@@ -417,15 +423,11 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
     if (!level_texture_check[d]) continue;
     const int id = 1 << d;
     const int px[3] = {t.ax[id], t.bx[id], t.cx[id]}, py[3] = {t.ay[id], t.by[id], t.cy[id]};
-    double edge = 0, R = 1;
-    for (int e = 0; e < 3; ++e) {
-      const int steps = std::max(std::abs(px[e] - px[(e + 1) % 3]), std::abs(py[e] - py[(e + 1) % 3]));
-      const double r = std::pow(double(kSmoothStep), steps);
-      edge = std::max(edge, level_len[d][e] * (r - 1) / (r + 1) / 2);
-      R = std::max(R, r);
-    }
-    const double centroid = 2 * level_len[d][0] * (R / (R + 2) - 1.0 / 3);
-    skip_smooth = std::max(edge, centroid) <= p.texture_deviation_px * 0.99;
+    double r[3];  // a chain of 8-neighbour steps, as many as the edge's Chebyshev length
+    for (int e = 0; e < 3; ++e)
+      r[e] = std::pow(double(kSmoothStep),
+                      std::max(std::abs(px[e] - px[(e + 1) % 3]), std::abs(py[e] - py[(e + 1) % 3])));
+    skip_smooth = texture_deviation_bound(level_len[d].data(), r) <= p.texture_deviation_px * 0.99;
   }
 
   const int tiles = h.tiles_x_ * h.tiles_y_;
