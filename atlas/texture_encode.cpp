@@ -30,8 +30,8 @@ void jpeg_error_exit(j_common_ptr cinfo) {
 }  // namespace
 
 // libjpeg(-turbo) straight from the RGB rows: the settings OpenCV's imencode used here (4:2:0, optimized Huffman
-// tables, the integer DCT), without its copy into BGR and back (7 encodes a realtime frame; the bytes are the same).
-Result<std::vector<std::uint8_t>> encode_jpeg(const Image& rgb, int quality) {
+// tables unless asked not to, the integer DCT), without its copy into BGR and back (the bytes are the same).
+Result<std::vector<std::uint8_t>> encode_jpeg(const Image& rgb, int quality, bool optimize_huffman) {
   if (rgb.empty() || rgb.channels != 3) return make_error(ErrorCode::kInvalidArgument, "JPEG needs an RGB8 image");
   if (quality < 1 || quality > 100)
     return make_error(ErrorCode::kInvalidArgument, "JPEG quality must be 1..100, got " + std::to_string(quality));
@@ -54,7 +54,7 @@ Result<std::vector<std::uint8_t>> encode_jpeg(const Image& rgb, int quality) {
   cinfo.in_color_space = JCS_RGB;
   jpeg_set_defaults(&cinfo);
   jpeg_set_quality(&cinfo, quality, TRUE);
-  cinfo.optimize_coding = TRUE;
+  cinfo.optimize_coding = optimize_huffman ? TRUE : FALSE;
   jpeg_start_compress(&cinfo, TRUE);
   const size_t stride = static_cast<size_t>(rgb.width) * 3;
   while (cinfo.next_scanline < cinfo.image_height) {

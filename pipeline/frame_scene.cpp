@@ -118,6 +118,12 @@ Image scaled_texture(const Image& full, double scale) {
   return image_from_rgb_mat(small);
 }
 
+// The budget's JPEGs use libjpeg's standard Huffman tables, not the image's own: a search encodes the texture 4-8
+// times and keeps one of them, and the image's own tables cost a second pass each (2-3x the time: q92 2.66 against
+// 0.84 ms on a 640x480 TUM frame) for 2-4 % fewer bytes at the qualities a budget lands on. The pixels are the same;
+// the budget buys a quality step or two less with the same bytes (BENCHMARKS.md, stop 18).
+constexpr bool kBudgetOptimizesHuffman = false;
+
 // JPEG encodes of one image at several qualities, on up to `threads` threads (plain threads, joined here).
 Result<std::vector<std::vector<std::uint8_t>>> encode_jpegs(const Image& im, const std::vector<int>& qualities,
                                                             int threads) {
@@ -126,7 +132,7 @@ Result<std::vector<std::vector<std::uint8_t>>> encode_jpegs(const Image& im, con
   const int workers = std::clamp(threads, 1, static_cast<int>(qualities.size()));
   std::atomic<size_t> next{0};
   auto work = [&] {
-    for (size_t i; (i = next++) < qualities.size();) out[i] = encode_jpeg(im, qualities[i]);
+    for (size_t i; (i = next++) < qualities.size();) out[i] = encode_jpeg(im, qualities[i], kBudgetOptimizesHuffman);
   };
   std::vector<std::thread> pool;
   for (int i = 1; i < workers; ++i) pool.emplace_back(work);
@@ -570,7 +576,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     if (bytes_of(q_lo, scale) <= texture_target && bytes_of(q_hi, scale) > texture_target) {
       // The closest qualities already tried (the floor's and the second thread's first step) bracket it.
       narrow_to_tried(tried, scale, texture_target, &q_lo, &q_hi);
-      for (int step = 0; step < 3 && q_hi - q_lo > 2 && bytes_of(q_lo, scale) < 0.95 * texture_target; ++step) {
+      for (int step = 0; step < 3 && q_hi - q_lo > 1 && bytes_of(q_lo, scale) < 0.95 * texture_target; ++step) {
         const std::vector<int> qs = next_qualities(tried, scale, q_lo, q_hi, texture_target);
         if (auto s = encode_at(scale, qs, threads); !s) return s.error();
         for (int q : qs) {
