@@ -171,8 +171,9 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
             << " of them sent later, coarsened, " << s.deferred_dropped << " dropped; " << s.refined
             << " refinements)";
   if (s.cap_changes > 0) std::cout << ", " << s.cap_changes << " caps read from " << a.link_kbps_file;
-  if (s.resumed) std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries
-                           << " outbox entries";
+  if (s.resumed)
+    std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries << " outbox entries and "
+              << s.resumed_deferred << " deferred keyframes (" << s.resumed_deferred_sent << " of them sent, coarsened)";
   std::cout << "; " << s.sender.acked << " acknowledged (" << s.sender.acked_bytes / 1000.0 << " kB this run, "
             << s.sender.posts << " posts, " << s.sender.failures << " failed, busy " << s.sender.busy_s << " s, "
             << s.sender.overlap_s << " s of it with 2+ in flight; refinements " << s.sender.refinements_acked << ", "

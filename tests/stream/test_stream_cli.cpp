@@ -2,6 +2,7 @@
 // - the budget follows --link-kbps (2000 vs 100 kbit/s: smaller keyframes, the acknowledged rate under the cap);
 // - a sender killed (SIGKILL) mid-mission and started again: nothing lost, nothing duplicated, the same keyframes
 //   as the uninterrupted run;
+// - a sender killed while keyframes wait deferred and started again: each deferred keyframe reaches the mission once;
 // - the budget follows a --link-kbps changed while streaming (--link-kbps-file);
 // - bad input gets a one-line error.
 #include <gtest/gtest.h>
@@ -15,6 +16,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <thread>
@@ -33,15 +35,41 @@ using nlohmann::json;
 
 const char* kSequence = "tum/rgbd_dataset_freiburg1_xyz_200_319";
 
-std::vector<json> outbox_entries(const std::string& dir) {
+// The outbox's JSON files named `<prefix>...json`, in name order: "kf-" the entries (by seq), "deferred-" the
+// deferred keyframes' records (by frame).
+std::vector<json> outbox_files(const std::string& dir, const std::string& prefix) {
   std::vector<std::string> names;
   for (const auto& f : fs::directory_iterator(dir))
-    if (f.path().filename().string().rfind("kf-", 0) == 0 && f.path().extension() == ".json")
+    if (f.path().filename().string().rfind(prefix, 0) == 0 && f.path().extension() == ".json")
       names.push_back(f.path().string());
   std::sort(names.begin(), names.end());
   std::vector<json> out;
   for (const auto& n : names) out.push_back(json::parse(read_file(n)));
   return out;
+}
+std::vector<json> outbox_entries(const std::string& dir) { return outbox_files(dir, "kf-"); }
+
+// Starts `cmd` (output discarded) and kills it (SIGKILL) as soon as `ready()` holds. Returns whether it was killed
+// so; false when it ended first or `timeout_s` passed (then it is killed anyway).
+bool kill_when(const std::string& cmd, const std::function<bool()>& ready, int timeout_s) {
+  pid_t pid = -1;
+  const std::string exec_cmd = "exec " + cmd + " >/dev/null 2>&1";
+  const char* argv[] = {"/bin/sh", "-c", exec_cmd.c_str(), nullptr};
+  if (posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ) != 0) return false;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(timeout_s);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (ready()) {
+      ::kill(pid, SIGKILL);
+      waitpid(pid, nullptr, 0);
+      return true;
+    }
+    int status = 0;
+    if (waitpid(pid, &status, WNOHANG) == pid) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ::kill(pid, SIGKILL);
+  waitpid(pid, nullptr, 0);
+  return false;
 }
 
 json mission(int port, const std::string& name) {
@@ -189,32 +217,14 @@ TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNoth
   // --keep-every-keyframe nothing is superseded, so the resumed mission must hold exactly the fast run's keyframes.)
   const std::string box = dir_ + "/restart";
   const std::string cmd = stream_command(server_.port(), "restart", box, 300, "--keep-every-keyframe");
-  pid_t pid = -1;
-  const char* argv[] = {"/bin/sh", "-c", nullptr, nullptr};
-  const std::string exec_cmd = "exec " + cmd + " >/dev/null 2>&1";
-  argv[2] = exec_cmd.c_str();
-  ASSERT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
-  bool killed_mid_mission = false;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(240);
-  while (std::chrono::steady_clock::now() < deadline) {
-    if (fs::exists(box)) {
-      const auto entries = outbox_entries(box);
-      const bool one_acked =
-          std::any_of(entries.begin(), entries.end(), [](const json& e) { return e["acked"].get<bool>(); });
-      if (one_acked) {
-        ::kill(pid, SIGKILL);
-        killed_mid_mission = true;
-        break;
-      }
-    }
-    int status = 0;
-    if (waitpid(pid, &status, WNOHANG) == pid) {
-      pid = -1;
-      break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  if (pid > 0) waitpid(pid, nullptr, 0);
+  const bool killed_mid_mission = kill_when(
+      cmd,
+      [&] {
+        if (!fs::exists(box)) return false;
+        const auto entries = outbox_entries(box);
+        return std::any_of(entries.begin(), entries.end(), [](const json& e) { return e["acked"].get<bool>(); });
+      },
+      240);
   ASSERT_TRUE(killed_mid_mission) << "the sender finished before a keyframe was acknowledged";
   const size_t before = outbox_entries(box).size();
   EXPECT_LT(before, fast.outbox.size()) << "killed too late to test a resume";
@@ -226,6 +236,58 @@ TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNoth
   EXPECT_EQ(keyframe_frames(resumed), fast_frames);
   // seq numbering continued: 0..n-1, no gap.
   for (size_t i = 0; i < resumed.outbox.size(); ++i) EXPECT_EQ(resumed.outbox[i]["seq"].get<size_t>(), i);
+}
+
+// A sender killed while keyframes wait deferred (the backlog rule let newer ones go first), then started again:
+// their records are in the outbox's folder, and the restarted sender reduces each one and delivers it: every
+// deferred keyframe reaches the mission exactly once, coarsened, after the keyframes before it, with seqs unique
+// and contiguous; no record is left.
+TEST_F(StreamCli, DeferredKeyframesReachTheMissionOnceAfterASenderRestart) {
+  // A keyframe at least every 6 frames, at 5 kbit/s: the first keyframe holds the line for seconds (at least the
+  // 4 kB budget floor, 6.4 s), so the second waits for the link, and the third, tracked meanwhile, supersedes it.
+  const std::string box = dir_ + "/deferred", args = "--keyframe-gap 6 --refine-kb 0";
+  const bool killed = kill_when(
+      stream_command(server_.port(), "deferred", box, 5, args),
+      [&] { return fs::exists(box) && outbox_files(box, "deferred-").size() >= 2; }, 240);
+  ASSERT_TRUE(killed) << "the sender ended before two keyframes were deferred";
+  std::set<int> deferred_frames;
+  int latest_frame = -1;
+  for (const auto& r : outbox_files(box, "deferred-")) {
+    deferred_frames.insert(r["frame"].get<int>());
+    latest_frame = std::max(latest_frame, r["frame"].get<int>());
+    EXPECT_EQ(r["pose"].size(), 7u) << r.dump();
+  }
+  ASSERT_GE(deferred_frames.size(), 2u);
+  const auto before = outbox_entries(box);
+  for (const auto& e : before) {
+    EXPECT_FALSE(deferred_frames.count(e["frame"].get<int>())) << "deferred and added: " << e.dump();
+    latest_frame = std::max(latest_frame, e["frame"].get<int>());
+  }
+
+  // Started again with a link that carries everything.
+  auto again = run_command(stream_command(server_.port(), "deferred", box, 2000, args));
+  ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
+  EXPECT_NE(again.out.find("resumed at frame " + std::to_string(latest_frame) + " after " +
+                           std::to_string(before.size()) + " outbox entries and " +
+                           std::to_string(deferred_frames.size()) + " deferred keyframes"),
+            std::string::npos)
+      << again.out;
+  const MissionRun resumed = summarize(server_.port(), "deferred", box);
+  expect_mission_matches_outbox(resumed);  // each seq and each frame once on the server, with the outbox's bytes
+  for (size_t i = 0; i < resumed.outbox.size(); ++i) EXPECT_EQ(resumed.outbox[i]["seq"].get<size_t>(), i);
+  EXPECT_TRUE(outbox_files(box, "deferred-").empty());
+  // Each deferred keyframe is an entry now, reduced coarsened after every entry of the first run. (One whose surface
+  // the keyframes before it covered entirely would have nothing to send, and be counted as fully covered; on these
+  // frames, 6 apart, none is.)
+  size_t sent = 0;
+  for (const auto& e : resumed.outbox) {
+    if (!deferred_frames.count(e["frame"].get<int>())) continue;
+    ++sent;
+    EXPECT_TRUE(e["coarsened"].get<bool>()) << e.dump();
+    EXPECT_GE(e["seq"].get<size_t>(), before.size()) << e.dump();
+  }
+  EXPECT_EQ(sent, deferred_frames.size()) << again.out;
+  EXPECT_EQ(count_before(again.out, " of them sent, coarsened"), static_cast<int>(sent)) << again.out;
 }
 
 TEST_F(StreamCli, TheBudgetFollowsALinkKbpsChangedWhileStreaming) {
