@@ -199,10 +199,12 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
     fail("stream", make_error(ErrorCode::kInternal, std::to_string(s.sender.rejected) +
                                                         " keyframes were rejected by the server (last: " +
                                                         s.sender.last_error + ")"));
-  if (s.sender.pending > 0)
-    fail("stream", make_error(ErrorCode::kUnavailable, std::to_string(s.sender.pending) +
-                                                           " keyframes are still in the outbox " + outbox_dir +
-                                                           " (run the same command again to send them)"));
+  if (s.sender.pending > 0 || s.deferred_waiting > 0) {
+    std::string waiting = std::to_string(s.sender.pending) + " keyframes are still in the outbox " + outbox_dir;
+    if (s.deferred_waiting > 0)
+      waiting += " and " + std::to_string(s.deferred_waiting) + " deferred ones wait there to be reduced";
+    fail("stream", make_error(ErrorCode::kUnavailable, waiting + " (run the same command again to send them)"));
+  }
 }
 
 }  // namespace

@@ -573,6 +573,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   }
   sender.stop();
   summary.sender = sender.stats();
+  summary.deferred_waiting = outbox.deferred().size();
   summary.stopped = summary.stopped || should_stop();
   summary.seconds = std::chrono::duration<double>(steady::now() - t_start).count();
   if (!summary.sender.fatal.empty()) return make_error(ErrorCode::kUnavailable, summary.sender.fatal);

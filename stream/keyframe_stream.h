@@ -140,6 +140,7 @@ struct StreamSummary {
   size_t resumed_entries = 0;
   size_t resumed_deferred = 0;       // deferred keyframes reloaded from the outbox's records
   size_t resumed_deferred_sent = 0;  // of which reduced (coarsened) and written to the outbox by this run
+  size_t deferred_waiting = 0;       // deferred keyframes still waiting in the outbox's records at the end (a stop)
   double seconds = 0;
   bool stopped = false;       // stop was asked before everything was delivered
   std::vector<std::string> errors;
