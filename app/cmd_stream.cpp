@@ -171,8 +171,9 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
             << " of them sent later, coarsened, " << s.deferred_dropped << " dropped; " << s.refined
             << " refinements)";
   if (s.cap_changes > 0) std::cout << ", " << s.cap_changes << " caps read from " << a.link_kbps_file;
-  if (s.resumed) std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries
-                           << " outbox entries";
+  if (s.resumed)
+    std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries << " outbox entries and "
+              << s.resumed_deferred << " deferred keyframes (" << s.resumed_deferred_sent << " of them sent, coarsened)";
   std::cout << "; " << s.sender.acked << " acknowledged (" << s.sender.acked_bytes / 1000.0 << " kB this run, "
             << s.sender.posts << " posts, " << s.sender.failures << " failed, busy " << s.sender.busy_s << " s, "
             << s.sender.overlap_s << " s of it with 2+ in flight; refinements " << s.sender.refinements_acked << ", "
@@ -198,10 +199,12 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
     fail("stream", make_error(ErrorCode::kInternal, std::to_string(s.sender.rejected) +
                                                         " keyframes were rejected by the server (last: " +
                                                         s.sender.last_error + ")"));
-  if (s.sender.pending > 0)
-    fail("stream", make_error(ErrorCode::kUnavailable, std::to_string(s.sender.pending) +
-                                                           " keyframes are still in the outbox " + outbox_dir +
-                                                           " (run the same command again to send them)"));
+  if (s.sender.pending > 0 || s.deferred_waiting > 0) {
+    std::string waiting = std::to_string(s.sender.pending) + " keyframes are still in the outbox " + outbox_dir;
+    if (s.deferred_waiting > 0)
+      waiting += " and " + std::to_string(s.deferred_waiting) + " deferred ones wait there to be reduced";
+    fail("stream", make_error(ErrorCode::kUnavailable, waiting + " (run the same command again to send them)"));
+  }
 }
 
 }  // namespace

@@ -57,10 +57,10 @@ Result<EncodedKeyframe> encode_keyframe(const RgbdFrame& frame, FrameReductionOp
   return out;
 }
 
-Eigen::Matrix4d entry_pose(const OutboxEntry& e) {
-  const auto& p = e.pose;
+Eigen::Matrix4d tum_pose(const std::array<double, 7>& p) {
   return pose_from_tum(p[0], p[1], p[2], p[3], p[4], p[5], p[6]);
 }
+Eigen::Matrix4d entry_pose(const OutboxEntry& e) { return tum_pose(e.pose); }
 
 double thread_cpu_ms() {
   timespec ts{};
@@ -83,7 +83,18 @@ struct KeyframeJob {
   int frame_index = 0;
   Eigen::Matrix4d pose;   // camera to world, in the mission's world
   double captured = 0, tracked = 0;
+  bool resumed = false;   // a deferred keyframe reloaded from the outbox's records
 };
+
+DeferredKeyframe deferred_record(const KeyframeJob& job) {
+  DeferredKeyframe k;
+  k.frame_index = job.frame_index;
+  k.timestamp = job.frame.timestamp;
+  k.pose = pose_to_tum(job.pose.data());
+  k.captured = job.captured;
+  k.tracked = job.tracked;
+  return k;
+}
 
 }  // namespace
 
@@ -118,24 +129,54 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   std::vector<View> views;
   Eigen::Matrix4d anchor = Eigen::Matrix4d::Identity();
   const std::vector<OutboxEntry> existing = outbox.entries();
-  if (!existing.empty()) {
+  const std::vector<DeferredKeyframe> waiting = outbox.deferred();  // by frame
+  std::deque<KeyframeJob> deferred;  // held back while a newer keyframe went first, oldest first
+  if (!existing.empty() || !waiting.empty()) {
     summary.resumed = true;
     summary.resumed_entries = existing.size();
-    // The keyframe of the latest frame (after an outage, deferred keyframes have higher seqs but older frames).
-    const OutboxEntry& last = *std::max_element(existing.begin(), existing.end(), [](const auto& a, const auto& b) {
-      return a.frame_index < b.frame_index;
-    });
-    summary.resumed_at_frame = last.frame_index;
-    params.from = static_cast<size_t>(std::max(0, last.frame_index));
-    anchor = entry_pose(last);
+    summary.resumed_deferred = waiting.size();
+    // Tracking restarts at the latest keyframe's frame, added or deferred (after an outage, deferred keyframes have
+    // higher seqs but older frames; a deferred one's frame lies before the newer keyframes that went first).
+    int last_frame = -1;
+    for (const OutboxEntry& e : existing)
+      if (e.frame_index > last_frame) {
+        last_frame = e.frame_index;
+        anchor = entry_pose(e);
+      }
+    if (!waiting.empty() && waiting.back().frame_index > last_frame) {
+      last_frame = waiting.back().frame_index;
+      anchor = tum_pose(waiting.back().pose);
+    }
+    summary.resumed_at_frame = last_frame;
+    params.from = static_cast<size_t>(std::max(0, last_frame));
+    auto reload = [&](int frame_index, const std::string& what) -> Result<RgbdFrame> {
+      auto f = source.frame(static_cast<size_t>(frame_index));
+      if (!f)
+        return make_error(ErrorCode::kNotFound, "resuming from the outbox: " + what + "'s frame " +
+                                                    std::to_string(frame_index) +
+                                                    " cannot be reloaded from the input: " + f.error().message);
+      f->index = frame_index;
+      return f;
+    };
     for (const OutboxEntry& e : existing) {
       if (!e.rejected.empty()) continue;
-      auto f = source.frame(static_cast<size_t>(e.frame_index));
-      if (!f)
-        return make_error(ErrorCode::kNotFound, "resuming from the outbox: keyframe " + std::to_string(e.seq) +
-                                                    "'s frame " + std::to_string(e.frame_index) +
-                                                    " cannot be reloaded from the input: " + f.error().message);
+      auto f = reload(e.frame_index, "keyframe " + std::to_string(e.seq));
+      if (!f) return f.error();
       views.push_back({e.seq, {f->intrinsics, f->depth_m, entry_pose(e)}});
+    }
+    // The deferred keyframes wait again, as they did when the sender stopped (the reduction thread reduces them,
+    // coarsened, newest first, whenever no newer keyframe is waiting and the link has room).
+    for (const DeferredKeyframe& k : waiting) {
+      auto f = reload(k.frame_index, "deferred keyframe");
+      if (!f) return f.error();
+      KeyframeJob job;
+      job.frame = std::move(*f);
+      job.frame_index = k.frame_index;
+      job.pose = tum_pose(k.pose);
+      job.captured = k.captured;
+      job.tracked = k.tracked;
+      job.resumed = true;
+      deferred.push_back(std::move(job));
     }
   }
   sender.start();
@@ -233,10 +274,31 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     }
   };
 
+  // Deferred keyframes beyond max_deferred: the oldest are dropped (their records removed: a documented drop, counted
+  // in deferred_dropped). Called with mu held (or before the reduction thread starts); returns the dropped frames,
+  // whose records forget_deferred removes (outside mu: a file operation).
+  auto trim_deferred = [&] {
+    std::vector<int> dropped;
+    while (deferred.size() > options.max_deferred) {
+      dropped.push_back(deferred.front().frame_index);
+      deferred.pop_front();
+      ++summary.deferred_dropped;
+    }
+    return dropped;
+  };
+  auto forget_deferred = [&](int frame_index) {
+    if (Status st = outbox.undefer(frame_index); !st) {
+      std::lock_guard lock(mu);
+      summary.errors.push_back(st.error().message);
+    }
+  };
+
   // The reduction thread's work for one keyframe: budget, the one frame -> scene call, the outbox, the backlog rule.
-  // `deferred`: a keyframe the backlog rule held back while a newer one went first; it is coarsened. Returns whether
-  // it reached the outbox.
-  auto reduce_keyframe = [&](const KeyframeJob& job, bool deferred) {
+  // `was_deferred`: a keyframe the backlog rule held back while a newer one went first; it is coarsened, and its record
+  // goes once it is handled (Outbox::add removes it with the entry; a keyframe with nothing new or whose reduction
+  // failed leaves nothing to add; one whose outbox write failed keeps it, for a resumed run). Returns whether it
+  // reached the outbox.
+  auto reduce_keyframe = [&](const KeyframeJob& job, bool was_deferred) {
     double interval_s = 0;
     {
       std::lock_guard lock(mu);
@@ -246,9 +308,10 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
                               (sender.acknowledged_posts() == 0 ? options.latency.first_post_fixed_s : 0.0);
     const double line_kbps = sender.line_kbps(), fixed_s = sender.post_fixed_s();
     const double budget_kb =
-        deferred ? std::max(options.budget.floor_kb,
-                            options.coarse_factor * keyframe_budget_kb(line_kbps, interval_s, options.budget, fixed_s))
-                 : next_keyframe_budget_kb(line_kbps, interval_s, overhead_s, options.latency, options.budget, fixed_s);
+        was_deferred
+            ? std::max(options.budget.floor_kb,
+                       options.coarse_factor * keyframe_budget_kb(line_kbps, interval_s, options.budget, fixed_s))
+            : next_keyframe_budget_kb(line_kbps, interval_s, overhead_s, options.latency, options.budget, fixed_s);
     const int seq = outbox.next_seq();
     const auto t_reduce = steady::now();
     auto encoded = encode_keyframe(job.frame, reduction, budget_kb, job.pose, earlier_than(seq));
@@ -259,6 +322,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       summary.reduce_ms.push_back(1000.0 * took);
     }
     if (!encoded) {
+      if (was_deferred) forget_deferred(job.frame_index);
       std::lock_guard lock(mu);
       if (encoded.error().code == ErrorCode::kEmpty) {
         ++summary.covered;
@@ -277,7 +341,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     e.triangles = encoded->triangles;
     e.tracked = job.tracked;
     e.reduced = unix_now();
-    e.coarsened = deferred;
+    e.coarsened = was_deferred;
     auto added = outbox.add(e, encoded->glb);
     if (!added) {
       std::lock_guard lock(mu);
@@ -342,8 +406,8 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     return true;
   };
 
+  for (int frame_index : trim_deferred()) forget_deferred(frame_index);  // resumed with a smaller max_deferred
   std::deque<KeyframeJob> jobs;
-  std::deque<KeyframeJob> deferred;  // held back while a newer keyframe went first, oldest first
   bool tracking_done = false, reducing = false, holding = false;
   std::condition_variable jobs_cv;
   // Hold the next keyframe back while the sender owes more (Sender::owed_s: the paced line's remaining time and the
@@ -357,7 +421,9 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       std::unique_lock lock(mu);
       jobs_cv.wait_for(lock, std::chrono::milliseconds(50),
                        [&] { return !jobs.empty() || !deferred.empty() || tracking_done; });
-      if (should_stop()) return;  // stopped: queued and deferred keyframes never reached the outbox
+      // Stopped: queued keyframes never reached the outbox (a resumed run tracks their frames again); deferred ones
+      // have their records beside it (a resumed run reduces them).
+      if (should_stop()) return;
       // Nothing to reduce: refinements wait for the drain. One made here between keyframes delays the next
       // keyframe's reduction, which the latency rule pays for in that keyframe's bytes (BENCHMARKS.md, stop 17).
       if (jobs.empty() && deferred.empty()) {
@@ -377,14 +443,26 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
           holding = true;
           jobs_cv.notify_all();  // a tracker waiting for this reduction goes on (and may supersede it)
         }
+        // Each deferred keyframe's record goes to the outbox's folder, so that a stop does not lose it; written
+        // outside mu (the tracker takes it on every frame). Only this thread reads and changes `deferred`.
+        std::vector<DeferredKeyframe> records;
         while (jobs.size() > 1) {
+          records.push_back(deferred_record(jobs.front()));
           deferred.push_back(std::move(jobs.front()));
           jobs.pop_front();
           ++summary.superseded;
         }
-        while (deferred.size() > options.max_deferred) {
-          deferred.pop_front();
-          ++summary.deferred_dropped;
+        const std::vector<int> dropped = trim_deferred();
+        if (!records.empty() || !dropped.empty()) {
+          lock.unlock();
+          for (const DeferredKeyframe& k : records)
+            if (Status st = outbox.defer(k); !st) {
+              std::lock_guard errors_lock(mu);
+              summary.errors.push_back("deferred keyframe of frame " + std::to_string(k.frame_index) +
+                                       " not persisted (a stop loses it): " + st.error().message);
+            }
+          for (int frame_index : dropped) forget_deferred(frame_index);
+          lock.lock();
         }
         jobs_cv.wait_for(lock, std::chrono::milliseconds(50));
         continue;
@@ -404,7 +482,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       const bool written = reduce_keyframe(job, is_deferred);
       lock.lock();
       reducing = false;
-      if (is_deferred && written) ++summary.deferred_sent;
+      if (is_deferred && written) ++(job.resumed ? summary.resumed_deferred_sent : summary.deferred_sent);
       lock.unlock();
       jobs_cv.notify_all();
     }
@@ -495,6 +573,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   }
   sender.stop();
   summary.sender = sender.stats();
+  summary.deferred_waiting = outbox.deferred().size();
   summary.stopped = summary.stopped || should_stop();
   summary.seconds = std::chrono::duration<double>(steady::now() - t_start).count();
   if (!summary.sender.fatal.empty()) return make_error(ErrorCode::kUnavailable, summary.sender.fatal);

@@ -22,7 +22,8 @@
 // unbounded queue for it, in order. Without realtime there is no camera to keep up with, and a tracker running flat
 // out beside the reduction only slows it (measured: 0.15 s became 0.66 s at load 14), so the tracker waits for each
 // reduction to end (not while a keyframe is held back for the link, below). When stop is asked, keyframes still queued are not reduced:
-// they never reached the outbox, and a resumed run tracks their frames again.
+// they never reached the outbox, and a resumed run tracks their frames again (they lie after the resume point,
+// below); deferred ones wait in their records.
 //
 // Budget: the smaller of the rate rule and the latency rule (stream/link_estimator.h), both on the POST model (line
 // rate and fixed cost per POST, Sender::line_kbps / post_fixed_s). The latency rule's overhead
@@ -47,7 +48,10 @@
 //   newer one reduced before it, and is reduced against it (its delta drops what the newer one covers). At most
 //   max_deferred wait; beyond that the oldest is dropped (counted in `deferred_dropped`): a backlog of that many is
 //   not one the link will carry while the robot is still moving. Entries already in the outbox are never dropped: later
-//   deltas rely on their surface, and the server may hold them.
+//   deltas rely on their surface, and the server may hold them. Each deferred keyframe is persisted as a record in
+//   the outbox's folder (Outbox::defer: frame index, timestamp, world pose, capture and tracking times; no seq, which
+//   is given when it is reduced), written by the reduction thread as it defers it and removed when it is added to
+//   the outbox (by Outbox::add, in the same call), when its reduction leaves nothing to add, or when it is dropped.
 // - Coarsen: after each new keyframe, when the pending bytes need more than max(max_backlog_s, 2 x the keyframe
 //   interval) at the current estimate, the older never-attempted keyframes are coarsened, oldest first, until the
 //   backlog fits: each is re-reduced once (same frame, same coverage views, the same single call) to
@@ -66,13 +70,20 @@
 // budget, and kept only when the new GLB is at least 10 % larger. The sender posts a first revision before any
 // refinement.
 //
-// Resume: with entries in the outbox, tracking restarts at the latest keyframe's frame (the highest frame index: a
-// deferred keyframe may have a higher seq but an older frame), whose pose (from the outbox) anchors the new run's
-// poses in the same world; that frame is not sent again; sequence numbers continue; the earlier keyframes' frames
-// are reloaded as coverage views. Pending entries are posted as usual (a re-post of a stored one is answered 200 by
-// the server's idempotency; a pending refinement is posted with its rev). Keyframes that were deferred and not yet
-// reduced when the sender stopped are not in the outbox: their frames lie before the resume point, and are lost
-// (not built: persisting the deferred list).
+// Resume: with entries or deferred records in the outbox, tracking restarts at the latest keyframe's frame, over
+// both (the highest frame index: a deferred keyframe reduced already may have a higher seq but an older frame, and a
+// deferred record's frame may be the latest), whose pose (from the outbox or the record) anchors the new run's poses
+// in the same world; that frame is not tracked as a new keyframe again; sequence numbers continue; the earlier
+// keyframes' frames are reloaded as coverage views. Pending entries are posted as usual (a re-post of a stored one is
+// answered 200 by the server's idempotency; a pending refinement is posted with its rev). The deferred records'
+// frames are re-read from the source and wait as deferred keyframes again: reduced, coarsened, newest first,
+// whenever no newer keyframe waits and the link has room, each with the next seq and against every entry before it,
+// as they would have been. Each is then a new outbox entry, whose record goes in the same Outbox::add, so none is
+// reduced or sent twice (Outbox::open removes a record whose frame already has an entry, for a crash between the
+// two). So a stop loses nothing that was tracked as a keyframe: the keyframes still queued or held for the link lie
+// after the resume point and are tracked again, and the deferred ones are in their records. What a run can still
+// lose is documented: the max_deferred rule's drops (counted), and a deferred keyframe whose record could not be
+// written (reported in `errors`).
 #include <functional>
 #include <string>
 
@@ -120,13 +131,16 @@ struct StreamSummary {
   size_t coarsened = 0;
   size_t superseded = 0;      // tracked keyframes deferred: a newer one went first while the link owed too much
   size_t deferred_sent = 0;   // of which reduced later (coarsened) and written to the outbox
-  size_t deferred_dropped = 0;  // deferred keyframes dropped (more than max_deferred waited)
+  size_t deferred_dropped = 0;  // deferred keyframes dropped (more than max_deferred waited; resumed ones included)
   size_t refined = 0;         // refinements written to the outbox (revisions)
   size_t cap_changes = 0;     // values taken from --link-kbps-file
   size_t failed = 0;          // keyframes whose reduction or outbox write failed (message in errors)
   bool resumed = false;
   int resumed_at_frame = -1;
   size_t resumed_entries = 0;
+  size_t resumed_deferred = 0;       // deferred keyframes reloaded from the outbox's records
+  size_t resumed_deferred_sent = 0;  // of which reduced (coarsened) and written to the outbox by this run
+  size_t deferred_waiting = 0;       // deferred keyframes still waiting in the outbox's records at the end (a stop)
   double seconds = 0;
   bool stopped = false;       // stop was asked before everything was delivered
   std::vector<std::string> errors;

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "gltf/atomic_file.h"
@@ -68,10 +69,51 @@ Result<OutboxEntry> parse_entry(const std::string& text, const std::string& name
   }
 }
 
+json deferred_json(const DeferredKeyframe& k) {
+  return {{"frame", k.frame_index}, {"timestamp", k.timestamp}, {"pose", k.pose},
+          {"captured", k.captured}, {"tracked", k.tracked}};
+}
+
+Result<DeferredKeyframe> parse_deferred(const std::string& text, const std::string& name) {
+  json j = json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_object())
+    return make_error(ErrorCode::kInvalidInput, "deferred keyframe " + name + " is not JSON");
+  try {
+    DeferredKeyframe k;
+    k.frame_index = j.at("frame").get<int>();
+    k.timestamp = j.at("timestamp").get<double>();
+    k.pose = j.at("pose").get<std::array<double, 7>>();
+    k.captured = j.at("captured").get<double>();
+    k.tracked = j.value("tracked", 0.0);
+    if (k.frame_index < 0) return make_error(ErrorCode::kInvalidInput, "deferred keyframe " + name + ": frame < 0");
+    return k;
+  } catch (const json::exception& ex) {
+    return make_error(ErrorCode::kInvalidInput, "deferred keyframe " + name + ": " + ex.what());
+  }
+}
+
 Result<std::string> read_text(const std::string& path) {
   auto bytes = glb::read_file_bytes(path, 1 << 20);
   if (!bytes) return bytes.error();
   return std::string(bytes->begin(), bytes->end());
+}
+
+// The files `<prefix>*.json` of dir, each with its text.
+struct JsonFile {
+  fs::path path;
+  std::string text;
+};
+Result<std::vector<JsonFile>> read_json_files(const std::string& dir, const std::string& prefix) {
+  std::error_code ec;
+  std::vector<JsonFile> out;
+  for (const auto& item : fs::directory_iterator(dir, ec)) {
+    if (item.path().filename().string().rfind(prefix, 0) != 0 || item.path().extension() != ".json") continue;
+    auto text = read_text(item.path().string());
+    if (!text) return text.error();
+    out.push_back({item.path(), std::move(*text)});
+  }
+  if (ec) return make_error(ErrorCode::kIo, "outbox " + dir + ": " + ec.message());
+  return out;
 }
 
 }  // namespace
@@ -95,19 +137,30 @@ Result<std::unique_ptr<Outbox>> Outbox::open(const std::string& dir, const std::
              !st) {
     return st.error();
   }
-  for (const auto& item : fs::directory_iterator(dir, ec)) {
-    const std::string name = item.path().filename().string();
-    if (name.rfind("kf-", 0) != 0 || item.path().extension() != ".json") continue;
-    auto text = read_text(item.path().string());
-    if (!text) return text.error();
-    auto e = parse_entry(*text, item.path().string());
+  auto entry_files = read_json_files(dir, "kf-");
+  if (!entry_files) return entry_files.error();
+  for (const JsonFile& file : *entry_files) {
+    auto e = parse_entry(file.text, file.path.string());
     if (!e) return e.error();
     if (!fs::exists(box->glb_path(e->seq, e->rev)))
-      return make_error(ErrorCode::kInvalidInput, "outbox entry " + name + " has no GLB beside it");
+      return make_error(ErrorCode::kInvalidInput,
+                        "outbox entry " + file.path.filename().string() + " has no GLB beside it");
     e->bytes = fs::file_size(box->glb_path(e->seq, e->rev));  // a coarsening cut short between its two writes
     box->entries_[e->seq] = std::move(*e);
   }
-  if (ec) return make_error(ErrorCode::kIo, "outbox " + dir + ": " + ec.message());
+  // Deferred keyframes; one whose frame has an entry was added, and the crash came before its record was removed.
+  std::set<int> entry_frames;
+  for (const auto& [seq, e] : box->entries_) entry_frames.insert(e.frame_index);
+  auto deferred_files = read_json_files(dir, "deferred-");
+  if (!deferred_files) return deferred_files.error();
+  for (const JsonFile& file : *deferred_files) {
+    auto k = parse_deferred(file.text, file.path.string());
+    if (!k) return k.error();
+    if (entry_frames.count(k->frame_index))
+      fs::remove(file.path, ec);
+    else
+      box->deferred_[k->frame_index] = *k;
+  }
   // A GLB without its JSON was never sent: its seq is free again. A GLB that is not its entry's current revision
   // is a revision cut short (before its JSON) or one replaced (before the older GLB was removed).
   for (const auto& item : fs::directory_iterator(dir, ec)) {
@@ -164,6 +217,7 @@ Result<OutboxEntry> Outbox::add(OutboxEntry e, const std::vector<std::uint8_t>& 
   if (auto st = glb::write_file_atomically(path(e.seq, ".glb"), glb); !st) return st.error();
   if (auto st = write_meta(e); !st) return st.error();
   entries_[e.seq] = e;
+  if (deferred_.count(e.frame_index)) (void)remove_deferred_locked(e.frame_index);  // open() removes it, should this fail
   return e;
 }
 
@@ -255,6 +309,44 @@ Result<std::vector<std::uint8_t>> Outbox::read_glb(int seq) const {
     if (it != entries_.end()) rev = it->second.rev;
   }
   return glb::read_file_bytes(glb_path(seq, rev), size_t{1} << 30);
+}
+
+std::string Outbox::deferred_path(int frame_index) const {
+  char name[40];
+  std::snprintf(name, sizeof name, "deferred-%08d.json", frame_index);
+  return (fs::path(dir_) / name).string();
+}
+
+Status Outbox::defer(const DeferredKeyframe& k) {
+  if (k.frame_index < 0) return make_error(ErrorCode::kInvalidArgument, "outbox: a deferred keyframe needs a frame");
+  std::lock_guard lock(mu_);
+  if (auto st = glb::write_file_atomically(deferred_path(k.frame_index), text_bytes(deferred_json(k).dump(1) + "\n"));
+      !st)
+    return st;
+  deferred_[k.frame_index] = k;
+  return ok_status();
+}
+
+Status Outbox::remove_deferred_locked(int frame_index) {
+  std::error_code ec;
+  fs::remove(deferred_path(frame_index), ec);
+  if (ec)
+    return make_error(ErrorCode::kIo, "outbox: removing deferred keyframe " + std::to_string(frame_index) + ": " +
+                                          ec.message());
+  deferred_.erase(frame_index);
+  return ok_status();
+}
+
+Status Outbox::undefer(int frame_index) {
+  std::lock_guard lock(mu_);
+  return remove_deferred_locked(frame_index);
+}
+
+std::vector<DeferredKeyframe> Outbox::deferred() const {
+  std::lock_guard lock(mu_);
+  std::vector<DeferredKeyframe> out;
+  for (const auto& [frame, k] : deferred_) out.push_back(k);
+  return out;
 }
 
 std::array<double, 7> pose_to_tum(const double* m) {

@@ -16,6 +16,11 @@
 // with rev + 1, which the server stores in place of the older one). revise() writes the new GLB under its own name,
 // then the JSON (the commit: rev + 1, queued again), then removes the older GLB; open() removes a GLB that is not
 // its entry's current revision. The entry keeps its first revision's answer and size (first_ack, first_bytes).
+// Deferred keyframes (the backlog rule's, stream/keyframe_stream.h: tracked, not reduced yet, so no GLB and no seq:
+// a seq is given when the keyframe is reduced and added) are kept as `deferred-<frame, 8 digits>.json` records, by
+// the same atomic writer, so that a stop does not lose them: a restarted sender reduces them from their frames.
+// add() removes the record of the keyframe it adds (after its JSON, the commit), and open() removes a record whose
+// frame already has an entry (a crash between the two), so a keyframe is either deferred or an entry, never both.
 // Thread-safe: one mutex around the index; file writes happen under it (they are small and rare).
 #include <array>
 #include <cstdint>
@@ -56,6 +61,16 @@ struct OutboxEntry {
   bool pending() const { return !acked && rejected.empty(); }
 };
 
+// A deferred keyframe's record: what reducing it later needs besides its frame (re-read from the source) and the
+// coverage views (the entries before it).
+struct DeferredKeyframe {
+  int frame_index = -1;           // in the input source
+  double timestamp = 0;           // the frame's own timestamp (s; 0 when the source has none)
+  std::array<double, 7> pose{};   // camera to world in the mission's world, TUM order tx ty tz qx qy qz qw
+  double captured = 0;            // Unix s
+  double tracked = 0;             // Unix s
+};
+
 class Outbox {
  public:
   // Opens (creating when missing) DIR for `mission`. Errors: kInvalidArgument (DIR holds another mission),
@@ -79,16 +94,25 @@ class Outbox {
   Status mark_rejected(int seq, const std::string& reason);
   Result<std::vector<std::uint8_t>> read_glb(int seq) const;
 
+  // Deferred keyframes: defer() persists a record (replacing one of the same frame); undefer() removes it (when it
+  // was dropped, or its reduction left nothing to add; no error when there is none); deferred() lists them by frame.
+  Status defer(const DeferredKeyframe& keyframe);
+  Status undefer(int frame_index);
+  std::vector<DeferredKeyframe> deferred() const;
+
  private:
   Outbox(std::string dir, std::string mission) : dir_(std::move(dir)), mission_(std::move(mission)) {}
   std::string path(int seq, const char* ext) const;
   std::string glb_path(int seq, int rev) const;
+  std::string deferred_path(int frame_index) const;
+  Status remove_deferred_locked(int frame_index);
   Status write_meta(const OutboxEntry& e) const;
   Status update(int seq, const std::function<void(OutboxEntry&)>& change);
 
   std::string dir_, mission_;
   mutable std::mutex mu_;
   std::map<int, OutboxEntry> entries_;
+  std::map<int, DeferredKeyframe> deferred_;  // by frame index
 };
 
 // The 4x4 camera-to-world matrix as TUM's 7 numbers (unit quaternion, qw >= 0), and the query text "a,b,..."

@@ -1,5 +1,6 @@
 // The outbox on disk (stream/outbox.h): entries survive a reopen, seq numbering continues, attempted entries are
-// never rewritten, a GLB left without its JSON is removed, one outbox serves one mission.
+// never rewritten, a GLB left without its JSON is removed, deferred keyframes' records survive until their keyframe
+// is added, one outbox serves one mission.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -129,6 +130,76 @@ TEST(Outbox, AGlbWithoutItsJsonIsRemovedAndItsSeqReused) {
   ASSERT_TRUE(box);
   EXPECT_FALSE(fs::exists(dir + "/kf-00000001.glb"));
   EXPECT_EQ((*box)->next_seq(), 1);
+  test::remove_tree_quietly(dir);
+}
+
+// Deferred keyframes' records: they survive a reopen with what a later reduction needs, add() removes the record of
+// the keyframe it adds, undefer() removes one (none there is no error), and a reopen removes a record whose frame
+// already has an entry (a crash between the entry's JSON and the record's removal): deferred or added, never both.
+TEST(Outbox, DeferredKeyframesSurviveAReopenAndGoWhenAdded) {
+  const std::string dir = test::temp_dir("outbox_deferred");
+  auto record = [](int frame) {
+    DeferredKeyframe k;
+    k.frame_index = frame;
+    k.timestamp = 1305031102.5 + frame;
+    k.pose = {0.1 * frame, 2, 3, 0, 0, 0.6, 0.8};
+    k.captured = 1700000000.25 + frame;
+    k.tracked = 1700000000.75 + frame;
+    return k;
+  };
+  {
+    auto box = Outbox::open(dir, "m1");
+    ASSERT_TRUE(box) << box.error().message;
+    ASSERT_TRUE((*box)->defer(record(20)));
+    ASSERT_TRUE((*box)->defer(record(8)));
+    ASSERT_TRUE((*box)->defer(record(14)));
+    ASSERT_FALSE((*box)->defer(record(-1)));
+    EXPECT_EQ((*box)->deferred().size(), 3u);
+    OutboxEntry e;
+    e.frame_index = 20;
+    ASSERT_TRUE((*box)->add(e, bytes(100, 1)));
+    EXPECT_FALSE(fs::exists(dir + "/deferred-00000020.json"));
+    ASSERT_TRUE((*box)->undefer(14));
+    ASSERT_TRUE((*box)->undefer(99));
+  }
+  {
+    auto box = Outbox::open(dir, "m1");
+    ASSERT_TRUE(box) << box.error().message;
+    const auto waiting = (*box)->deferred();
+    ASSERT_EQ(waiting.size(), 1u);
+    EXPECT_EQ(waiting[0].frame_index, 8);
+    EXPECT_DOUBLE_EQ(waiting[0].timestamp, 1305031110.5);
+    EXPECT_DOUBLE_EQ(waiting[0].pose[0], 0.8);
+    EXPECT_DOUBLE_EQ(waiting[0].pose[6], 0.8);
+    EXPECT_DOUBLE_EQ(waiting[0].captured, 1700000008.25);
+    EXPECT_DOUBLE_EQ(waiting[0].tracked, 1700000008.75);
+    EXPECT_EQ((*box)->entries().size(), 1u);
+    EXPECT_EQ((*box)->next_seq(), 1);  // a record takes no seq
+  }
+  // Frame 30 deferred, then added; its record put back as a crash between the entry and the removal leaves it.
+  {
+    auto box = Outbox::open(dir, "m1");
+    ASSERT_TRUE(box);
+    ASSERT_TRUE((*box)->defer(record(30)));
+    ASSERT_TRUE(fs::exists(dir + "/deferred-00000030.json"));
+    OutboxEntry e;
+    e.frame_index = 30;
+    ASSERT_TRUE((*box)->add(e, bytes(100, 2)));
+  }
+  std::ofstream(dir + "/deferred-00000030.json") << R"({"frame": 30, "timestamp": 0, "pose": [0,0,0,0,0,0,1], "captured": 1})";
+  {
+    auto box = Outbox::open(dir, "m1");
+    ASSERT_TRUE(box) << box.error().message;
+    const auto waiting = (*box)->deferred();
+    ASSERT_EQ(waiting.size(), 1u);
+    EXPECT_EQ(waiting[0].frame_index, 8);
+    EXPECT_FALSE(fs::exists(dir + "/deferred-00000030.json"));
+    EXPECT_EQ((*box)->entries().size(), 2u);
+  }
+  std::ofstream(dir + "/deferred-00000009.json") << "{not json";
+  auto corrupt = Outbox::open(dir, "m1");
+  ASSERT_FALSE(corrupt);
+  EXPECT_EQ(corrupt.error().code, ErrorCode::kInvalidInput);
   test::remove_tree_quietly(dir);
 }
 

@@ -2,6 +2,8 @@
 // - the budget follows --link-kbps (2000 vs 100 kbit/s: smaller keyframes, the acknowledged rate under the cap);
 // - a sender killed (SIGKILL) mid-mission and started again: nothing lost, nothing duplicated, the same keyframes
 //   as the uninterrupted run;
+// - a sender killed (and then stopped) while keyframes wait deferred, and started again: each deferred keyframe
+//   reaches the mission once;
 // - the budget follows a --link-kbps changed while streaming (--link-kbps-file);
 // - bad input gets a one-line error.
 #include <gtest/gtest.h>
@@ -15,6 +17,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <thread>
@@ -33,14 +36,48 @@ using nlohmann::json;
 
 const char* kSequence = "tum/rgbd_dataset_freiburg1_xyz_200_319";
 
-std::vector<json> outbox_entries(const std::string& dir) {
+// The outbox's JSON files named `<prefix>...json`, in name order: "kf-" the entries (by seq), "deferred-" the
+// deferred keyframes' records (by frame).
+std::vector<json> outbox_files(const std::string& dir, const std::string& prefix) {
   std::vector<std::string> names;
   for (const auto& f : fs::directory_iterator(dir))
-    if (f.path().filename().string().rfind("kf-", 0) == 0 && f.path().extension() == ".json")
+    if (f.path().filename().string().rfind(prefix, 0) == 0 && f.path().extension() == ".json")
       names.push_back(f.path().string());
   std::sort(names.begin(), names.end());
   std::vector<json> out;
   for (const auto& n : names) out.push_back(json::parse(read_file(n)));
+  return out;
+}
+std::vector<json> outbox_entries(const std::string& dir) { return outbox_files(dir, "kf-"); }
+
+// Starts `cmd` (stdout and stderr to `log`) and sends it `signal` as soon as `ready()` holds, then waits for it.
+// `signalled`: whether it was sent so (false: it ended first, or `timeout_s` passed and it was killed);
+// `exit_code`: its exit code when it exited (-1 when a signal ended it).
+struct Stopped {
+  bool signalled = false;
+  int exit_code = -1;
+};
+Stopped stop_when(const std::string& cmd, const std::function<bool()>& ready, int timeout_s, int signal = SIGKILL,
+                  const std::string& log = "/dev/null") {
+  Stopped out;
+  pid_t pid = -1;
+  const std::string exec_cmd = "exec " + cmd + " >" + log + " 2>&1";
+  const char* argv[] = {"/bin/sh", "-c", exec_cmd.c_str(), nullptr};
+  if (posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ) != 0) return out;
+  int status = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(timeout_s);
+  for (;;) {
+    if (waitpid(pid, &status, WNOHANG) == pid) break;
+    const bool late = std::chrono::steady_clock::now() >= deadline;
+    if (late || ready()) {
+      out.signalled = !late;
+      ::kill(pid, late ? SIGKILL : signal);
+      waitpid(pid, &status, 0);
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  if (WIFEXITED(status)) out.exit_code = WEXITSTATUS(status);
   return out;
 }
 
@@ -189,32 +226,16 @@ TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNoth
   // --keep-every-keyframe nothing is superseded, so the resumed mission must hold exactly the fast run's keyframes.)
   const std::string box = dir_ + "/restart";
   const std::string cmd = stream_command(server_.port(), "restart", box, 300, "--keep-every-keyframe");
-  pid_t pid = -1;
-  const char* argv[] = {"/bin/sh", "-c", nullptr, nullptr};
-  const std::string exec_cmd = "exec " + cmd + " >/dev/null 2>&1";
-  argv[2] = exec_cmd.c_str();
-  ASSERT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
-  bool killed_mid_mission = false;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(240);
-  while (std::chrono::steady_clock::now() < deadline) {
-    if (fs::exists(box)) {
-      const auto entries = outbox_entries(box);
-      const bool one_acked =
-          std::any_of(entries.begin(), entries.end(), [](const json& e) { return e["acked"].get<bool>(); });
-      if (one_acked) {
-        ::kill(pid, SIGKILL);
-        killed_mid_mission = true;
-        break;
-      }
-    }
-    int status = 0;
-    if (waitpid(pid, &status, WNOHANG) == pid) {
-      pid = -1;
-      break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  if (pid > 0) waitpid(pid, nullptr, 0);
+  const bool killed_mid_mission = stop_when(
+                                      cmd,
+                                      [&] {
+                                        if (!fs::exists(box)) return false;
+                                        const auto entries = outbox_entries(box);
+                                        return std::any_of(entries.begin(), entries.end(),
+                                                           [](const json& e) { return e["acked"].get<bool>(); });
+                                      },
+                                      240)
+                                      .signalled;
   ASSERT_TRUE(killed_mid_mission) << "the sender finished before a keyframe was acknowledged";
   const size_t before = outbox_entries(box).size();
   EXPECT_LT(before, fast.outbox.size()) << "killed too late to test a resume";
@@ -226,6 +247,96 @@ TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNoth
   EXPECT_EQ(keyframe_frames(resumed), fast_frames);
   // seq numbering continued: 0..n-1, no gap.
   for (size_t i = 0; i < resumed.outbox.size(); ++i) EXPECT_EQ(resumed.outbox[i]["seq"].get<size_t>(), i);
+}
+
+// A sender killed while keyframes wait deferred (the backlog rule let newer ones go first), then started again:
+// their records are in the outbox's folder. Restarted on the same slow link and stopped (SIGINT) while they still
+// wait, it says so and exits 1; restarted on a fast link, it reduces each one and delivers it: every deferred
+// keyframe reaches the mission exactly once, coarsened, after the keyframes before it, with seqs unique and
+// contiguous; no record is left.
+TEST_F(StreamCli, DeferredKeyframesReachTheMissionOnceAfterASenderRestart) {
+  // A keyframe at least every 6 frames, at 5 kbit/s: the first keyframe holds the line for seconds (at least the
+  // 4 kB budget floor, 6.4 s), so the second waits for the link, and the third, tracked meanwhile, supersedes it.
+  const std::string box = dir_ + "/deferred", args = "--keyframe-gap 6 --refine-kb 0";
+  const std::string slow = stream_command(server_.port(), "deferred", box, 5, args);
+  auto records = [&] { return fs::exists(box) ? outbox_files(box, "deferred-") : std::vector<json>{}; };
+  ASSERT_TRUE(stop_when(slow, [&] { return records().size() >= 2; }, 240).signalled)
+      << "the sender ended before two keyframes were deferred";
+  std::set<int> deferred_frames;
+  int latest_frame = -1;
+  for (const auto& r : records()) {
+    deferred_frames.insert(r["frame"].get<int>());
+    latest_frame = std::max(latest_frame, r["frame"].get<int>());
+    EXPECT_EQ(r["pose"].size(), 7u) << r.dump();
+  }
+  ASSERT_GE(deferred_frames.size(), 2u);
+  const auto before = outbox_entries(box);
+  for (const auto& e : before) {
+    EXPECT_FALSE(deferred_frames.count(e["frame"].get<int>())) << "deferred and added: " << e.dump();
+    latest_frame = std::max(latest_frame, e["frame"].get<int>());
+  }
+
+  // Again at 5 kbit/s, stopped (SIGINT) 2 s after it started, once it reads frames (its signal handler is set): the
+  // link carries a deferred keyframe every few seconds, so some still wait (and keep their records); the exit code
+  // says the mission is not complete. Each deferred keyframe of the first run is still deferred or an entry now, not
+  // both.
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string log = dir_ + "/deferred-stop.log";
+  const Stopped stopped = stop_when(
+      slow,
+      [&] {
+        return std::chrono::steady_clock::now() - t0 > std::chrono::seconds(2) &&
+               read_file(log).find("rgbdcast stream: frames") != std::string::npos;
+      },
+      240, SIGINT, log);
+  ASSERT_TRUE(stopped.signalled) << read_file(log);
+  EXPECT_EQ(stopped.exit_code, 1) << read_file(log);
+  std::set<int> waiting;
+  for (const auto& r : records()) waiting.insert(r["frame"].get<int>());
+  ASSERT_FALSE(waiting.empty()) << read_file(log);
+  EXPECT_NE(read_file(log).find(std::to_string(waiting.size()) + " deferred ones wait there to be reduced"),
+            std::string::npos)
+      << read_file(log);
+  const auto entries = outbox_entries(box);
+  std::set<int> entry_frames;
+  for (const auto& e : entries) {
+    entry_frames.insert(e["frame"].get<int>());
+    latest_frame = std::max(latest_frame, e["frame"].get<int>());
+  }
+  for (int f : deferred_frames)
+    EXPECT_NE(waiting.count(f), entry_frames.count(f)) << "frame " << f << ": " << read_file(log);
+  for (int f : waiting) {
+    EXPECT_FALSE(entry_frames.count(f)) << "frame " << f << " deferred and added";
+    latest_frame = std::max(latest_frame, f);
+  }
+  deferred_frames.insert(waiting.begin(), waiting.end());
+
+  // Started again with a link that carries everything.
+  auto again = run_command(stream_command(server_.port(), "deferred", box, 2000, args));
+  ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
+  EXPECT_NE(again.out.find("resumed at frame " + std::to_string(latest_frame) + " after " +
+                           std::to_string(entries.size()) + " outbox entries and " + std::to_string(waiting.size()) +
+                           " deferred keyframes (" + std::to_string(waiting.size()) + " of them sent, coarsened)"),
+            std::string::npos)
+      << again.out;
+  const MissionRun resumed = summarize(server_.port(), "deferred", box);
+  expect_mission_matches_outbox(resumed);  // each seq and each frame once on the server, with the outbox's bytes
+  for (size_t i = 0; i < resumed.outbox.size(); ++i) EXPECT_EQ(resumed.outbox[i]["seq"].get<size_t>(), i);
+  EXPECT_TRUE(records().empty());
+  // Every keyframe ever deferred is an entry now, coarsened; those that waited until this run come after every entry
+  // of the runs before. (One whose surface the keyframes before it covered entirely would have nothing to send, and
+  // be counted as fully covered; on these frames, 6 apart, none is.)
+  std::set<int> sent;
+  for (const auto& e : resumed.outbox) {
+    const int frame = e["frame"].get<int>();
+    if (!deferred_frames.count(frame)) continue;
+    sent.insert(frame);
+    EXPECT_TRUE(e["coarsened"].get<bool>()) << e.dump();
+    if (waiting.count(frame)) {
+      EXPECT_GE(e["seq"].get<size_t>(), entries.size()) << e.dump();
+    }
+  }
+  EXPECT_EQ(sent, deferred_frames) << again.out;
 }
 
 TEST_F(StreamCli, TheBudgetFollowsALinkKbpsChangedWhileStreaming) {
