@@ -64,12 +64,12 @@ class FastLog {
   float table_[kSize];
 };
 
-cv::Mat log_depth(const cv::Mat& depth_m) {
+// Rows y0..y1-1 of `out`.
+void log_depth_rows(const cv::Mat& depth_m, cv::Mat& out, int y0, int y1) {
   static_assert(sizeof(float) == 4);
   static const FastLog fast_log;  // a constant table, built once
   const float origin = static_cast<float>(std::log(kLogOrigin)), inv_step = static_cast<float>(1.0 / kLogStep);
-  cv::Mat out(depth_m.size(), CV_16SC1);
-  for (int y = 0; y < depth_m.rows; ++y) {
+  for (int y = y0; y < y1; ++y) {
     const float* z = depth_m.ptr<float>(y);
     std::int16_t* o = out.ptr<std::int16_t>(y);
     for (int x = 0; x < depth_m.cols; ++x) {
@@ -81,7 +81,6 @@ cv::Mat log_depth(const cv::Mat& depth_m) {
       o[x] = static_cast<std::int16_t>(std::min(l, 32767.f));
     }
   }
-  return out;
 }
 
 }  // namespace
@@ -122,7 +121,8 @@ Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilter
   if (auto st = p.validate(); !st) return st.error();
   DepthFilterResult r;
   const int w = depth_m.cols, h = depth_m.rows;
-  cv::Mat l = log_depth(depth_m);
+  cv::Mat l(depth_m.size(), CV_16SC1);
+  for_row_bands(h, threads, [&](int y0, int y1, int) { log_depth_rows(depth_m, l, y0, y1); });
   const int max_diff = std::max(1, static_cast<int>(std::lround(std::log1p(p.jump_relative) / kLogStep)));
   r.valid = static_cast<size_t>(cv::countNonZero(l));
 
@@ -158,14 +158,15 @@ Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilter
   r.kept = static_cast<size_t>(cv::countNonZero(kept));
   r.speckles = before - r.kept;
 
-  r.depth_m = cv::Mat::zeros(h, w, CV_32FC1);
-  for (int y = 0; y < h; ++y) {
-    const std::int16_t* k = kept.ptr<std::int16_t>(y);
-    const float* in = depth_m.ptr<float>(y);
-    float* out = r.depth_m.ptr<float>(y);
-    for (int x = 0; x < w; ++x)
-      if (k[x]) out[x] = in[x];
-  }
+  r.depth_m.create(h, w, CV_32FC1);
+  for_row_bands(h, threads, [&](int y0, int y1, int) {
+    for (int y = y0; y < y1; ++y) {
+      const std::int16_t* k = kept.ptr<std::int16_t>(y);
+      const float* in = depth_m.ptr<float>(y);
+      float* out = r.depth_m.ptr<float>(y);
+      for (int x = 0; x < w; ++x) out[x] = k[x] ? in[x] : 0.f;
+    }
+  });
   if (p.gap_fill_px > 0) {
     // Gaps: an invalid pixel whose window holds valid depth of one surface (largest / smallest depth within twice
     // the jump) takes the window's mean depth. Gaps between surfaces stay open. Only invalid pixels with a valid
@@ -372,9 +373,11 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
   h.depth_.assign(static_cast<size_t>(h.grid_w_) * grid_h, 0.f);
   for (int y = 0; y <= h.height_ && y < grid_h; ++y) {
     const float* z = vertex_depth_m.ptr<float>(std::min(y, h.height_ - 1));
-    for (int x = 0; x <= h.width_ && x < h.grid_w_; ++x) {
+    float* row = h.depth_.data() + static_cast<size_t>(y) * h.grid_w_;
+    const int n = std::min(h.width_ + 1, h.grid_w_);
+    for (int x = 0; x < n; ++x) {
       const float d = z[std::min(x, h.width_ - 1)];
-      if (d > 0.f && std::isfinite(d)) h.depth_[static_cast<size_t>(y) * h.grid_w_ + x] = d;
+      row[x] = d > 0.f && d <= std::numeric_limits<float>::max() ? d : 0.f;  // (NaN and +inf fail both)
     }
   }
   // Per level of the tree (all its triangles are congruent): each edge's length (0: the hypotenuse a-b, then b-c,

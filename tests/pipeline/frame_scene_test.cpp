@@ -25,16 +25,16 @@ struct SharedFrames {
 
 // Every shared capture; of the 120-frame excerpt, every 20th frame.
 const std::vector<SharedFrames> kShared = {
-    {"tum/rgbd_dataset_freiburg1_xyz", "fr1", {0, 1, 2}},
-    {"tum/rgbd_dataset_freiburg1_xyz_200_319", "fr1", {0, 20, 40, 60, 80, 100}},
-    {"tum/rgbd_dataset_freiburg3_long_office_household", "fr3", {0, 1}},
+    {"tum/rgbd_dataset_freiburg1_xyz", "fr1", {0, 1, 2}, ""},
+    {"tum/rgbd_dataset_freiburg1_xyz_200_319", "fr1", {0, 20, 40, 60, 80, 100}, ""},
+    {"tum/rgbd_dataset_freiburg3_long_office_household", "fr3", {0, 1}, ""},
     {"tum/freiburg2_desk_pair/1.png", "fr2", {0}, "tum/freiburg2_desk_pair/1_depth.png"},
     {"tum/freiburg2_desk_pair/2.png", "fr2", {0}, "tum/freiburg2_desk_pair/2_depth.png"},
-    {"augmented_icl_livingroom", "", {0, 1, 2, 3, 4}},
-    {"icl_nuim_livingroom", "", {0, 1, 2, 3, 4}},
-    {"pcl_kinect_organized/pcd/frame_20121214T142255.814212.pcd", "kinect", {0}},
-    {"pcl_kinect_organized/pcd/frame_20121214T142256.068683.pcd", "kinect", {0}},
-    {"pcl_kinect_organized/pcd/frame_20121214T142256.332395.pcd", "kinect", {0}},
+    {"augmented_icl_livingroom", "", {0, 1, 2, 3, 4}, ""},
+    {"icl_nuim_livingroom", "", {0, 1, 2, 3, 4}, ""},
+    {"pcl_kinect_organized/pcd/frame_20121214T142255.814212.pcd", "kinect", {0}, ""},
+    {"pcl_kinect_organized/pcd/frame_20121214T142256.068683.pcd", "kinect", {0}, ""},
+    {"pcl_kinect_organized/pcd/frame_20121214T142256.332395.pcd", "kinect", {0}, ""},
 };
 
 // The realtime preset as `rgbdcast reduce --budget-kb B` runs it (its default codec, Draco).
