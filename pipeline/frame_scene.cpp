@@ -556,37 +556,50 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     }
     if (b.tolerance_factor <= tol0 && b.glb_bytes <= target) b.rule = "fits";
   }
-  // Texture: the largest quality (at full resolution, else the largest of half, quarter... down to
-  // kMinTextureScale where the least quality fits) whose bytes fit what is left. JPEG bytes follow a power of
+  // Texture: the largest quality (at full resolution, else at budget_outline_texture_scale when that is between a
+  // half and 1, else the largest of half, quarter... down to kMinTextureScale where the least quality fits) whose
+  // bytes fit what is left. The outline was kept for the texture at its scale (kOutlineFloorQuality fitting there),
+  // so the texture is tried there before it is halved. JPEG bytes follow a power of
   // libjpeg's quantizer scale (5000 / q below 50, 200 - 2 q above): on six realtime textures (TUM fr1/xyz 200-319
   // frames 0 and 60, fr3, augmented ICL, ICL-NUIM, a PCL PCD) log bytes normalised over q20..q92 stay within 0.06
   // of log scale normalised the same way, where a line in the quality is off by up to 0.13 (6 steps at q50). So the
   // quality is interpolated on log bytes against log scale between the closest qualities tried on either side and
   // refined (two encodes a step, on two threads) until within 5 % under what is left, at most three times.
   const double texture_target = target - static_cast<double>(b.glb_bytes - b.texture_bytes);
+  // The largest quality at `at` whose bytes fit texture_target: kMaxQuality when it fits, kMinQuality when nothing
+  // does (the caller then goes down in scale).
+  auto fit_quality_at = [&](double at) -> Result<int> {
+    int lo = kMinQuality, hi = kMaxQuality;  // bytes at hi (at this scale) do not fit
+    if (bytes_of(lo, at) < 0 || bytes_of(hi, at) < 0)
+      if (auto s = encode_at(at, {kMinQuality, kMaxQuality}, threads); !s) return s.error();
+    if (bytes_of(hi, at) <= texture_target) return hi;  // at a reduced resolution the best quality fits
+    if (bytes_of(lo, at) > texture_target) return lo;
+    // The closest qualities already tried (the floor's and the second thread's first step) bracket it.
+    narrow_to_tried(tried, at, texture_target, &lo, &hi);
+    for (int step = 0; step < 3 && hi - lo > 1 && bytes_of(lo, at) < 0.95 * texture_target; ++step) {
+      const std::vector<int> qs = next_qualities(tried, at, lo, hi, texture_target);
+      if (auto s = encode_at(at, qs, threads); !s) return s.error();
+      for (int q : qs) {
+        if (bytes_of(q, at) <= texture_target) lo = std::max(lo, q);
+        else hi = std::min(hi, q);
+      }
+      if (hi <= lo) break;  // JPEG bytes are not quite monotone in the quality: lo fits, which is enough
+    }
+    return lo;
+  };
   double scale = 1.0;
   int q_lo = kMaxQuality;
   if (static_cast<double>(b.texture_bytes) > texture_target) {
-    q_lo = kMinQuality;
-    int q_hi = kMaxQuality;  // bytes at q_hi (at this scale) do not fit
-    while (bytes_of(q_lo, scale) > texture_target && scale > kMinTextureScale) {  // the least quality does not fit
-      scale /= 2;
-      if (auto s = encode_at(scale, {kMinQuality, kMaxQuality}, threads); !s) return s.error();
-    }
-    if (bytes_of(q_lo, scale) <= texture_target && bytes_of(q_hi, scale) > texture_target) {
-      // The closest qualities already tried (the floor's and the second thread's first step) bracket it.
-      narrow_to_tried(tried, scale, texture_target, &q_lo, &q_hi);
-      for (int step = 0; step < 3 && q_hi - q_lo > 1 && bytes_of(q_lo, scale) < 0.95 * texture_target; ++step) {
-        const std::vector<int> qs = next_qualities(tried, scale, q_lo, q_hi, texture_target);
-        if (auto s = encode_at(scale, qs, threads); !s) return s.error();
-        for (int q : qs) {
-          if (bytes_of(q, scale) <= texture_target) q_lo = std::max(q_lo, q);
-          else q_hi = std::min(q_hi, q);
-        }
-        if (q_hi <= q_lo) break;  // JPEG bytes are not quite monotone in the quality: q_lo fits, which is enough
-      }
-    } else if (bytes_of(q_hi, scale) <= texture_target) {
-      q_lo = q_hi;  // at a reduced resolution the best quality fits
+    const double outline_scale = options.budget_outline_texture_scale;
+    for (;;) {
+      auto q = fit_quality_at(scale);
+      if (!q) return q.error();
+      q_lo = *q;
+      if (bytes_of(q_lo, scale) <= texture_target || scale <= kMinTextureScale) break;  // fits, or the last scale
+      // The least quality does not fit: the outline's scale, when below this one, else half of this one.
+      scale = scale == 1.0 && outline_scale < 1.0 && outline_scale > 0.5 ? outline_scale
+              : scale < 1.0 && scale > 0.5                             ? 0.5
+                                                                       : scale / 2;
     }
   }
   for (Tried& t : tried)

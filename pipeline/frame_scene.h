@@ -36,7 +36,8 @@ struct FrameReductionOptions {
   // the collapses' limit is raised only while JPEG quality 30 at this scale would not fit beside the mesh.
   // 0.25..1 (the texture's own limit is a quarter). At 40 kB, 1 against 0.5 (TUM fr1/xyz 0, fr3 0, augmented ICL 0,
   // which then straighten by 2 px instead of halving the texture): PSNR over the pixels drawn +1.9 / +3.5 / +3.0 dB,
-  // over all valid pixels +0.9 / +1.8 / +0.6 dB, coverage within 0.0004.
+  // over all valid pixels +0.9 / +1.8 / +0.6 dB, coverage within 0.0004. Between a half and 1, the texture is tried
+  // at this scale before half when the least quality does not fit at full size.
   double budget_outline_texture_scale = 1.0;
 
   Status validate() const;
