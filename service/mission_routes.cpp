@@ -1,6 +1,7 @@
 #include "service/mission_routes.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <set>
 
@@ -314,6 +315,7 @@ void MissionRoutes::get_events(const httplib::Request& req, httplib::Response& r
     EventCursor cursor;
     std::chrono::steady_clock::time_point ends;
     bool first = true;
+    std::atomic<bool> released{false};
   };
   auto stream = std::make_shared<Stream>();
   stream->name = *name;
@@ -323,9 +325,14 @@ void MissionRoutes::get_events(const httplib::Request& req, httplib::Response& r
                      std::chrono::duration<double>(options_.event_stream_max_s));
   res.set_header("Cache-Control", "no-store");
   res.set_header("X-Accel-Buffering", "no");  // a proxy in front (nginx) must not buffer the stream
+  // The stream's slot goes back when the stream decides to end, before its last chunk is sent: a client that sees
+  // the end and reconnects at once finds it free (the releaser below runs only after the response is complete).
+  auto release = [this, stream] {
+    if (!stream->released.exchange(true)) streams_.release();
+  };
   res.set_chunked_content_provider(
       "text/event-stream",
-      [this, stream](size_t, httplib::DataSink& sink) {
+      [this, stream, release](size_t, httplib::DataSink& sink) {
         std::string out;
         if (stream->first) {
           out = "retry: 1000\n\n";  // EventSource waits 1 s before it reconnects
@@ -333,6 +340,7 @@ void MissionRoutes::get_events(const httplib::Request& req, httplib::Response& r
         }
         const auto now = std::chrono::steady_clock::now();
         if (stopping_ || now >= stream->ends) {
+          release();
           sink.done();
           return true;
         }
@@ -343,6 +351,7 @@ void MissionRoutes::get_events(const httplib::Request& req, httplib::Response& r
                                                  out.empty() ? std::min(left, keep_alive) : std::chrono::milliseconds(0));
         if (!batch.exists) {
           if (!out.empty()) sink.write(out.data(), out.size());
+          release();
           sink.done();  // the mission was deleted
           return true;
         }
@@ -351,7 +360,7 @@ void MissionRoutes::get_events(const httplib::Request& req, httplib::Response& r
         if (!out.empty() && !sink.write(out.data(), out.size())) return false;
         return true;
       },
-      [this](bool) { streams_.release(); });
+      [release](bool) { release(); });
 }
 
 void MissionRoutes::delete_mission(const httplib::Request& req, httplib::Response& res) {
