@@ -119,9 +119,8 @@ Image scaled_texture(const Image& full, double scale) {
 }
 
 // The budget's JPEGs use libjpeg's standard Huffman tables, not the image's own: a search encodes the texture 4-8
-// times and keeps one of them, and the image's own tables cost a second pass each (2-3x the time: q92 2.66 against
-// 0.84 ms on a 640x480 TUM frame) for 2-4 % fewer bytes at the qualities a budget lands on. The pixels are the same;
-// the budget buys a quality step or two less with the same bytes (BENCHMARKS.md, stop 18).
+// times and keeps one of them, and the image's own tables cost each encode a second pass (encode_jpeg has the
+// figures). The same bytes then buy a lower quality: 0.1-0.3 dB drawn at the capture pose (BENCHMARKS.md, stop 18).
 constexpr bool kBudgetOptimizesHuffman = false;
 
 // JPEG encodes of one image at several qualities, on up to `threads` threads (plain threads, joined here).
