@@ -20,12 +20,7 @@ start=$(date +%s)
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRGBDCAST_SANITIZE=ON "${launcher[@]}" >/dev/null
 cmake --build build-asan -j"$jobs"
 built=$(date +%s)
-# detect_leaks: on (the default on x86_64 Linux, stated). abort_on_error: a report kills the process, so a test
-# that spawns rgbdcast sees it fail. The same options reach every child process through the environment.
-export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:detect_stack_use_after_return=0:strict_string_checks=1${ASAN_OPTIONS:+:$ASAN_OPTIONS}"
-export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:suppressions=$root/tests/sanitizers/ubsan.supp${UBSAN_OPTIONS:+:$UBSAN_OPTIONS}"
-export LSAN_OPTIONS="suppressions=$root/tests/sanitizers/lsan.supp:print_suppressions=0${LSAN_OPTIONS:+:$LSAN_OPTIONS}"
-export RGBDCAST_SANITIZED=1
+source scripts/sanitizer_env.sh "$root"
 cd build-asan
 status=0
 ctest --output-on-failure --timeout 1800 "$@" || status=$?

@@ -11,4 +11,6 @@ ctest --output-on-failure --timeout 900 "$@"
 cd ..
 if [ "${RGBDCAST_FUZZ_SECONDS:-20}" != 0 ]; then
   bash scripts/fuzz.sh "${RGBDCAST_FUZZ_SECONDS:-20}"
+  # The tests of the untrusted-input libraries under ASan + UBSan, built beside the harnesses (about 6-7 min).
+  bash scripts/sanitized_subset.sh
 fi
