@@ -68,8 +68,12 @@ struct DepthMeshParams {
   // RTIN follows a discontinuity or a hole's edge in one-pixel steps, 2-4 triangles a pixel of outline; the
   // collapses turn each straight run into a few long edges. Away from the outline, vertices move only where the
   // surface is close enough to fronto-parallel that affine texturing stays near texture_deviation_px on triangles
-  // of up to 48 pixels (reduction/simplify.cpp).
-  double simplify_px = 1.0;
+  // of up to 48 pixels (reduction/simplify.cpp). 2 px rather than 1 (BENCHMARKS.md, stop 19): at the 40 kB budget
+  // the frames whose outline the budget straightens take one collapse run instead of two (realtime_bench speed,
+  // median ms: fr2 pair 35.4 -> 27.9, augmented ICL 34.8 -> 28.5, fr3 39.0 -> 33.4, TUM fr1/xyz 200-319 26.0 ->
+  // 24.6), with capture-pose coverage and PSNR within 0.1 dB or better except ICL-NUIM's all-valid PSNR (38.80 ->
+  // 37.56 dB), and novel views at 40 kB 21.80 -> 21.85 dB on augmented ICL and 9.36 on TUM, as before.
+  double simplify_px = 2.0;
   double max_hole_fraction = 0.5;     // a triangle may bridge invalid pixels up to this fraction of its pixels
   double texture_deviation_px = 0.5;  // split while affine texture interpolation deviates more (0: no such split)
   // The fit error is judged on triangles whose legs are at least this long (8 pixels or more); smaller ones split
