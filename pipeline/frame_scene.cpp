@@ -35,11 +35,11 @@ constexpr double kMaxToleranceFactor = 32;
 constexpr double kMaxSimplifyPx = 8;
 constexpr double kMinTextureScale = 0.25;
 // Geometry bytes per triangle of the compact GLB before one is measured, by codec: the medians of the realtime
-// preset's meshes on the shared frames are about 4.4 with meshopt and 2.6 with Draco (bench/geometry_codec_bench).
-// Only the first guess depends on them.
+// preset's meshes on the shared frames, with its collapses at 2 px, are 4.81 with meshopt and 3.17 with Draco
+// (bench/geometry_codec_bench, stop 19; 4.4 and 2.6 at 1 px). Only the first guess depends on them.
 double prior_bytes_per_triangle(const GlbWriteOptions& o) {
   if (o.flavor != GlbFlavor::kCompact) return 24.0;  // float positions and UVs
-  return o.geometry_codec == GeometryCodec::kDraco ? 2.6 : 4.4;
+  return o.geometry_codec == GeometryCodec::kDraco ? 3.2 : 4.8;
 }
 
 // libjpeg's quantizer scale for a quality (jpeg_quality_scaling), as its logarithm, and back.
