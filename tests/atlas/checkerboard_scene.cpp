@@ -84,8 +84,9 @@ Mesh checker_right_triangle_mesh(const CheckerScene& c, int min_side_px, int max
     for (int j = 0; j <= 1; ++j)
       for (int i = 0; i <= 1; ++i)
         if (!on_board(x + i * s, y + j * s, &p)) return true;
-    const unsigned h = static_cast<unsigned>(x * 73856093) ^ static_cast<unsigned>(y * 19349663) ^
-                       static_cast<unsigned>(s * 83492791);
+    // Multiplied as unsigned: wraps modulo 2^32 by definition (the int products overflowed, which UBSan reports).
+    const unsigned h = static_cast<unsigned>(x) * 73856093u ^ static_cast<unsigned>(y) * 19349663u ^
+                       static_cast<unsigned>(s) * 83492791u;
     return (h >> 4) % 3 == 0;
   };
   RightTriangleMeshOptions o;
