@@ -533,7 +533,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   // pixels uncovered, so the geometry keeps more than its share before it comes to this); the texture gets what is
   // left, as below. This holds at the largest tolerance whether or not the geometry is over its share: a mesh within
   // its share can still leave the texture under its floor (TUM fr1/xyz frame 0 at 40 kB: q24 at 2 px, 29.69 dB drawn
-  // at the capture pose; at 4 px q37, 30.42 dB; BENCHMARKS.md, stop 19), but only up to kFloorSimplifyPx: further
+  // at the capture pose; with this rule 4 px q42, 30.56 dB; BENCHMARKS.md, stop 19), but only up to kFloorSimplifyPx: further
   // straightening costs more coverage than a better texture gains (TUM fr1/xyz 200-319 frame 0 at 20 kB went to 8 px:
   // coverage 0.9968 -> 0.9889, all-valid PSNR 26.69 -> 23.35 dB). Whether the floor fits is read off the encodes tried
   // when they decide it (one at or above the floor that fits, or one at or below it that does not), so a frame whose
@@ -543,14 +543,13 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
          (b.geometry_bytes > 1.1 * geometry_cap || 2 * b.simplify_px <= kFloorSimplifyPx)) {
     const double kept_scale = options.budget_outline_texture_scale;
     const double texture_left = target - static_cast<double>(b.geometry_bytes + rest_bytes);
-    bool fits = false, decided = false;
-    for (const Tried& t : tried) {
-      if (t.scale != kept_scale) continue;
-      const double bytes = static_cast<double>(t.bytes.size());
-      if (t.quality >= kOutlineFloorQuality && bytes <= texture_left) fits = decided = true;
-      if (t.quality <= kOutlineFloorQuality && bytes > texture_left && !fits) decided = true;
-    }
-    if (!decided) {
+    auto tried_any = [&](auto pred) {
+      return std::any_of(tried.begin(), tried.end(), [&](const Tried& t) {
+        return t.scale == kept_scale && pred(t.quality, static_cast<double>(t.bytes.size()));
+      });
+    };
+    bool fits = tried_any([&](int q, double bytes) { return q >= kOutlineFloorQuality && bytes <= texture_left; });
+    if (!fits && !tried_any([&](int q, double bytes) { return q <= kOutlineFloorQuality && bytes > texture_left; })) {
       if (auto s = encode_at(kept_scale, {kOutlineFloorQuality}, 1); !s) return s.error();
       fits = bytes_of(kOutlineFloorQuality, kept_scale) <= texture_left;
     }
