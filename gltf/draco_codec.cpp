@@ -1,10 +1,13 @@
 // The rgbdcast_draco shared library: Draco's mesh encoder and decoder behind std-only types (draco_codec.h).
 #include "gltf/draco_codec.h"
 
+#include <draco/attributes/attribute_quantization_transform.h>
 #include <draco/compression/decode.h>
 #include <draco/compression/expert_encode.h>
+#include <draco/core/quantization_utils.h>
 #include <draco/mesh/mesh.h>
 
+#include <algorithm>
 #include <exception>
 #include <memory>
 
@@ -114,6 +117,7 @@ RGBDCAST_DRACO_EXPORT Encoded encode_mesh(const MeshIn& in, std::string* error) 
     }
     draco::ExpertEncoder encoder(mesh);
     encoder.SetSpeedOptions(in.encode_speed, in.decode_speed);
+    encoder.SetTrackEncodedProperties(true);
     for (size_t k = 0; k < in.attributes.size(); ++k)
       if (in.attributes[k].component_type == 5126 && in.attributes[k].quantization_bits > 0)
         encoder.SetAttributeQuantization(ids[k], in.attributes[k].quantization_bits);
@@ -125,6 +129,36 @@ RGBDCAST_DRACO_EXPORT Encoded encode_mesh(const MeshIn& in, std::string* error) 
     }
     result.bytes.assign(buffer.data(), buffer.data() + buffer.size());
     for (int id : ids) result.attribute_ids.push_back(static_cast<int>(mesh.attribute(id)->unique_id()));
+    result.num_points = encoder.num_encoded_points();
+    result.num_faces = encoder.num_encoded_faces();
+    result.decoded_min.resize(in.attributes.size());
+    result.decoded_max.resize(in.attributes.size());
+    for (size_t k = 0; k < in.attributes.size(); ++k) {
+      const AttributeIn& a = in.attributes[k];
+      if (a.component_type != 5126 || a.quantization_bits <= 0) continue;
+      const draco::PointAttribute& att = *mesh.attribute(ids[k]);
+      draco::AttributeQuantizationTransform q;
+      if (!q.ComputeParameters(att, a.quantization_bits)) continue;  // (the encoder failed on it already)
+      const auto max_quantized = static_cast<std::int32_t>((1u << static_cast<std::uint32_t>(a.quantization_bits)) - 1);
+      draco::Quantizer quantizer;
+      draco::Dequantizer dequantizer;
+      quantizer.Init(q.range(), max_quantized);
+      if (!dequantizer.Init(q.range(), max_quantized)) continue;
+      std::vector<float> lo(a.components), hi(a.components), v(a.components);
+      att.GetValue(draco::AttributeValueIndex(0), lo.data());
+      hi = lo;
+      for (draco::AttributeValueIndex i(1); i < static_cast<std::uint32_t>(att.size()); ++i) {
+        att.GetValue(i, v.data());
+        for (int c = 0; c < a.components; ++c) lo[c] = std::min(lo[c], v[c]), hi[c] = std::max(hi[c], v[c]);
+      }
+      for (int c = 0; c < a.components; ++c) {
+        const float origin = q.min_value(c);
+        lo[c] = dequantizer.DequantizeFloat(quantizer.QuantizeFloat(lo[c] - origin)) + origin;
+        hi[c] = dequantizer.DequantizeFloat(quantizer.QuantizeFloat(hi[c] - origin)) + origin;
+      }
+      result.decoded_min[k] = std::move(lo);
+      result.decoded_max[k] = std::move(hi);
+    }
   } catch (const std::exception& e) {
     *error = std::string("draco: ") + e.what();
     result = {};

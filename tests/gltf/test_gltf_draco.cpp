@@ -211,6 +211,48 @@ TEST(GltfDraco, RealFramesRoundTripWithinTheQuantizationStep) {
   }
 }
 
+// The accessors' counts and POSITION bounds are what a reader decodes. They come from the encoder, without a
+// decode, when every point is referenced (a non-manifold vertex's extra points included), and from a decode when a
+// point is not (the edgebreaker drops it, so the decoded bounds may be tighter than the input's).
+TEST(GltfDraco, AccessorCountsAndBoundsAreTheDecodedOnes) {
+  const SharedFrame frames[] = {kFrames[0], kFrames[1], {"tum/rgbd_dataset_freiburg1_xyz_200_319", 60},
+                                {"augmented_icl_livingroom", 0}, {"tum/rgbd_dataset_freiburg3_long_office_household", 0}};
+  for (const SharedFrame& f : frames) {
+    REQUIRE_DATA(f.path);
+    Scene scene = realtime_scene(f.path, f.index);
+    for (bool unreferenced : {false, true}) {
+      SCOPED_TRACE(std::string(f.path) + (unreferenced ? ", with an unreferenced point" : ""));
+      Mesh& m = scene.nodes[0].mesh;
+      if (unreferenced) {  // far outside the mesh: the input's bounds would include it, the decoded ones do not
+        Eigen::Vector3f far = m.positions[0];
+        for (const Eigen::Vector3f& p : m.positions) far = far.cwiseMax(p);
+        m.positions.push_back(far + Eigen::Vector3f(1, 1, 1));
+        m.uvs.push_back(m.uvs[0]);
+      }
+      auto glb = encode_glb(scene, draco_options());
+      ASSERT_TRUE(glb) << glb.error().message;
+      const json doc = json_of(*glb);
+      const json& prim = doc["meshes"][0]["primitives"][0];
+      const json& pos = doc["accessors"][prim["attributes"]["POSITION"].get<size_t>()];
+      auto back = decode_glb(glb->data(), glb->size());
+      ASSERT_TRUE(back) << back.error().message;
+      const Mesh& d = back->nodes[0].mesh;
+      EXPECT_EQ(pos["count"].get<size_t>(), d.positions.size());
+      EXPECT_EQ(doc["accessors"][prim["indices"].get<size_t>()]["count"].get<size_t>(), d.indices.size());
+      ASSERT_FALSE(d.positions.empty());
+      for (int c = 0; c < 3; ++c) {
+        double lo = d.positions[0][c], hi = lo;
+        for (const Eigen::Vector3f& p : d.positions) lo = std::min<double>(lo, p[c]), hi = std::max<double>(hi, p[c]);
+        EXPECT_EQ(pos["min"][c].get<double>(), lo) << "axis " << c;
+        EXPECT_EQ(pos["max"][c].get<double>(), hi) << "axis " << c;
+      }
+      if (unreferenced) {
+        for (int c = 0; c < 3; ++c) EXPECT_LT(pos["max"][c].get<double>(), m.positions.back()[c]) << "axis " << c;
+      }
+    }
+  }
+}
+
 TEST(GltfDraco, EverySpeedDecodesBothDracoMethods) {
   // Speeds 0-9 use the edgebreaker (0: its valence coder), 10 the sequential coder: both header layouts are read.
   const SharedFrame& f = kFrames[0];
