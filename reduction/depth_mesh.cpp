@@ -26,6 +26,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <thread>
@@ -115,7 +116,8 @@ void for_row_bands(int h, int threads, F&& f) {
 }
 }  // namespace
 
-Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilterParams& p, int threads) {
+Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilterParams& p, int threads,
+                                       const std::function<void()>& beside_speckles) {
   if (depth_m.empty() || depth_m.type() != CV_32FC1)
     return make_error(ErrorCode::kInvalidArgument, "depth filter: depth must be a non-empty CV_32FC1 image");
   if (auto st = p.validate(); !st) return st.error();
@@ -152,11 +154,14 @@ Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilter
     }
   });
   for (size_t n : flying) r.flying += n;
-  // Speckles: continuous regions smaller than min_region_px.
+  // Speckles: continuous regions smaller than min_region_px (one serial pass: the caller's work beside it).
+  std::thread beside;
+  if (beside_speckles) beside = std::thread(beside_speckles);
   const size_t before = static_cast<size_t>(cv::countNonZero(kept));
   if (p.min_region_px > 0) cv::filterSpeckles(kept, 0, p.min_region_px, max_diff);
   r.kept = static_cast<size_t>(cv::countNonZero(kept));
   r.speckles = before - r.kept;
+  if (beside.joinable()) beside.join();
 
   r.depth_m.create(h, w, CV_32FC1);
   for_row_bands(h, threads, [&](int y0, int y1, int) {
@@ -350,8 +355,104 @@ bool texture_deviates(const double px[3], const double py[3], const double z[3],
 
 }  // namespace
 
+// The largest depth ratio of an 8-neighbour step inside a smooth region (see make_depth_mesh_layout).
+constexpr float kSmoothStep = 1.06f;
+
+// The tables a build needs that depend only on the image's size and the parameters, not on its depth.
+struct DepthMeshLayout {
+  int width = 0, height = 0;
+  double jump_relative = 0, texture_deviation_px = 0, fit_min_leg_px = 0;  // the parameters they depend on
+  std::shared_ptr<const RtinTable> table;
+  int S = 0, tiles_x = 0, tiles_y = 0, grid_w = 0, grid_h = 0, first_leaf = 0, end = 0, levels = 0;
+  // Per level of the tree (all its triangles are congruent): each edge's length (0: the hypotenuse a-b, then b-c,
+  // c-a) and the largest depth ratio it may span (jump_relative per pixel of its length).
+  std::vector<std::array<float, 3>> level_len, level_ratio;
+  // Levels whose triangles can deviate in texture by more than the limit once no edge jumps (else the test is
+  // skipped; texture_deviation_bound).
+  std::vector<std::uint8_t> level_texture_check;
+  std::vector<std::array<std::int32_t, 3>> vertex_offset;  // each triangle's vertices as tile-local grid offsets
+  std::vector<std::int32_t> mid_offset;                     // each internal triangle's hypotenuse midpoint, the same
+  int fit_end = 2, fit_shift = 0, root_level = 0;           // see build()
+  bool skip_smooth = false;
+
+  bool fits(int w, int h, const DepthMeshParams& p) const {
+    return w == width && h == height && p.tile_px == S && p.jump_relative == jump_relative &&
+           p.texture_deviation_px == texture_deviation_px && p.fit_min_leg_px == fit_min_leg_px;
+  }
+};
+
+std::shared_ptr<const DepthMeshLayout> make_depth_mesh_layout(int width, int height, const DepthMeshParams& p) {
+  auto l = std::make_shared<DepthMeshLayout>();
+  l->width = width, l->height = height;
+  l->jump_relative = p.jump_relative, l->texture_deviation_px = p.texture_deviation_px;
+  l->fit_min_leg_px = p.fit_min_leg_px;
+  const int S = l->S = p.tile_px;
+  l->tiles_x = (width + S - 1) / S;
+  l->tiles_y = (height + S - 1) / S;
+  l->grid_w = l->tiles_x * S + 1;
+  l->grid_h = l->tiles_y * S + 1;
+  l->table = table_for(S);
+  const RtinTable& t = *l->table;
+  const int first_leaf = l->first_leaf = t.first_leaf(), end = l->end = t.end();
+  const int levels = l->levels = level_of(end - 1) + 1;
+  const int GW = l->grid_w;
+  auto& level_len = l->level_len;
+  auto& level_ratio = l->level_ratio;
+  level_len.resize(levels), level_ratio.resize(levels);
+  for (int d = 1; d < levels; ++d) {
+    const int id = 1 << d;
+    const int px[3] = {t.ax[id], t.bx[id], t.cx[id]}, py[3] = {t.ay[id], t.by[id], t.cy[id]};
+    for (int e = 0; e < 3; ++e) {
+      const double len = std::hypot(px[e] - px[(e + 1) % 3], py[e] - py[(e + 1) % 3]);
+      level_len[d][e] = static_cast<float>(len);
+      level_ratio[d][e] = static_cast<float>(std::pow(1 + p.jump_relative, len));
+    }
+  }
+  auto& level_texture_check = l->level_texture_check;
+  level_texture_check.assign(levels, 0);
+  for (int d = 1; d < levels; ++d) {
+    const double r[3] = {level_ratio[d][0], level_ratio[d][1], level_ratio[d][2]};
+    level_texture_check[d] =
+        p.texture_deviation_px > 0 && texture_deviation_bound(level_len[d].data(), r) > p.texture_deviation_px * 0.999;
+  }
+  l->vertex_offset.resize(end);
+  for (int id = 2; id < end; ++id)
+    l->vertex_offset[id] = {t.ay[id] * GW + t.ax[id], t.by[id] * GW + t.bx[id], t.cy[id] * GW + t.cx[id]};
+  l->mid_offset.resize(first_leaf);
+  for (int id = 2; id < first_leaf; ++id)
+    l->mid_offset[id] = ((t.ay[id] + t.by[id]) / 2) * GW + (t.ax[id] + t.bx[id]) / 2;
+  // The plane fit runs on triangles whose legs are at least fit_min_leg_px (ids below fit_end); their moments start
+  // at the finest such level (ids fit_end / 2 .. fit_end - 1), straight from its pixels.
+  int fit_end = 2;
+  while (fit_end < first_leaf && level_len[level_of(fit_end)][1] >= p.fit_min_leg_px - 1e-6) fit_end *= 2;
+  l->fit_end = fit_end;
+  l->fit_shift = level_of(first_leaf) - level_of(fit_end / 2);  // leaf id >> fit_shift: its finest fit node
+  // Smooth regions skip the unfitted levels' tests. A triangle of the finest fitted level (a "root": its descendants
+  // are never fitted) whose bounding box holds only valid grid points, inside the image, with every 8-neighbour
+  // step within kSmoothStep, passes all of them: no vertex is invalid, no edge jumps (a path of L steps, each within
+  // kSmoothStep, stays far inside (1 + jump_relative)^L), leaves are emittable, and the texture test cannot fire
+  // (checked below per level, with the ratios such steps allow), and no pixel is a hole. Its whole subtree is then
+  // skipped: leaves emittable, errors 0, its valid pixels all of its points. The result is the same as the full
+  // tests'; the steps' margin (1.06 against 1.08) is far beyond float rounding.
+  const int root_level = l->root_level = level_of(fit_end / 2);
+  bool skip_smooth = fit_end > 2 && fit_end < first_leaf && kSmoothStep < 1 + p.jump_relative;
+  for (int d = root_level + 1; d < levels && skip_smooth; ++d) {
+    if (!level_texture_check[d]) continue;
+    const int id = 1 << d;
+    const int px[3] = {t.ax[id], t.bx[id], t.cx[id]}, py[3] = {t.ay[id], t.by[id], t.cy[id]};
+    double r[3];  // a chain of 8-neighbour steps, as many as the edge's Chebyshev length
+    for (int e = 0; e < 3; ++e)
+      r[e] = std::pow(double(kSmoothStep),
+                      std::max(std::abs(px[e] - px[(e + 1) % 3]), std::abs(py[e] - py[(e + 1) % 3])));
+    skip_smooth = texture_deviation_bound(level_len[d].data(), r) <= p.texture_deviation_px * 0.99;
+  }
+  l->skip_smooth = skip_smooth;
+  return l;
+}
+
 Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, const cv::Mat& vertex_depth_m,
-                                                     const Intrinsics& k, const DepthMeshParams& p, int threads) {
+                                                     const Intrinsics& k, const DepthMeshParams& p, int threads,
+                                                     std::shared_ptr<const DepthMeshLayout> layout) {
   if (auto st = p.validate(); !st) return st.error();
   if (depth_m.empty() || depth_m.type() != CV_32FC1)
     return make_error(ErrorCode::kInvalidArgument, "depth mesh: depth must be a non-empty CV_32FC1 image");
@@ -360,17 +461,19 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
   if (!(std::isfinite(k.fx) && std::isfinite(k.fy) && k.fx > 0 && k.fy > 0 && std::isfinite(k.cx) &&
         std::isfinite(k.cy)))
     return make_error(ErrorCode::kInvalidArgument, "depth mesh: intrinsics must be finite with fx, fy > 0");
+  const std::shared_ptr<const DepthMeshLayout> L =
+      layout && layout->fits(depth_m.cols, depth_m.rows, p) ? layout : make_depth_mesh_layout(depth_m.cols, depth_m.rows, p);
   DepthMeshHierarchy h;
   h.width_ = depth_m.cols;
   h.height_ = depth_m.rows;
   h.k_ = k;
   h.params_ = p;
-  const int S = h.tile_ = p.tile_px;
-  h.tiles_x_ = (h.width_ + S - 1) / S;
-  h.tiles_y_ = (h.height_ + S - 1) / S;
-  h.grid_w_ = h.tiles_x_ * S + 1;
-  const int grid_h = h.tiles_y_ * S + 1;
-  h.table_ = table_for(S);
+  const int S = h.tile_ = L->S;
+  h.tiles_x_ = L->tiles_x;
+  h.tiles_y_ = L->tiles_y;
+  h.grid_w_ = L->grid_w;
+  const int grid_h = L->grid_h;
+  h.table_ = L->table;
   const RtinTable& t = *h.table_;
 
   // Grid points are pixel centres. The one column and row just past the image (x = width, y = height) repeat the
@@ -386,58 +489,14 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
       row[x] = d > 0.f && d <= std::numeric_limits<float>::max() ? d : 0.f;  // (NaN and +inf fail both)
     }
   }
-  // Per level of the tree (all its triangles are congruent): each edge's length (0: the hypotenuse a-b, then b-c,
-  // c-a) and the largest depth ratio it may span (jump_relative per pixel of its length).
-  const int first_leaf = t.first_leaf(), end = t.end();
-  const int levels = level_of(end - 1) + 1;
+  const int first_leaf = L->first_leaf, end = L->end, levels = L->levels;
   const int GW = h.grid_w_;
-  std::vector<std::array<float, 3>> level_len(levels), level_ratio(levels);
-  for (int d = 1; d < levels; ++d) {
-    const int id = 1 << d;
-    const int px[3] = {t.ax[id], t.bx[id], t.cx[id]}, py[3] = {t.ay[id], t.by[id], t.cy[id]};
-    for (int e = 0; e < 3; ++e) {
-      const double len = std::hypot(px[e] - px[(e + 1) % 3], py[e] - py[(e + 1) % 3]);
-      level_len[d][e] = static_cast<float>(len);
-      level_ratio[d][e] = static_cast<float>(std::pow(1 + p.jump_relative, len));
-    }
-  }
-  // Levels whose triangles can deviate in texture by more than the limit once no edge jumps (else the test is
-  // skipped; texture_deviation_bound).
-  std::vector<std::uint8_t> level_texture_check(levels, 0);
-  for (int d = 1; d < levels; ++d) {
-    const double r[3] = {level_ratio[d][0], level_ratio[d][1], level_ratio[d][2]};
-    level_texture_check[d] =
-        p.texture_deviation_px > 0 && texture_deviation_bound(level_len[d].data(), r) > p.texture_deviation_px * 0.999;
-  }
-  // Each triangle's vertices as tile-local grid offsets (internal triangles, then leaves).
-  std::vector<std::array<std::int32_t, 3>> vertex_offset(end);
-  for (int id = 2; id < end; ++id)
-    vertex_offset[id] = {t.ay[id] * GW + t.ax[id], t.by[id] * GW + t.bx[id], t.cy[id] * GW + t.cx[id]};
-  // The plane fit runs on triangles whose legs are at least fit_min_leg_px (ids below fit_end); their moments start
-  // at the finest such level (ids fit_end / 2 .. fit_end - 1), straight from its pixels.
-  int fit_end = 2;
-  while (fit_end < first_leaf && level_len[level_of(fit_end)][1] >= p.fit_min_leg_px - 1e-6) fit_end *= 2;
-  const int fit_shift = level_of(first_leaf) - level_of(fit_end / 2);  // leaf id >> fit_shift: its finest fit node
-  // Smooth regions skip the unfitted levels' tests. A triangle of the finest fitted level (a "root": its descendants
-  // are never fitted) whose bounding box holds only valid grid points, inside the image, with every 8-neighbour
-  // step within kSmoothStep, passes all of them: no vertex is invalid, no edge jumps (a path of L steps, each within
-  // kSmoothStep, stays far inside (1 + jump_relative)^L), leaves are emittable, and the texture test cannot fire
-  // (checked below per level, with the ratios such steps allow), and no pixel is a hole. Its whole subtree is then
-  // skipped: leaves emittable, errors 0, its valid pixels all of its points. The result is the same as the full
-  // tests'; the steps' margin (1.06 against 1.08) is far beyond float rounding.
-  constexpr float kSmoothStep = 1.06f;
-  const int root_level = level_of(fit_end / 2);
-  bool skip_smooth = fit_end > 2 && fit_end < first_leaf && kSmoothStep < 1 + p.jump_relative;
-  for (int d = root_level + 1; d < levels && skip_smooth; ++d) {
-    if (!level_texture_check[d]) continue;
-    const int id = 1 << d;
-    const int px[3] = {t.ax[id], t.bx[id], t.cx[id]}, py[3] = {t.ay[id], t.by[id], t.cy[id]};
-    double r[3];  // a chain of 8-neighbour steps, as many as the edge's Chebyshev length
-    for (int e = 0; e < 3; ++e)
-      r[e] = std::pow(double(kSmoothStep),
-                      std::max(std::abs(px[e] - px[(e + 1) % 3]), std::abs(py[e] - py[(e + 1) % 3])));
-    skip_smooth = texture_deviation_bound(level_len[d].data(), r) <= p.texture_deviation_px * 0.99;
-  }
+  const auto& level_len = L->level_len;
+  const auto& level_ratio = L->level_ratio;
+  const auto& level_texture_check = L->level_texture_check;
+  const auto& vertex_offset = L->vertex_offset;
+  const int fit_end = L->fit_end, fit_shift = L->fit_shift, root_level = L->root_level;
+  const bool skip_smooth = L->skip_smooth;
 
   const int tiles = h.tiles_x_ * h.tiles_y_;
   std::vector<float> tri_error(static_cast<size_t>(tiles) * first_leaf, 0.f);
@@ -612,9 +671,7 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
   // max a triangle, with midpoints as tile-local grid offsets computed once (a level-synchronous parallel version
   // spent more in its barriers than it saved on a loaded machine).
   h.error_.assign(h.depth_.size(), 0.f);
-  std::vector<std::int32_t> mid_offset(first_leaf);
-  for (int id = 2; id < first_leaf; ++id)
-    mid_offset[id] = ((t.ay[id] + t.by[id]) / 2) * GW + (t.ax[id] + t.bx[id]) / 2;
+  const auto& mid_offset = L->mid_offset;
   float* E = h.error_.data();
   for (int lb = first_leaf / 2; lb >= 2; lb /= 2) {
     const bool children_split = 2 * lb < first_leaf;

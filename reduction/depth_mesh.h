@@ -17,6 +17,7 @@
 // conforming splits, shared across tiles); every interior edge has exactly two triangles; no triangle spans a depth
 // discontinuity; deterministic (no randomness, no thread-order dependence).
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <vector>
@@ -27,7 +28,8 @@
 
 namespace rgbdcast {
 
-struct RtinTable;  // the implicit triangle tree of one tile size (depth_mesh.cpp)
+struct RtinTable;        // the implicit triangle tree of one tile size (depth_mesh.cpp)
+struct DepthMeshLayout;  // the tables a hierarchy's build needs for one image size and parameters (depth_mesh.cpp)
 
 struct DepthFilterParams {
   double jump_relative = 0.08;  // adjacent pixels whose depths differ by more than this fraction are discontinuous
@@ -52,8 +54,11 @@ struct DepthFilterResult {
 // OpenCV's filterSpeckles on log depth, where a relative jump is an absolute difference), then fills small gaps
 // inside one surface (never between two), so that the mesh need not trace every missing pixel. depth_m: CV_32FC1
 // metres, 0 = no depth. O(pixels).
-// threads: row bands on plain threads for the per-pixel passes (1: this thread alone).
-Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilterParams& params, int threads = 1);
+// threads: row bands on plain threads for the per-pixel passes (1: this thread alone). beside_speckles: the caller's
+// work, run on a thread of its own during the speckle pass (serial: the second core is otherwise idle there) and
+// joined before that pass ends; it must not throw.
+Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilterParams& params, int threads = 1,
+                                       const std::function<void()>& beside_speckles = {});
 
 struct DepthMeshParams {
   double tolerance_factor = 2.0;      // split while a triangle's RMS distance from its pixels exceeds this many sigma
@@ -95,6 +100,11 @@ struct DepthMeshParams {
   Status validate() const;
 };
 
+// What a hierarchy's build needs that depends only on the image's size and the parameters (the triangle tree, its
+// per-level edge lengths and depth ratios, grid offsets): about 0.8 ms at 640x480, made beside the depth filter by
+// prepare_realtime so that a frame's build does not wait for it. Immutable; params must be valid.
+std::shared_ptr<const DepthMeshLayout> make_depth_mesh_layout(int width, int height, const DepthMeshParams& params);
+
 // The RTIN's error hierarchy for one depth image: built once (O(pixels)), then extracted at any tolerance factor
 // in O(output). Holds no reference to the input.
 class DepthMeshHierarchy {
@@ -102,8 +112,10 @@ class DepthMeshHierarchy {
   // depth_m: CV_32FC1 metres (0 = none), the pixels the fit is judged on; vertex_depth_m: where vertices sit (the
   // same validity), as filter_depth leaves them; pinhole: the depth image's camera; threads: OpenMP threads
   // (reduction/openmp_threads.h, 0 = OpenMP's default).
+  // layout: make_depth_mesh_layout's for this image size and these parameters (made here when null or not theirs).
   static Result<DepthMeshHierarchy> build(const cv::Mat& depth_m, const cv::Mat& vertex_depth_m,
-                                          const Intrinsics& pinhole, const DepthMeshParams& params, int threads = 0);
+                                          const Intrinsics& pinhole, const DepthMeshParams& params, int threads = 0,
+                                          std::shared_ptr<const DepthMeshLayout> layout = nullptr);
 
   // The triangles at `tolerance_factor` (sigma units), as a vertex-coloured-less mesh in the camera frame (metres):
   // positions and indices only, counter-clockwise seen from the camera. `pixels` (optional) gets each vertex's

@@ -277,6 +277,40 @@ TEST(DepthMesh, FilterAndCountsAreTheSameOnTwoThreads) {
   EXPECT_EQ(c1.at(2.0), h->extract(2.0).triangle_count());  // the minimum is exact
 }
 
+// A hierarchy built with a layout made beforehand (as prepare_realtime makes it, beside the filter) is the one built
+// without; a layout for another image size or other parameters is not used, and the result is the same again.
+TEST(DepthMesh, AGivenLayoutGivesTheSameMeshAndAForeignOneIsIgnored) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  auto frame = fr1_frame(0);
+  ASSERT_TRUE(frame) << frame.error().message;
+  auto f = filter_depth(frame->depth_m, DepthFilterParams{}, 2, [] {});
+  ASSERT_TRUE(f) << f.error().message;
+  const Intrinsics k = frame->intrinsics.pinhole();
+  const DepthMeshParams p;
+  DepthMeshParams other = p;
+  other.jump_relative = 0.05;
+  auto mesh_with = [&](std::shared_ptr<const DepthMeshLayout> layout) {
+    auto h = DepthMeshHierarchy::build(f->depth_m, f->vertex_depth_m, k, p, 2, std::move(layout));
+    EXPECT_TRUE(h) << h.error().message;
+    return h ? h->extract(2.0) : Mesh{};
+  };
+  const Mesh plain = mesh_with(nullptr);
+  ASSERT_GT(plain.triangle_count(), 1000u);
+  for (auto layout : {make_depth_mesh_layout(f->depth_m.cols, f->depth_m.rows, p),
+                      make_depth_mesh_layout(f->depth_m.cols / 2, f->depth_m.rows, p),
+                      make_depth_mesh_layout(f->depth_m.cols, f->depth_m.rows, other)}) {
+    const Mesh m = mesh_with(layout);
+    EXPECT_EQ(m.indices, plain.indices);
+    ASSERT_EQ(m.positions.size(), plain.positions.size());
+    EXPECT_EQ(std::memcmp(m.positions.data(), plain.positions.data(), m.positions.size() * sizeof(Eigen::Vector3f)), 0);
+  }
+  // The foreign parameters' own layout does matter: with it (and them) the mesh differs.
+  auto h = DepthMeshHierarchy::build(f->depth_m, f->vertex_depth_m, k, other, 2,
+                                     make_depth_mesh_layout(f->depth_m.cols, f->depth_m.rows, other));
+  ASSERT_TRUE(h) << h.error().message;
+  EXPECT_NE(h->extract(2.0).indices, plain.indices);
+}
+
 // Edge use counts (linear, by lower vertex) agree with a map of every edge, on a real mesh and on a fold.
 TEST(DepthMesh, EdgeUseCountsMatchAMapOfEdges) {
   REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
