@@ -810,7 +810,8 @@ double DepthMeshHierarchy::TriangleCounts::smallest_with_at_most(double triangle
   return bin_top(last + first_bin_);
 }
 
-Mesh DepthMeshHierarchy::extract(double tol, std::vector<Eigen::Vector2i>* pixels) const {
+Mesh DepthMeshHierarchy::extract(double tol, std::vector<Eigen::Vector2i>* pixels,
+                                 std::vector<std::uint32_t>* edge_uses) const {
   const RtinTable& t = *table_;
   // Triangles as grid point ids, counter-clockwise seen from the camera (negative signed area with v down).
   std::vector<std::uint32_t> tris;
@@ -848,8 +849,9 @@ Mesh DepthMeshHierarchy::extract(double tol, std::vector<Eigen::Vector2i>* pixel
   std::vector<int> gradient_count(nv, 0);
   auto pixel = [&](std::uint32_t g) { return snapped(g); };
   const double r = params_.boundary_push_px;
+  std::vector<std::uint32_t> uses;
+  if (r > 0 || edge_uses) uses = edge_use_counts(mesh.indices, nv);
   if (r > 0) {
-    const std::vector<std::uint32_t> uses = edge_use_counts(mesh.indices, nv);
     for (size_t i = 0; i < tris.size(); i += 3) {
       for (int e = 0; e < 3; ++e) {
         if (uses[i + e] != 1) continue;
@@ -895,6 +897,7 @@ Mesh DepthMeshHierarchy::extract(double tol, std::vector<Eigen::Vector2i>* pixel
     mesh.positions[i] = k_.backproject(p.x() + push[i].x(), p.y() + push[i].y(), z).cast<float>();
     if (pixels) (*pixels)[i] = {static_cast<int>(p.x()), static_cast<int>(p.y())};
   }
+  if (edge_uses) *edge_uses = std::move(uses);
   return mesh;
 }
 

@@ -120,7 +120,9 @@ class DepthMeshHierarchy {
   // The triangles at `tolerance_factor` (sigma units), as a vertex-coloured-less mesh in the camera frame (metres):
   // positions and indices only, counter-clockwise seen from the camera. `pixels` (optional) gets each vertex's
   // grid pixel (u, v) before the boundary push. Empty when nothing is representable.
-  Mesh extract(double tolerance_factor, std::vector<Eigen::Vector2i>* pixels = nullptr) const;
+  // `edge_uses` (optional) gets edge_use_counts(indices) of the mesh (counted for the boundary push anyway).
+  Mesh extract(double tolerance_factor, std::vector<Eigen::Vector2i>* pixels = nullptr,
+               std::vector<std::uint32_t>* edge_uses = nullptr) const;
   // The triangle counts at every tolerance from `tolerance_min` up, from one walk at it (for budget searches):
   // a triangle is emitted at t while its own error <= t < its parent's. Tolerances are binned by their float's top
   // 16 bits (128 bins an octave, 0.54 % apart); a bin's count is exact at its top (TriangleCounts::top).

@@ -171,7 +171,7 @@ Result<ReducedFrame> extract_realtime(const RealtimeReduction& prepared, const R
   out.stages = prepared.stages;
   StageTimer timer(&out.stages);
   std::vector<Eigen::Vector2i> pixels;
-  out.mesh = prepared.hierarchy.extract(tolerance_factor, &pixels);
+  out.mesh = prepared.hierarchy.extract(tolerance_factor, &pixels, &out.edge_uses);
   out.mesh.colors.resize(pixels.size());
   for (size_t i = 0; i < pixels.size(); ++i) {
     const cv::Vec3b c = frame.color_rgb.at<cv::Vec3b>(pixels[i].y(), pixels[i].x());
@@ -189,7 +189,9 @@ Status simplify_realtime(const RealtimeReduction& prepared, const RgbdFrame& fra
   Mesh& mesh = reduced->mesh;
   const DepthMeshParams& mp = prepared.hierarchy.params();
   if (simplify_px > 0 && !mesh.indices.empty()) {
-    simplify_image_space(mesh, frame.intrinsics.pinhole(), mp.noise_m_per_m2, simplify_px, mp.texture_deviation_px);
+    simplify_image_space(mesh, frame.intrinsics.pinhole(), mp.noise_m_per_m2, simplify_px, mp.texture_deviation_px,
+                         &reduced->edge_uses);
+    reduced->edge_uses.clear();
     timer.done("simplify", "triangles", mesh.triangle_count());
   }
   reduced->cloud.positions = mesh.positions;

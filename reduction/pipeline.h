@@ -62,6 +62,9 @@ struct ReducedFrame {
   PointCloud cloud;  // the voxel-grid cloud, camera frame
   Mesh mesh;         // triangulated, perimeter-filtered; vertex-coloured; camera frame
   std::vector<StageReport> stages;
+  // Realtime preset: the triangles using each index slot's edge (edge_use_counts) of mesh as extracted, which the
+  // extraction has counted already; emptied when the collapses change the mesh.
+  std::vector<std::uint32_t> edge_uses;
 };
 
 // The preset's defaults (kPaper: the paper's values; kRealtime: the realtime preset's).

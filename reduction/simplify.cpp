@@ -52,7 +52,7 @@ void simplify_mesh(Mesh& mesh, double max_error_m) {
 // across the image or one tolerance in depth. Borders are not locked: a staircase of one-pixel steps along a depth
 // discontinuity or a hole collapses into a few long edges that stay within max_error of it.
 size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, double max_error,
-                            double texture_limit_px) {
+                            double texture_limit_px, const std::vector<std::uint32_t>* edge_uses) {
   if (mesh.indices.size() < 3 || !(w_unit > 0)) return mesh.triangle_count();
   std::vector<float> uvw(3 * mesh.positions.size());
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
@@ -71,7 +71,10 @@ size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, doub
   const double g_max = texture_limit_px > 0 ? 4 * texture_limit_px / (kMaxFreeLegPx * kMaxFreeLegPx) : 1e30;
   std::vector<float> g(mesh.positions.size(), 0.f);
   auto key = [](std::uint32_t a, std::uint32_t b) { return std::uint64_t(std::min(a, b)) << 32 | std::max(a, b); };
-  const std::vector<std::uint32_t> uses = edge_use_counts(mesh.indices, mesh.positions.size());
+  std::vector<std::uint32_t> counted;
+  if (!edge_uses || edge_uses->size() != mesh.indices.size())
+    counted = edge_use_counts(mesh.indices, mesh.positions.size());
+  const std::vector<std::uint32_t>& uses = counted.empty() ? *edge_uses : counted;
   for (size_t t = 0; t < mesh.indices.size(); t += 3)
     for (int e = 0; e < 3; ++e) {
       const std::uint32_t a = mesh.indices[t + e], b = mesh.indices[t + (e + 1) % 3];
