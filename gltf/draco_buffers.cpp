@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <string_view>
 
 #include "gltf/draco_codec.h"
 #include "gltf/draco_header.h"
@@ -153,12 +155,15 @@ json keep_referenced_views(json& doc, const std::vector<std::uint8_t>& in_bin, s
 }
 
 
-// FNV-1a over everything that decides a primitive's Draco bitstream.
+// A 64-bit hash of everything that decides a primitive's Draco bitstream: libstdc++'s string hash (MurmurHash2 64A,
+// eight bytes a step) of each part, chained. FNV-1a's byte-a-step loop took 0.17 ms a call on a realtime frame's
+// geometry, and a budgeted frame calls it twice (its measurement and its final write).
 std::uint64_t cache_key(const draco_codec::MeshIn& m, const std::vector<std::vector<std::uint8_t>>& data) {
   std::uint64_t h = 1469598103934665603ull;
   auto mix = [&](const void* p, size_t n) {
-    const auto* b = static_cast<const std::uint8_t*>(p);
-    for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+    const std::uint64_t part = std::hash<std::string_view>{}(std::string_view(static_cast<const char*>(p), n));
+    h = (h ^ part) * 0x9e3779b97f4a7c15ull;
+    h ^= h >> 29;
   };
   auto mix_int = [&](long long v) { mix(&v, sizeof v); };
   mix_int(static_cast<long long>(m.num_points)), mix_int(m.encode_speed), mix_int(m.decode_speed);
