@@ -295,9 +295,28 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   };
   auto update_total = [&] { b.glb_bytes = b.geometry_bytes + b.texture_bytes + rest_bytes; };
   // The smallest tolerance >= tol0 whose mesh has at most `want` triangles, from the counts at every tolerance
-  // (one walk of the hierarchy).
-  const DepthMeshHierarchy::TriangleCounts counts = hierarchy.counts(tol0, openmp_threads(options.params.threads));
-  auto tolerance_for = [&](double want) { return counts.smallest_with_at_most(want / kept, kMaxToleranceFactor); };
+  // (one walk of the hierarchy). The walk starts at kCountsFirstSigma: it visits every triangle whose parent's error
+  // is above its minimum, and the budget rarely goes below it (every shared frame at 40 kB ends at the largest
+  // tolerance), so the walk from tol0 is made only when a tolerance below it is asked for. The counts above the
+  // minimum are the same either way (TriangleCounts: a triangle counts where own <= t < parent).
+  constexpr double kCountsFirstSigma = 8;
+  DepthMeshHierarchy::TriangleCounts counts =
+      hierarchy.counts(std::max(tol0, kCountsFirstSigma), openmp_threads(options.params.threads));
+  auto counts_from_tol0 = [&] {
+    if (counts.minimum() > tol0) counts = hierarchy.counts(tol0, openmp_threads(options.params.threads));
+  };
+  auto count_at = [&](double tolerance) {
+    if (tolerance < counts.minimum()) counts_from_tol0();
+    return counts.at(tolerance);
+  };
+  auto tolerance_for = [&](double want) {
+    double t = counts.smallest_with_at_most(want / kept, kMaxToleranceFactor);
+    if (t <= counts.minimum() && counts.minimum() > tol0) {  // the answer may lie below this walk's minimum
+      counts_from_tol0();
+      t = counts.smallest_with_at_most(want / kept, kMaxToleranceFactor);
+    }
+    return t;
+  };
   // The mesh at a tolerance, textured (pixels only) and its geometry measured; then its texture at the best quality.
   // JPEG encodes tried on the current mesh's texture: (quality, scale) -> bytes. A remesh changes the texture's
   // fill, so it clears them.
@@ -351,7 +370,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   auto anticipates = [&](double tolerance, double simplify_px) {
     return tolerance >= kMaxToleranceFactor && simplify_px > 0 && 2 * simplify_px <= kMaxSimplifyPx &&
            options.budget_outline_texture_scale == 1.0 &&
-           static_cast<double>(counts.at(tolerance)) * kKeptPrior * bytes_per_triangle > 1.1 * geometry_cap;
+           static_cast<double>(count_at(tolerance)) * kKeptPrior * bytes_per_triangle > 1.1 * geometry_cap;
   };
   constexpr double kRestPriorBytes = 1500;  // the GLB's JSON and headers before a first measurement
   // The mesh textured, its geometry measured into *geometry and its texture's JPEGs at kMaxQuality and kMinQuality
@@ -486,7 +505,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
                  ? mesh_with_texture_beside(tolerance, simplify_px, &stages, &geometry, &side_jpegs, &limit_px)
                  : texture_at(tolerance, simplify_px, &stages);
     if (!t) return t.error();
-    const double extracted = static_cast<double>(counts.at(tolerance));
+    const double extracted = static_cast<double>(count_at(tolerance));
     const double triangles = static_cast<double>(t->mesh.triangle_count());
     kept = extracted > 0 ? std::max(0.05, triangles / extracted) : 1.0;
     textured = std::move(t);

@@ -134,6 +134,7 @@ class DepthMeshHierarchy {
     // The smallest tolerance in [minimum, tolerance_max] with at most `triangles` (the minimum, or a bin's top);
     // tolerance_max's bin top when none is.
     double smallest_with_at_most(double triangles, double tolerance_max) const;
+    double minimum() const { return min_; }  // the walk's tolerance
 
    private:
     friend class DepthMeshHierarchy;

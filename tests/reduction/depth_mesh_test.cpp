@@ -311,6 +311,30 @@ TEST(DepthMesh, AGivenLayoutGivesTheSameMeshAndAForeignOneIsIgnored) {
   EXPECT_NE(h->extract(2.0).indices, plain.indices);
 }
 
+// The budget walks the counts from 8 sigma first and from its minimum only when it needs a lower tolerance
+// (pipeline/frame_scene.cpp): above a walk's minimum its counts must be those of a walk from lower down.
+TEST(DepthMesh, CountsAboveAWalksMinimumAreThoseOfAWalkFromBelow) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  auto frame = fr1_frame(0);
+  ASSERT_TRUE(frame) << frame.error().message;
+  auto f = filter_depth(frame->depth_m, DepthFilterParams{}, 2);
+  ASSERT_TRUE(f) << f.error().message;
+  auto h = DepthMeshHierarchy::build(f->depth_m, f->vertex_depth_m, frame->intrinsics.pinhole(), DepthMeshParams{}, 2);
+  ASSERT_TRUE(h) << h.error().message;
+  const auto low = h->counts(2.0, 2), high = h->counts(8.0, 2);
+  EXPECT_EQ(high.minimum(), 8.0);
+  // (At its minimum a walk's count is exact; elsewhere either gives its bin's top, so 8.0 itself is compared with
+  // the mesh.)
+  for (double t : {8.01, 8.05, 9.5, 12.0, 16.0, 24.0, 31.9, 32.0, 40.0}) EXPECT_EQ(low.at(t), high.at(t)) << t;
+  EXPECT_EQ(high.at(8.0), h->extract(8.0).triangle_count());
+  EXPECT_EQ(low.at(2.0), h->extract(2.0).triangle_count());
+  for (double want : {0.5, 0.9, 0.99})  // fractions of the count at 8 sigma: answers above the minimum
+    EXPECT_EQ(low.smallest_with_at_most(want * high.at(8.0), 32), high.smallest_with_at_most(want * high.at(8.0), 32));
+  // At or under the count at the minimum the answer may lie below it: the partial walk answers its minimum.
+  EXPECT_EQ(high.smallest_with_at_most(1.5 * high.at(8.0), 32), 8.0);
+  EXPECT_LT(low.smallest_with_at_most(1.5 * high.at(8.0), 32), 8.0);
+}
+
 // Edge use counts (linear, by lower vertex) agree with a map of every edge, on a real mesh and on a fold.
 TEST(DepthMesh, EdgeUseCountsMatchAMapOfEdges) {
   REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
