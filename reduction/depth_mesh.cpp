@@ -155,13 +155,18 @@ Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilter
   });
   for (size_t n : flying) r.flying += n;
   // Speckles: continuous regions smaller than min_region_px (one serial pass: the caller's work beside it).
-  std::thread beside;
-  if (beside_speckles) beside = std::thread(beside_speckles);
+  struct Joined {  // joined on every way out, an exception from the speckle pass included
+    std::thread thread;
+    ~Joined() {
+      if (thread.joinable()) thread.join();
+    }
+  } beside;
+  if (beside_speckles) beside.thread = std::thread(beside_speckles);
   const size_t before = static_cast<size_t>(cv::countNonZero(kept));
   if (p.min_region_px > 0) cv::filterSpeckles(kept, 0, p.min_region_px, max_diff);
   r.kept = static_cast<size_t>(cv::countNonZero(kept));
   r.speckles = before - r.kept;
-  if (beside.joinable()) beside.join();
+  if (beside.thread.joinable()) beside.thread.join();
 
   r.depth_m.create(h, w, CV_32FC1);
   for_row_bands(h, threads, [&](int y0, int y1, int) {
