@@ -96,6 +96,25 @@
 
 namespace rgbdcast::stream {
 
+// Fidelity for large budgets. The realtime reduction's defaults saturate on a delta keyframe at about 40 kB
+// (tolerance at its floor of 2 sigma, JPEG at its budget's best quality 92, collapses at 2 px: a 100 kB budget gives
+// the same bytes as 40 kB; BENCHMARKS.md stop 17), so the bytes a fast link has room for could not buy anything. A
+// keyframe or refinement whose budget is above `above_kb` is reduced with a finer tolerance floor, finer collapses
+// and a higher JPEG ceiling; the budget still raises the tolerance and lowers the quality as it needs. At 100 kB on
+// augmented ICL frame 0 (a whole frame) 1 sigma, 1 px, q92 gave all-valid PSNR 33.40 dB at the capture pose against
+// 31.32 with the defaults (novel view 3: 20.42 against 20.18 dB); BENCHMARKS.md stop 20.
+struct FineReduction {
+  double above_kb = 40;       // --fine-above-kb: budgets above this use the settings below (0: never)
+  double tolerance = 1.0;     // --fine-tolerance: the tolerance floor, sigma (the default reduction's: 2)
+  double simplify_px = 1.0;   // --fine-simplify-px: the collapses' limit (0: off; the default reduction's: 2)
+  int max_jpeg_quality = 95;  // --fine-max-quality: the budget's best JPEG quality (the default's: 92)
+};
+
+// `base` for a keyframe or refinement of budget_kb: above fine.above_kb (when that is > 0), its tolerance floor and
+// collapses at most fine's, its best JPEG quality at least fine's; otherwise `base` as it is.
+FrameReductionOptions reduction_for_budget(const FrameReductionOptions& base, const FineReduction& fine,
+                                           double budget_kb);
+
 struct StreamOptions {
   bool realtime = false;
   double fps_without_timestamps = 30;
@@ -109,8 +128,12 @@ struct StreamOptions {
   int reduce_nice = 5;              // --reduce-nice: added to the reduction thread's niceness (0: as the caller)
   bool supersede = true;            // the backlog rule's first step; --keep-every-keyframe turns it off
   size_t max_deferred = 16;         // deferred keyframes waiting at most (beyond: the oldest is dropped)
-  double refine_ceiling_kb = 100;   // --refine-kb: a refinement's largest budget (0: no refinements)
+  double refine_ceiling_kb = 200;   // --refine-kb: a refinement's largest budget (0: no refinements)
   double refine_window_s = 1.0;     // --refine-window-ms: a refinement's longest time on the line
+  // --no-refine-while-tracking turns off: refinements between keyframes while tracking, on their own thread at the
+  // idle scheduling class, sized to end on the line before the next keyframe is expected (see above).
+  bool refine_while_tracking = true;
+  FineReduction fine;
 };
 
 struct StreamProgress {
@@ -133,6 +156,7 @@ struct StreamSummary {
   size_t deferred_sent = 0;   // of which reduced later (coarsened) and written to the outbox
   size_t deferred_dropped = 0;  // deferred keyframes dropped (more than max_deferred waited; resumed ones included)
   size_t refined = 0;         // refinements written to the outbox (revisions)
+  size_t refined_while_tracking = 0;  // of which made between keyframes, before every frame was read
   size_t cap_changes = 0;     // values taken from --link-kbps-file
   size_t failed = 0;          // keyframes whose reduction or outbox write failed (message in errors)
   bool resumed = false;
