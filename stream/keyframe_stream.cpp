@@ -82,10 +82,20 @@ void renice_this_thread(int increment) {
 
 // Linux: the idle scheduling class for this thread (and the threads it creates later): it runs on a core nothing
 // else wants, so a refinement made between keyframes takes no CPU from the tracker or a keyframe's reduction.
-void idle_this_thread() {
+// Returns the thread's id, for back_to_normal.
+pid_t idle_this_thread() {
+  const auto tid = static_cast<pid_t>(::syscall(SYS_gettid));
   sched_param sp{};
   sp.sched_priority = 0;
-  ::sched_setscheduler(static_cast<pid_t>(::syscall(SYS_gettid)), SCHED_IDLE, &sp);
+  ::sched_setscheduler(tid, SCHED_IDLE, &sp);
+  return tid;
+}
+// The normal class again (its niceness kept): once tracking is done, a refinement still being reduced is what the
+// drain waits for, and an idle-class thread on a loaded machine may not run for seconds.
+void back_to_normal(pid_t tid) {
+  sched_param sp{};
+  sp.sched_priority = 0;
+  ::sched_setscheduler(tid, SCHED_OTHER, &sp);
 }
 
 // A tracked keyframe on its way to the reduction thread.
@@ -238,6 +248,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     return std::move(taken->frame);
   };
 
+  const size_t sender_lanes = sender.stats().lanes;
   KeyframeInterval interval;
   double last_keyframe_s = 0;  // since t_start: when the last keyframe was tracked (mu)
   const FrameReductionOptions reduction = options.reduction;
@@ -334,11 +345,17 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     const double overhead_s = std::max(0.0, unix_now() - job.captured) + reduce_s.value() + sender.queue_wait_s() +
                               (sender.acknowledged_posts() == 0 ? options.latency.first_post_fixed_s : 0.0);
     const double line_kbps = sender.line_kbps(), fixed_s = sender.post_fixed_s();
+    // The rate rule's fixed cost: with two lanes or more, a POST's round trip and the server's time overlap the next
+    // keyframe's body on the line (the sender starts it once the body before it is across), so the line can carry a
+    // keyframe's bytes for the whole interval; with one lane it cannot. The latency rule always counts it: it is in
+    // this keyframe's time to the view.
+    const double rate_fixed_s = sender_lanes > 1 ? 0.0 : fixed_s;
     const double budget_kb =
         was_deferred
             ? std::max(options.budget.floor_kb,
-                       options.coarse_factor * keyframe_budget_kb(line_kbps, interval_s, options.budget, fixed_s))
-            : next_keyframe_budget_kb(line_kbps, interval_s, overhead_s, options.latency, options.budget, fixed_s);
+                       options.coarse_factor * keyframe_budget_kb(line_kbps, interval_s, options.budget, rate_fixed_s))
+            : std::min(keyframe_budget_kb(line_kbps, interval_s, options.budget, rate_fixed_s),
+                       latency_budget_kb(line_kbps, overhead_s, options.latency, options.budget, fixed_s));
     const int seq = outbox.next_seq();
     const auto t_reduce = steady::now();
     auto encoded = encode_keyframe(job.frame, reduction_for(budget_kb), budget_kb, job.pose, earlier_than(seq));
@@ -395,23 +412,32 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
 
   // Refinements: the newest acknowledged keyframe whose revision now (or the last refinement tried of it) was made at
   // a budget the window beats by 1.25 x and 8 kB, reduced again at what the link carries in window_s (at most
-  // refine_window_s), as its next revision. Returns false when there is no such keyframe; true when one was handled
-  // (refined, or not kept: the new GLB was under 1.1 x the old one's bytes; it is tried again only at a larger
+  // refine_window_s), as its next revision. With `ahead` (the drain), when no acknowledged keyframe qualifies, one
+  // whose POST is out (attempted, not answered yet) may be: its refinement is reduced while that POST is on the line
+  // and added once it is acknowledged (Outbox::revise needs the answer), so the line does not idle for the reduction
+  // (a single keyframe's stream, ICL: its only refinement followed its answer 0.3-0.6 s later). Returns false when
+  // there is no such keyframe; true when one was handled (refined, or not kept: the new GLB was under 1.1 x the old
+  // one's bytes, or its first POST was rejected or never answered before a stop; it is tried again only at a larger
   // budget). Called by the refiner thread while tracking, then by the drain (never both at once).
   std::map<int, double> refined_at;  // seq -> the largest budget a refinement of it was reduced at
   std::atomic<bool> tracking_done_for_refiner{false};  // the drain's refinements are not counted as while tracking
-  auto refine_one = [&](double window_s, SmoothedDuration& took_s) {
+  auto refine_one = [&](double window_s, SmoothedDuration& took_s, bool ahead) {
     if (!(options.refine_ceiling_kb > 0)) return false;
     const double budget_kb = refinement_budget_kb(sender.line_kbps(), std::min(window_s, options.refine_window_s),
                                                   sender.post_fixed_s(), options.refine_ceiling_kb,
                                                   options.budget.headroom);
     auto beats = [&](double base) { return budget_kb >= std::max(1.25 * base, base + 8); };
     std::optional<OutboxEntry> best;
-    for (const OutboxEntry& e : outbox.entries()) {
-      const auto tried = refined_at.find(e.seq);
-      if (e.acked && beats(std::max(e.budget_kb, tried == refined_at.end() ? 0.0 : tried->second)) &&
-          (!best || e.captured > best->captured || (e.captured == best->captured && e.seq > best->seq)))
-        best = e;
+    const std::vector<OutboxEntry> all = outbox.entries();
+    for (bool answered : {true, false}) {  // acknowledged ones first; then, ahead, one whose POST is out
+      if (best || (!answered && !ahead)) break;
+      for (const OutboxEntry& e : all) {
+        const auto tried = refined_at.find(e.seq);
+        const bool state = answered ? e.acked : (!e.acked && e.attempted && e.rejected.empty());
+        if (state && beats(std::max(e.budget_kb, tried == refined_at.end() ? 0.0 : tried->second)) &&
+            (!best || e.captured > best->captured || (e.captured == best->captured && e.seq > best->seq)))
+          best = e;
+      }
     }
     if (!best) return false;
     refined_at[best->seq] = budget_kb;
@@ -430,6 +456,17 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
                                 earlier_than(best->seq));
     took_s.on_sample(std::chrono::duration<double>(steady::now() - t0).count());
     if (!fine || static_cast<double>(fine->glb.size()) < 1.1 * static_cast<double>(best->bytes)) return true;
+    while (!best->acked) {  // made ahead: wait for the answer to the revision it replaces
+      if (should_stop() || !sender.stats().fatal.empty()) return true;
+      if (sender.stats().link_down) {  // an outage: not worth holding the drain (its cap polls) for; made again later
+        refined_at.erase(best->seq);
+        return true;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      auto now = outbox.entry(best->seq);
+      if (!now || !now->rejected.empty() || now->rev != best->rev) return true;
+      best = std::move(now);
+    }
     Status st = outbox.revise(best->seq, fine->glb, budget_kb, fine->triangles);
     {
       std::lock_guard lock(mu);
@@ -532,9 +569,10 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   // refinement's own reduction. A keyframe that comes sooner still goes first: the sender posts first revisions
   // before refinements, and at most the rest of a refinement's body (its window) is ahead of it on the line.
   std::thread refiner;
+  std::atomic<pid_t> refiner_tid{0};
   if (options.refine_ceiling_kb > 0 && options.refine_while_tracking)
     refiner = std::thread([&] {
-      idle_this_thread();
+      refiner_tid = idle_this_thread();
       SmoothedDuration took(0.5);
       for (;;) {
         double free_s = 0;
@@ -547,7 +585,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
           free_s = last_keyframe_s + interval.seconds() + reduce_s.value() - now_s - took.value();
         }
         if (free_s <= 0 || sender.owed_s(true) > 0.05) continue;
-        if (!refine_one(free_s, took)) {
+        if (!refine_one(free_s, took, false)) {
           std::unique_lock lock(mu);  // nothing to refine at this window: wait for the next keyframe or answer
           jobs_cv.wait_for(lock, std::chrono::milliseconds(100), [&] { return tracking_done; });
         }
@@ -560,6 +598,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     }
     jobs_cv.notify_all();
     if (reducer.joinable()) reducer.join();
+    if (refiner_tid != 0) back_to_normal(refiner_tid);
     if (refiner.joinable()) refiner.join();
     tracking_done_for_refiner = true;
   };
@@ -636,10 +675,10 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       summary.stopped = true;
       break;
     }
-    if (sender.owed_s(true) <= std::max(refine_s.value(), 0.1) && refine_one(options.refine_window_s, refine_s))
+    if (sender.owed_s(true) <= std::max(refine_s.value(), 0.1) && refine_one(options.refine_window_s, refine_s, true))
       continue;
     if (sender.stats().pending == 0) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   sender.stop();
   summary.sender = sender.stats();
