@@ -59,17 +59,24 @@
 // The newest keyframe is never coarsened, and the sender posts newest first.
 //
 // Refinements (on unless refine_ceiling_kb is 0): spare link capacity re-sends an acknowledged keyframe at a larger
-// budget as its next revision (Outbox::revise; the server replaces the stored keyframe, one surface per seq). Only
-// once every frame was read: the drain refines the keyframes one after another, each reduced once the link owes no
-// more than a reduction takes. Not while tracking: a refinement on the reduction thread delays the next keyframe's
-// reduction, and the latency rule takes that out of the keyframe's bytes (measured, BENCHMARKS.md stop 17: between
-// keyframes, first revisions fell from 34 to 18 kB at 2 Mbit/s; "after 1.5 idle intervals", to 8 kB at 500 kbit/s). The newest unrefined keyframe first (by capture time), each refined once (rev 1), from its own
-// frame and pose against the same coverage views as its first revision. Its budget is what the POST model carries in
-// refine_window_s of line, at most refine_ceiling_kb (refinement_budget_kb), so a keyframe tracked meanwhile waits at
-// most that long for the line; it is made only when that is at least 1.25 x (and 8 kB more than) the keyframe's
-// budget, and kept only when the new GLB is at least 10 % larger. The sender posts a first revision before any
-// refinement.
-//
+// budget as its next revision (Outbox::revise; the server replaces the stored keyframe, one surface per seq). The
+// newest keyframe (by capture time) whose budget, or the budget of its last refinement tried, the window's budget
+// beats by 1.25 x and 8 kB, from its own frame and pose against the same coverage views as its first revision, at
+// the fine settings (FineReduction: its budget is above 40 kB); kept only when the new GLB is at least 10 % larger.
+// Its budget is what the POST model carries in the window (at most refine_window_s), at most refine_ceiling_kb
+// (refinement_budget_kb). The sender posts a first revision before any refinement.
+// - While tracking (refine_while_tracking): a refiner thread in the idle scheduling class (SCHED_IDLE: it gets a core
+//   only when the tracker and the keyframes' reduction leave one, so it takes neither's time; stop 17 measured what a
+//   refinement on the reduction thread cost: the next keyframe's reduction waited, and the latency rule took it out of
+//   that keyframe's bytes, 34 -> 18 kB at 2 Mbit/s) refines when no keyframe waits or is being reduced and the sender
+//   owes nothing, with the window until the next keyframe's POST is expected (the last keyframe's time + the interval
+//   + its reduction, less this refinement's own reduction). A keyframe that comes sooner goes first; at most the rest
+//   of the refinement's body is ahead of it on the line. Once tracking is done the thread returns to the normal
+//   class (a starved idle-class reduction would hold the drain).
+// - In the drain (every frame read): one after another, each reduced once the link owes no more than that takes, so
+//   it is ready when the line frees; when no acknowledged keyframe qualifies, one whose POST is out is refined ahead
+//   and its revision added once the answer comes.
+
 // Resume: with entries or deferred records in the outbox, tracking restarts at the latest keyframe's frame, over
 // both (the highest frame index: a deferred keyframe reduced already may have a higher seq but an older frame, and a
 // deferred record's frame may be the latest), whose pose (from the outbox or the record) anchors the new run's poses
