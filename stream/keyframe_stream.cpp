@@ -429,8 +429,12 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     auto beats = [&](double base) { return budget_kb >= std::max(1.25 * base, base + 8); };
     std::optional<OutboxEntry> best;
     const std::vector<OutboxEntry> all = outbox.entries();
-    for (bool answered : {true, false}) {  // acknowledged ones first; then, ahead, one whose POST is out
-      if (best || (!answered && !ahead)) break;
+    // Acknowledged ones first; then, ahead, one whose POST is out, but only once an answer has measured the link: a
+    // budget from the initial guess would be replaced by the next refinement as soon as the link is known (ICL at
+    // 2 Mbit/s: a 52 kB revision, then a 133 kB one).
+    const bool measured = sender.acknowledged_posts() > 0;
+    for (bool answered : {true, false}) {
+      if (best || (!answered && !(ahead && measured))) break;
       for (const OutboxEntry& e : all) {
         const auto tried = refined_at.find(e.seq);
         const bool state = answered ? e.acked : (!e.acked && e.attempted && e.rejected.empty());
