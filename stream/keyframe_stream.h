@@ -75,7 +75,7 @@
 //   class (a starved idle-class reduction would hold the drain).
 // - In the drain (every frame read): one after another, each reduced once the link owes no more than that takes, so
 //   it is ready when the line frees; when no acknowledged keyframe qualifies, one whose POST is out is refined ahead
-//   and its revision added once the answer comes.
+//   and its revision added once the answer comes (only once some answer has measured the link).
 
 // Resume: with entries or deferred records in the outbox, tracking restarts at the latest keyframe's frame, over
 // both (the highest frame index: a deferred keyframe reduced already may have a higher seq but an older frame, and a
