@@ -151,6 +151,9 @@ void register_reduce(CLI::App& app) {
   cmd->add_option("--budget-outline-scale", args->budget_outline_texture_scale,
                   "Realtime budget: past the largest tolerance, the texture scale (0.25..1) kept before the mesh's "
                   "outline is straightened")->capture_default_str();
+  cmd->add_option("--budget-max-quality", args->budget_max_jpeg_quality,
+                  "Realtime budget: the best JPEG quality it tries (20..100); above 92 a large budget can buy a "
+                  "better texture")->capture_default_str();
   cmd->add_option("--tolerance", args->params.depth_mesh.tolerance_factor,
                   "Realtime: split a triangle while its RMS distance from its pixels exceeds this many sigma of the "
                   "sensor's depth noise (a budget raises it as needed)")->capture_default_str();

@@ -32,7 +32,10 @@ struct StreamArgs {
   std::string server, mission, outbox, token_file, link_kbps_file;
   bool realtime = false;
   double link_kbps = 0, initial_kbps = 500, latency_ms = 1000, max_backlog_s = 2.0, progress_interval_s = 2.0;
-  double refine_kb = 100, refine_window_ms = 1000;
+  double refine_kb = 200, refine_window_ms = 1000;
+  double max_keyframe_kb = 100;
+  bool no_refine_while_tracking = false;
+  stream::FineReduction fine;
   unsigned seed = 0;
   int max_in_flight = 2;
   int reduce_nice = 5;
@@ -101,6 +104,16 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
     fail_stream(make_error(ErrorCode::kInvalidArgument, "--refine-kb must be 0..1000 (0: no refinements)"));
   if (!std::isfinite(a.refine_window_ms) || a.refine_window_ms <= 0 || a.refine_window_ms > 60000)
     fail_stream(make_error(ErrorCode::kInvalidArgument, "--refine-window-ms must be in (0, 60000]"));
+  if (!std::isfinite(a.max_keyframe_kb) || a.max_keyframe_kb < 4 || a.max_keyframe_kb > 1000)
+    fail_stream(make_error(ErrorCode::kInvalidArgument, "--max-keyframe-kb must be 4..1000"));
+  if (!std::isfinite(a.fine.above_kb) || a.fine.above_kb < 0)
+    fail_stream(make_error(ErrorCode::kInvalidArgument, "--fine-above-kb must be >= 0 (0: never)"));
+  if (!std::isfinite(a.fine.tolerance) || a.fine.tolerance <= 0)
+    fail_stream(make_error(ErrorCode::kInvalidArgument, "--fine-tolerance must be > 0"));
+  if (!std::isfinite(a.fine.simplify_px) || a.fine.simplify_px < 0)
+    fail_stream(make_error(ErrorCode::kInvalidArgument, "--fine-simplify-px must be >= 0 (0: off)"));
+  if (a.fine.max_jpeg_quality < 20 || a.fine.max_jpeg_quality > 100)
+    fail_stream(make_error(ErrorCode::kInvalidArgument, "--fine-max-quality must be 20..100"));
   if (a.reduce_nice < 0 || a.reduce_nice > 19)
     fail_stream(make_error(ErrorCode::kInvalidArgument, "--reduce-nice must be 0..19"));
   // One uplink (one keep-alive connection) per lane of the sender.
@@ -129,6 +142,9 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   if (!source) fail_stream(source.error());
 
   if (auto st = uplink->check_reachable(); !st) fail_stream(st.error());
+  // The POST model's first fixed cost: a bodiless request's round trip on the connection just opened (so the first
+  // keyframe's answer already gives a line rate; BENCHMARKS.md stop 20). Not fatal: 0 without it.
+  if (auto rtt = uplink->round_trip_s()) link.initial_fixed_s = *rtt;
   const std::string outbox_dir = a.outbox.empty() ? "rgbdcast-outbox-" + a.mission : a.outbox;
   auto outbox = stream::Outbox::open(outbox_dir, a.mission);
   if (!outbox) fail_stream(outbox.error());
@@ -152,6 +168,9 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   options.supersede = !a.keep_every_keyframe;
   options.refine_ceiling_kb = a.refine_kb;
   options.refine_window_s = a.refine_window_ms / 1000.0;
+  options.refine_while_tracking = !a.no_refine_while_tracking;
+  options.budget.ceiling_kb = a.max_keyframe_kb;
+  options.fine = a.fine;
 
   struct sigaction sa {};
   sa.sa_handler = on_signal;
@@ -168,8 +187,8 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   if (a.realtime) std::cout << ", " << s.dropped << " dropped behind the camera";
   std::cout << "), " << s.keyframes << " new keyframes (" << s.covered << " fully covered, not sent; " << s.coarsened
             << " coarsened, " << s.superseded << " deferred while the link owed too much: " << s.deferred_sent
-            << " of them sent later, coarsened, " << s.deferred_dropped << " dropped; " << s.refined
-            << " refinements)";
+            << " of them sent later, coarsened, " << s.deferred_dropped << " dropped; "
+            << s.refined_while_tracking << " made while tracking of " << s.refined << " refinements)";
   if (s.cap_changes > 0) std::cout << ", " << s.cap_changes << " caps read from " << a.link_kbps_file;
   if (s.resumed)
     std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries << " outbox entries and "
@@ -253,6 +272,24 @@ void register_stream(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--refine-window-ms", args->refine_window_ms,
                   "Longest time a refinement may hold the line (a new keyframe waits at most that long)")
+      ->capture_default_str();
+  cmd->add_flag("--no-refine-while-tracking", args->no_refine_while_tracking,
+                "Refine only once every frame was read (default: also between keyframes, on an idle-class thread, "
+                "sized to end before the next keyframe is expected)");
+  cmd->add_option("--max-keyframe-kb", args->max_keyframe_kb,
+                  "Largest budget of a keyframe's first revision (the rate and latency rules give less on a slower "
+                  "link)")
+      ->capture_default_str();
+  cmd->add_option("--fine-above-kb", args->fine.above_kb,
+                  "Budgets above this are reduced with the --fine-* settings, so that more bytes buy a better "
+                  "keyframe (0: never)")
+      ->capture_default_str();
+  cmd->add_option("--fine-tolerance", args->fine.tolerance, "Tolerance floor of a fine reduction (sigma)")
+      ->capture_default_str();
+  cmd->add_option("--fine-simplify-px", args->fine.simplify_px,
+                  "Collapses' limit of a fine reduction (pixels; 0: off)")
+      ->capture_default_str();
+  cmd->add_option("--fine-max-quality", args->fine.max_jpeg_quality, "Best JPEG quality of a fine reduction")
       ->capture_default_str();
   cmd->add_option("--reduce-nice", args->reduce_nice,
                   "Niceness added to the keyframe reduction thread (0-19), so that tracking keeps up with the camera")

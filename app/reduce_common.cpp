@@ -17,6 +17,7 @@ Result<FrameReductionOptions> frame_options(const ReduceArgs& a) {
   if (!a.geometry_codec_chosen) o.glb.geometry_codec = default_geometry_codec(*preset);
   o.budget_kb = a.budget_kb >= 0 ? a.budget_kb : (*preset == Preset::kRealtime ? kDefaultBudgetKb : 0.0);
   o.budget_outline_texture_scale = a.budget_outline_texture_scale;
+  o.budget_max_jpeg_quality = a.budget_max_jpeg_quality;
   if (auto st = o.validate(); !st) return st.error();
   return o;
 }

@@ -24,6 +24,7 @@ struct ReduceArgs {
   // by apply_default_budget; paper: none).
   double budget_kb = -1;
   double budget_outline_texture_scale = FrameReductionOptions{}.budget_outline_texture_scale;
+  int budget_max_jpeg_quality = FrameReductionOptions{}.budget_max_jpeg_quality;
   // --geometry-codec not given: the preset's default (default_geometry_codec: realtime draco, paper meshopt).
   bool geometry_codec_chosen = false;
   ReductionParams params;

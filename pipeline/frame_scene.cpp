@@ -23,7 +23,7 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 
 // Bytes of a GLB kept for the caller's extras (stage lists, intrinsics, capture metadata) when meeting a budget.
 constexpr double kExtrasReserveBytes = 1200;
-constexpr int kMinQuality = 20, kMaxQuality = 92;
+constexpr int kMinQuality = 20;  // the best: FrameReductionOptions::budget_max_jpeg_quality
 // The texture's floor before the outline is straightened: this quality at budget_outline_texture_scale (below it
 // JPEG's blocks show; on the fr2 desk pair at 40 kB, q25 at full size gave 29.6-29.9 dB over the pixels drawn, the
 // outline at 2 px and q52-53 30.9 dB).
@@ -187,6 +187,8 @@ Status FrameReductionOptions::validate() const {
     return make_error(ErrorCode::kInvalidArgument, "the budget's outline texture scale must be 0.25..1");
   if (!(std::isfinite(budget_geometry_share) && budget_geometry_share > 0 && budget_geometry_share < 1))
     return make_error(ErrorCode::kInvalidArgument, "the budget's geometry share must be between 0 and 1");
+  if (budget_max_jpeg_quality < kMinQuality || budget_max_jpeg_quality > 100)
+    return make_error(ErrorCode::kInvalidArgument, "the budget's best JPEG quality must be 20..100");
   if (budget_kb > 0 && params.preset != Preset::kRealtime)
     return make_error(ErrorCode::kInvalidArgument, "a byte budget needs the realtime preset (--preset realtime)");
   return ok_status();
@@ -196,6 +198,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
                                          const Eigen::Matrix4d& camera_to_world,
                                          const std::vector<CoverageView>& earlier) {
   if (auto st = options.validate(); !st) return st.error();
+  const int kMaxQuality = options.budget_max_jpeg_quality;
   TexturedFrame out;
   out.preset = options.params.preset;
   out.camera.intrinsics = frame.intrinsics.pinhole();

@@ -39,6 +39,9 @@ struct FrameReductionOptions {
   // over all valid pixels +0.9 / +1.8 / +0.6 dB, coverage within 0.0004. Between a half and 1, the texture is tried
   // at this scale before half when the least quality does not fit at full size.
   double budget_outline_texture_scale = 1.0;
+  // The best JPEG quality a budget tries (20..100). 92 by default; a large budget whose scene saturates at 92 (a
+  // stream's refinements, rgbdcast stream --fine-max-quality) can turn more bytes into a better texture above it.
+  int budget_max_jpeg_quality = 92;
 
   Status validate() const;
 };

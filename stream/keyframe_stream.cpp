@@ -1,14 +1,17 @@
 #include "stream/keyframe_stream.h"
 
+#include <sched.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
+#include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -77,6 +80,24 @@ void renice_this_thread(int increment) {
   if (errno == 0) ::setpriority(PRIO_PROCESS, tid, std::min(19, now + increment));
 }
 
+// Linux: the idle scheduling class for this thread (and the threads it creates later): it runs on a core nothing
+// else wants, so a refinement made between keyframes takes no CPU from the tracker or a keyframe's reduction.
+// Returns the thread's id, for back_to_normal.
+pid_t idle_this_thread() {
+  const auto tid = static_cast<pid_t>(::syscall(SYS_gettid));
+  sched_param sp{};
+  sp.sched_priority = 0;
+  ::sched_setscheduler(tid, SCHED_IDLE, &sp);
+  return tid;
+}
+// The normal class again (its niceness kept): once tracking is done, a refinement still being reduced is what the
+// drain waits for, and an idle-class thread on a loaded machine may not run for seconds.
+void back_to_normal(pid_t tid) {
+  sched_param sp{};
+  sp.sched_priority = 0;
+  ::sched_setscheduler(tid, SCHED_OTHER, &sp);
+}
+
 // A tracked keyframe on its way to the reduction thread.
 struct KeyframeJob {
   RgbdFrame frame;
@@ -112,6 +133,17 @@ Percentiles percentiles(std::vector<double> v) {
   return out;
 }
 
+FrameReductionOptions reduction_for_budget(const FrameReductionOptions& base, const FineReduction& fine,
+                                           double budget_kb) {
+  FrameReductionOptions o = base;
+  if (fine.above_kb > 0 && budget_kb > fine.above_kb) {
+    o.params.depth_mesh.tolerance_factor = std::min(o.params.depth_mesh.tolerance_factor, fine.tolerance);
+    o.params.depth_mesh.simplify_px = std::min(o.params.depth_mesh.simplify_px, fine.simplify_px);
+    o.budget_max_jpeg_quality = std::max(o.budget_max_jpeg_quality, fine.max_jpeg_quality);
+  }
+  return o;
+}
+
 Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Sender& sender,
                                  const StreamOptions& options,
                                  const std::function<void(const StreamProgress&)>& on_progress,
@@ -127,6 +159,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     CoverageView view;
   };
   std::vector<View> views;
+  std::mutex views_mu;  // views: appended by the reduction thread, read by it and by the refinements
   Eigen::Matrix4d anchor = Eigen::Matrix4d::Identity();
   const std::vector<OutboxEntry> existing = outbox.entries();
   const std::vector<DeferredKeyframe> waiting = outbox.deferred();  // by frame
@@ -182,6 +215,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   sender.start();
 
   auto earlier_than = [&](int seq) {
+    std::lock_guard lock(views_mu);
     std::vector<CoverageView> out;
     for (const View& v : views)
       if (v.seq < seq) out.push_back(v.view);
@@ -214,8 +248,12 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     return std::move(taken->frame);
   };
 
+  const size_t sender_lanes = sender.stats().lanes;
   KeyframeInterval interval;
-  FrameReductionOptions reduction = options.reduction;
+  double last_keyframe_s = 0;  // since t_start: when the last keyframe was tracked (mu)
+  const FrameReductionOptions reduction = options.reduction;
+  // The reduction for a budget: above fine.above_kb, the finer settings (FineReduction).
+  auto reduction_for = [&](double budget_kb) { return reduction_for_budget(reduction, options.fine, budget_kb); };
   SmoothedDuration reduce_s(0.3);  // a keyframe's reduction time: mean + 2 deviations
   SmoothedDuration refine_s(0.5);  // a refinement's (a larger budget takes longer)
 
@@ -258,7 +296,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       }();
       if (frame) {
         frame->index = e.frame_index;
-        auto coarse = encode_keyframe(*frame, reduction, target_kb, entry_pose(e), earlier_than(e.seq));
+        auto coarse = encode_keyframe(*frame, reduction_for(target_kb), target_kb, entry_pose(e), earlier_than(e.seq));
         if (coarse && coarse->glb.size() < e.bytes) {
           Status st = outbox.coarsen(e.seq, coarse->glb, target_kb, coarse->triangles);
           std::lock_guard lock(mu);
@@ -307,18 +345,24 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     const double overhead_s = std::max(0.0, unix_now() - job.captured) + reduce_s.value() + sender.queue_wait_s() +
                               (sender.acknowledged_posts() == 0 ? options.latency.first_post_fixed_s : 0.0);
     const double line_kbps = sender.line_kbps(), fixed_s = sender.post_fixed_s();
+    // The rate rule's fixed cost: with two lanes or more, a POST's round trip and the server's time overlap the next
+    // keyframe's body on the line (the sender starts it once the body before it is across), so the line can carry a
+    // keyframe's bytes for the whole interval; with one lane it cannot. The latency rule always counts it: it is in
+    // this keyframe's time to the view.
+    const double rate_fixed_s = sender_lanes > 1 ? 0.0 : fixed_s;
     const double budget_kb =
         was_deferred
             ? std::max(options.budget.floor_kb,
-                       options.coarse_factor * keyframe_budget_kb(line_kbps, interval_s, options.budget, fixed_s))
-            : next_keyframe_budget_kb(line_kbps, interval_s, overhead_s, options.latency, options.budget, fixed_s);
+                       options.coarse_factor * keyframe_budget_kb(line_kbps, interval_s, options.budget, rate_fixed_s))
+            : std::min(keyframe_budget_kb(line_kbps, interval_s, options.budget, rate_fixed_s),
+                       latency_budget_kb(line_kbps, overhead_s, options.latency, options.budget, fixed_s));
     const int seq = outbox.next_seq();
     const auto t_reduce = steady::now();
-    auto encoded = encode_keyframe(job.frame, reduction, budget_kb, job.pose, earlier_than(seq));
+    auto encoded = encode_keyframe(job.frame, reduction_for(budget_kb), budget_kb, job.pose, earlier_than(seq));
     const double took = std::chrono::duration<double>(steady::now() - t_reduce).count();
-    reduce_s.on_sample(took);
     {
-      std::lock_guard lock(mu);
+      std::lock_guard lock(mu);  // (the refiner reads reduce_s under mu)
+      reduce_s.on_sample(took);
       summary.reduce_ms.push_back(1000.0 * took);
     }
     if (!encoded) {
@@ -349,7 +393,10 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       summary.errors.push_back(added.error().message);
       return false;
     }
-    views.push_back({added->seq, {job.frame.intrinsics, job.frame.depth_m, job.pose}});
+    {
+      std::lock_guard views_lock(views_mu);
+      views.push_back({added->seq, {job.frame.intrinsics, job.frame.depth_m, job.pose}});
+    }
     {
       std::lock_guard lock(mu);
       ++summary.keyframes;
@@ -363,23 +410,41 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     return true;
   };
 
-  // Refinements: the newest acknowledged keyframe not refined yet, reduced again at what the link carries in
-  // window_s, as its revision 1. Returns false when there is no such keyframe or the window buys too little (1.25 x
-  // and 8 kB more than its budget); true when one was handled (refined, or given up: it is not tried again).
-  std::set<int> refine_done;  // used by the drain alone
-  auto refine_one = [&](double window_s) {
+  // Refinements: the newest acknowledged keyframe whose revision now (or the last refinement tried of it) was made at
+  // a budget the window beats by 1.25 x and 8 kB, reduced again at what the link carries in window_s (at most
+  // refine_window_s), as its next revision. With `ahead` (the drain), when no acknowledged keyframe qualifies, one
+  // whose POST is out (attempted, not answered yet) may be: its refinement is reduced while that POST is on the line
+  // and added once it is acknowledged (Outbox::revise needs the answer), so the line does not idle for the reduction
+  // (a single keyframe's stream, ICL: its only refinement followed its answer 0.3-0.6 s later). Returns false when
+  // there is no such keyframe; true when one was handled (refined, or not kept: the new GLB was under 1.1 x the old
+  // one's bytes, or its first POST was rejected or never answered before a stop; it is tried again only at a larger
+  // budget). Called by the refiner thread while tracking, then by the drain (never both at once).
+  std::map<int, double> refined_at;  // seq -> the largest budget a refinement of it was reduced at
+  std::atomic<bool> tracking_done_for_refiner{false};  // the drain's refinements are not counted as while tracking
+  auto refine_one = [&](double window_s, SmoothedDuration& took_s, bool ahead) {
     if (!(options.refine_ceiling_kb > 0)) return false;
-    std::optional<OutboxEntry> best;
-    for (const OutboxEntry& e : outbox.entries())
-      if (e.acked && e.rev == 0 && !refine_done.count(e.seq) &&
-          (!best || e.captured > best->captured || (e.captured == best->captured && e.seq > best->seq)))
-        best = e;
-    if (!best) return false;
     const double budget_kb = refinement_budget_kb(sender.line_kbps(), std::min(window_s, options.refine_window_s),
                                                   sender.post_fixed_s(), options.refine_ceiling_kb,
                                                   options.budget.headroom);
-    if (budget_kb < std::max(1.25 * best->budget_kb, best->budget_kb + 8)) return false;
-    refine_done.insert(best->seq);
+    auto beats = [&](double base) { return budget_kb >= std::max(1.25 * base, base + 8); };
+    std::optional<OutboxEntry> best;
+    const std::vector<OutboxEntry> all = outbox.entries();
+    // Acknowledged ones first; then, ahead, one whose POST is out, but only once an answer has measured the link: a
+    // budget from the initial guess would be replaced by the next refinement as soon as the link is known (ICL at
+    // 2 Mbit/s: a 52 kB revision, then a 133 kB one).
+    const bool measured = sender.acknowledged_posts() > 0;
+    for (bool answered : {true, false}) {
+      if (best || (!answered && !(ahead && measured))) break;
+      for (const OutboxEntry& e : all) {
+        const auto tried = refined_at.find(e.seq);
+        const bool state = answered ? e.acked : (!e.acked && e.attempted && e.rejected.empty());
+        if (state && beats(std::max(e.budget_kb, tried == refined_at.end() ? 0.0 : tried->second)) &&
+            (!best || e.captured > best->captured || (e.captured == best->captured && e.seq > best->seq)))
+          best = e;
+      }
+    }
+    if (!best) return false;
+    refined_at[best->seq] = budget_kb;
     auto frame = [&] {
       std::lock_guard lock(source_mu);
       return source.frame(static_cast<size_t>(best->frame_index));
@@ -391,16 +456,30 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     }
     frame->index = best->frame_index;
     const auto t0 = steady::now();
-    auto fine = encode_keyframe(*frame, reduction, budget_kb, entry_pose(*best), earlier_than(best->seq));
-    refine_s.on_sample(std::chrono::duration<double>(steady::now() - t0).count());
+    auto fine = encode_keyframe(*frame, reduction_for(budget_kb), budget_kb, entry_pose(*best),
+                                earlier_than(best->seq));
+    took_s.on_sample(std::chrono::duration<double>(steady::now() - t0).count());
     if (!fine || static_cast<double>(fine->glb.size()) < 1.1 * static_cast<double>(best->bytes)) return true;
+    while (!best->acked) {  // made ahead: wait for the answer to the revision it replaces
+      if (should_stop() || !sender.stats().fatal.empty()) return true;
+      if (sender.stats().link_down) {  // an outage: not worth holding the drain (its cap polls) for; made again later
+        refined_at.erase(best->seq);
+        return true;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      auto now = outbox.entry(best->seq);
+      if (!now || !now->rejected.empty() || now->rev != best->rev) return true;
+      best = std::move(now);
+    }
     Status st = outbox.revise(best->seq, fine->glb, budget_kb, fine->triangles);
     {
       std::lock_guard lock(mu);
-      if (st)
+      if (st) {
         ++summary.refined;
-      else
+        if (!tracking_done_for_refiner) ++summary.refined_while_tracking;
+      } else {
         summary.errors.push_back(st.error().message);
+      }
     }
     sender.notify();
     return true;
@@ -487,6 +566,35 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       jobs_cv.notify_all();
     }
   });
+  // Refinements while tracking: on their own thread, in the idle scheduling class (it gets a core only when the
+  // tracker and the keyframes' reduction leave one), when no keyframe waits to be reduced or is being reduced and the
+  // sender owes nothing (refinements included), sized to what crosses the line before the next keyframe's POST is
+  // expected: the last keyframe's time + the keyframe interval + its reduction (mean + 2 deviations), less this
+  // refinement's own reduction. A keyframe that comes sooner still goes first: the sender posts first revisions
+  // before refinements, and at most the rest of a refinement's body (its window) is ahead of it on the line.
+  std::thread refiner;
+  std::atomic<pid_t> refiner_tid{0};
+  if (options.refine_ceiling_kb > 0 && options.refine_while_tracking)
+    refiner = std::thread([&] {
+      refiner_tid = idle_this_thread();
+      SmoothedDuration took(0.5);
+      for (;;) {
+        double free_s = 0;
+        {
+          std::unique_lock lock(mu);
+          jobs_cv.wait_for(lock, std::chrono::milliseconds(50), [&] { return tracking_done; });
+          if (tracking_done || should_stop()) return;
+          if (!jobs.empty() || !deferred.empty() || reducing || holding || summary.keyframes == 0) continue;
+          const double now_s = std::chrono::duration<double>(steady::now() - t_start).count();
+          free_s = last_keyframe_s + interval.seconds() + reduce_s.value() - now_s - took.value();
+        }
+        if (free_s <= 0 || sender.owed_s(true) > 0.05) continue;
+        if (!refine_one(free_s, took, false)) {
+          std::unique_lock lock(mu);  // nothing to refine at this window: wait for the next keyframe or answer
+          jobs_cv.wait_for(lock, std::chrono::milliseconds(100), [&] { return tracking_done; });
+        }
+      }
+    });
   auto finish_reductions = [&] {
     {
       std::lock_guard lock(mu);
@@ -494,6 +602,9 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     }
     jobs_cv.notify_all();
     if (reducer.joinable()) reducer.join();
+    if (refiner_tid != 0) back_to_normal(refiner_tid);
+    if (refiner.joinable()) refiner.join();
+    tracking_done_for_refiner = true;
   };
 
   auto on_keyframe = [&](const RgbdFrame& frame, const FrameRecord& record) -> Status {
@@ -506,7 +617,8 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     job.tracked = unix_now();
     {
       std::lock_guard lock(mu);
-      interval.on_keyframe(std::chrono::duration<double>(steady::now() - t_start).count());
+      last_keyframe_s = std::chrono::duration<double>(steady::now() - t_start).count();
+      interval.on_keyframe(last_keyframe_s);
       jobs.push_back(std::move(job));
       summary.reduce_queue_max = std::max(summary.reduce_queue_max, jobs.size());
     }
@@ -567,9 +679,10 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       summary.stopped = true;
       break;
     }
-    if (sender.owed_s(true) <= std::max(refine_s.value(), 0.1) && refine_one(options.refine_window_s)) continue;
+    if (sender.owed_s(true) <= std::max(refine_s.value(), 0.1) && refine_one(options.refine_window_s, refine_s, true))
+      continue;
     if (sender.stats().pending == 0) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   sender.stop();
   summary.sender = sender.stats();

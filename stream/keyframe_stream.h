@@ -59,17 +59,24 @@
 // The newest keyframe is never coarsened, and the sender posts newest first.
 //
 // Refinements (on unless refine_ceiling_kb is 0): spare link capacity re-sends an acknowledged keyframe at a larger
-// budget as its next revision (Outbox::revise; the server replaces the stored keyframe, one surface per seq). Only
-// once every frame was read: the drain refines the keyframes one after another, each reduced once the link owes no
-// more than a reduction takes. Not while tracking: a refinement on the reduction thread delays the next keyframe's
-// reduction, and the latency rule takes that out of the keyframe's bytes (measured, BENCHMARKS.md stop 17: between
-// keyframes, first revisions fell from 34 to 18 kB at 2 Mbit/s; "after 1.5 idle intervals", to 8 kB at 500 kbit/s). The newest unrefined keyframe first (by capture time), each refined once (rev 1), from its own
-// frame and pose against the same coverage views as its first revision. Its budget is what the POST model carries in
-// refine_window_s of line, at most refine_ceiling_kb (refinement_budget_kb), so a keyframe tracked meanwhile waits at
-// most that long for the line; it is made only when that is at least 1.25 x (and 8 kB more than) the keyframe's
-// budget, and kept only when the new GLB is at least 10 % larger. The sender posts a first revision before any
-// refinement.
-//
+// budget as its next revision (Outbox::revise; the server replaces the stored keyframe, one surface per seq). The
+// newest keyframe (by capture time) whose budget, or the budget of its last refinement tried, the window's budget
+// beats by 1.25 x and 8 kB, from its own frame and pose against the same coverage views as its first revision, at
+// the fine settings (FineReduction: its budget is above 40 kB); kept only when the new GLB is at least 10 % larger.
+// Its budget is what the POST model carries in the window (at most refine_window_s), at most refine_ceiling_kb
+// (refinement_budget_kb). The sender posts a first revision before any refinement.
+// - While tracking (refine_while_tracking): a refiner thread in the idle scheduling class (SCHED_IDLE: it gets a core
+//   only when the tracker and the keyframes' reduction leave one, so it takes neither's time; stop 17 measured what a
+//   refinement on the reduction thread cost: the next keyframe's reduction waited, and the latency rule took it out of
+//   that keyframe's bytes, 34 -> 18 kB at 2 Mbit/s) refines when no keyframe waits or is being reduced and the sender
+//   owes nothing, with the window until the next keyframe's POST is expected (the last keyframe's time + the interval
+//   + its reduction, less this refinement's own reduction). A keyframe that comes sooner goes first; at most the rest
+//   of the refinement's body is ahead of it on the line. Once tracking is done the thread returns to the normal
+//   class (a starved idle-class reduction would hold the drain).
+// - In the drain (every frame read): one after another, each reduced once the link owes no more than that takes, so
+//   it is ready when the line frees; when no acknowledged keyframe qualifies, one whose POST is out is refined ahead
+//   and its revision added once the answer comes (only once some answer has measured the link).
+
 // Resume: with entries or deferred records in the outbox, tracking restarts at the latest keyframe's frame, over
 // both (the highest frame index: a deferred keyframe reduced already may have a higher seq but an older frame, and a
 // deferred record's frame may be the latest), whose pose (from the outbox or the record) anchors the new run's poses
@@ -96,6 +103,28 @@
 
 namespace rgbdcast::stream {
 
+// Fidelity for large budgets. The realtime reduction's defaults saturate on a delta keyframe well under 100 kB
+// (tolerance at its floor of 2 sigma, JPEG at its budget's best quality 92, collapses at 2 px: at a 100 kB budget the
+// scene "fits" with bytes to spare; BENCHMARKS.md stop 17), so the bytes a fast link has room for could buy nothing.
+// A keyframe or refinement whose budget is above `above_kb` is reduced with these settings instead; the budget still
+// raises the tolerance and lowers the quality as it needs. By default only the JPEG ceiling moves (92 -> 98): at a
+// 300 kB budget on TUM fr1/xyz 200-319 frame 60 and augmented ICL frame 0 (whole frames), q98 against q92 gave
+// +1.24 / +1.20 dB over the pixels drawn at the capture pose and +0.51 / +0.17 dB over all valid pixels, the same
+// coverage and novel views, for 1.68 / 1.42 x the bytes. A finer tolerance or finer collapses changed which border
+// pixels are covered more than the surface (all-valid PSNR -2.4 to +0.4 dB), so they stay at the defaults unless
+// asked for (BENCHMARKS.md stop 20).
+struct FineReduction {
+  double above_kb = 40;       // --fine-above-kb: budgets above this use the settings below (0: never)
+  double tolerance = 2.0;     // --fine-tolerance: the tolerance floor, sigma (never above the default reduction's)
+  double simplify_px = 2.0;   // --fine-simplify-px: the collapses' limit (0: off; never above the default's)
+  int max_jpeg_quality = 98;  // --fine-max-quality: the budget's best JPEG quality (never below the default's 92)
+};
+
+// `base` for a keyframe or refinement of budget_kb: above fine.above_kb (when that is > 0), its tolerance floor and
+// collapses at most fine's, its best JPEG quality at least fine's; otherwise `base` as it is.
+FrameReductionOptions reduction_for_budget(const FrameReductionOptions& base, const FineReduction& fine,
+                                           double budget_kb);
+
 struct StreamOptions {
   bool realtime = false;
   double fps_without_timestamps = 30;
@@ -109,8 +138,12 @@ struct StreamOptions {
   int reduce_nice = 5;              // --reduce-nice: added to the reduction thread's niceness (0: as the caller)
   bool supersede = true;            // the backlog rule's first step; --keep-every-keyframe turns it off
   size_t max_deferred = 16;         // deferred keyframes waiting at most (beyond: the oldest is dropped)
-  double refine_ceiling_kb = 100;   // --refine-kb: a refinement's largest budget (0: no refinements)
+  double refine_ceiling_kb = 200;   // --refine-kb: a refinement's largest budget (0: no refinements)
   double refine_window_s = 1.0;     // --refine-window-ms: a refinement's longest time on the line
+  // --no-refine-while-tracking turns off: refinements between keyframes while tracking, on their own thread at the
+  // idle scheduling class, sized to end on the line before the next keyframe is expected (see above).
+  bool refine_while_tracking = true;
+  FineReduction fine;
 };
 
 struct StreamProgress {
@@ -133,6 +166,7 @@ struct StreamSummary {
   size_t deferred_sent = 0;   // of which reduced later (coarsened) and written to the outbox
   size_t deferred_dropped = 0;  // deferred keyframes dropped (more than max_deferred waited; resumed ones included)
   size_t refined = 0;         // refinements written to the outbox (revisions)
+  size_t refined_while_tracking = 0;  // of which made between keyframes, before every frame was read
   size_t cap_changes = 0;     // values taken from --link-kbps-file
   size_t failed = 0;          // keyframes whose reduction or outbox write failed (message in errors)
   bool resumed = false;

@@ -11,6 +11,8 @@ Status LinkEstimatorParams::validate() const {
   auto finite_positive = [](double v) { return std::isfinite(v) && v > 0; };
   if (!std::isfinite(cap_kbps) || cap_kbps < 0)
     return make_error(ErrorCode::kInvalidArgument, "--link-kbps must be a finite number >= 0 (0: no cap)");
+  if (!std::isfinite(initial_fixed_s) || initial_fixed_s < 0)
+    return make_error(ErrorCode::kInvalidArgument, "link estimator: the initial fixed cost must be >= 0");
   if (!finite_positive(initial_kbps) || !finite_positive(floor_kbps))
     return make_error(ErrorCode::kInvalidArgument, "link estimator: initial and floor rates must be > 0");
   if (!(alpha > 0 && alpha <= 1) || !(alpha_down > 0 && alpha_down <= 1) || !(failure_factor > 0 && failure_factor <= 1))
@@ -20,7 +22,8 @@ Status LinkEstimatorParams::validate() const {
 
 LinkEstimator::LinkEstimator(const LinkEstimatorParams& params)
     : params_(params),
-      average_kbps_(params.cap_kbps > 0 ? std::min(params.initial_kbps, params.cap_kbps) : params.initial_kbps) {}
+      average_kbps_(params.cap_kbps > 0 ? std::min(params.initial_kbps, params.cap_kbps) : params.initial_kbps),
+      model_(0.8, 0.15, 2.0, params.initial_fixed_s) {}
 
 void PostCostModel::on_sample(size_t bytes, double seconds) {
   if (!std::isfinite(seconds)) return;

@@ -17,6 +17,7 @@
 // Budget per keyframe: the line rate (bytes/s) x (the keyframe interval x headroom - the fixed cost per POST),
 // clamped to [floor_kb, ceiling_kb]: a keyframe should be carried before the next one is due. The interval is an EWMA of the wall time between
 // keyframes (KeyframeInterval). Not thread-safe: the owner (stream/sender.h) guards it.
+#include <algorithm>
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -29,15 +30,18 @@ namespace rgbdcast::stream {
 // older sample's weight x `forget` per new one), so it follows a link that changes. The fit is used once the
 // samples' sizes spread enough to separate the two terms (a weighted standard deviation of at least `min_spread` x
 // their mean: keyframes of one size cannot tell a slow line from a long round trip); until then, and whenever the
-// fit is implausible (slope <= 0, a negative or too large fixed cost), the last good fixed cost is kept (0 at first)
-// and the rate is what is left: mean bytes / (mean seconds - fixed). The fixed cost stays within [0, max_fixed_s].
+// fit is implausible (slope <= 0, a negative or too large fixed cost), the last good fixed cost is kept (at first
+// `initial_fixed_s`: 0, or a round trip measured before the first POST) and the rate is what is left: mean bytes /
+// (mean seconds - fixed). The fixed cost stays within [0, max_fixed_s].
 // A link that changes while the POSTs are of one size can move part of the change into the fixed cost (measured in
 // tests/stream/test_link_budget.cpp: a true 0.15 s became 0.01 s); the model then still predicts the POSTs it sees,
 // and errs toward the goodput rule of before (fixed cost 0), which is the conservative side.
 class PostCostModel {
  public:
-  explicit PostCostModel(double forget = 0.8, double min_spread = 0.15, double max_fixed_s = 2.0)
-      : forget_(forget), min_spread_(min_spread), max_fixed_s_(max_fixed_s) {}
+  explicit PostCostModel(double forget = 0.8, double min_spread = 0.15, double max_fixed_s = 2.0,
+                         double initial_fixed_s = 0)
+      : forget_(forget), min_spread_(min_spread), max_fixed_s_(max_fixed_s),
+        fixed_s_(std::clamp(initial_fixed_s, 0.0, max_fixed_s)) {}
   void on_sample(size_t bytes, double seconds);
   bool empty() const { return w_ == 0; }
   bool fitted() const { return fitted_; }  // the last sample gave a usable fit
@@ -58,6 +62,10 @@ struct LinkEstimatorParams {
   double alpha_down = 0.5;      // weight of a new sample below it
   double failure_factor = 0.5;  // each failed attempt multiplies the estimate by this
   double floor_kbps = 8;        // the estimate never goes below
+  // The POST model's fixed cost before it can be fitted (PostCostModel): 0, or the round trip of a request without
+  // a body measured before the first POST (rgbdcast stream: GET /healthz on the open connection), so that the first
+  // acknowledged POST already gives a line rate instead of a goodput diluted by its round trip.
+  double initial_fixed_s = 0;
   Status validate() const;
 };
 

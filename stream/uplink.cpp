@@ -50,6 +50,17 @@ Status Uplink::check_reachable() {
   return ok_status();
 }
 
+Result<double> Uplink::round_trip_s() {
+  impl_->set_io_timeout(5);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto res = impl_->client.Get("/healthz");
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (!res)
+    return make_error(ErrorCode::kUnavailable,
+                      "cannot reach " + impl_->options.server_url + ": " + httplib::to_string(res.error()));
+  return seconds;
+}
+
 namespace {
 
 std::string error_line(int status, const std::string& body) {

@@ -42,6 +42,10 @@ class Uplink {
 
   // GET /healthz: kUnavailable with the connection error when the server cannot be reached.
   Status check_reachable();
+  // The seconds a GET /healthz takes on this uplink's connection (open it first, e.g. with check_reachable, so that no
+  // TCP handshake is in it): a request's round trip without a body, the POST model's first fixed cost. kUnavailable
+  // without an answer.
+  Result<double> round_trip_s();
   // POST /v1/missions/{mission}/keyframes?seq=&pose=&captured=[&rev=, when entry.rev > 0]; io_timeout_s bounds the
   // send and the wait.
   PostResult post_keyframe(const std::string& mission, const OutboxEntry& entry, const std::vector<std::uint8_t>& glb,
