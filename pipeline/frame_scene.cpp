@@ -198,7 +198,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
                                          const Eigen::Matrix4d& camera_to_world,
                                          const std::vector<CoverageView>& earlier) {
   if (auto st = options.validate(); !st) return st.error();
-  const int kMaxQuality = options.budget_max_jpeg_quality;
+  const int max_quality = options.budget_max_jpeg_quality;  // the best JPEG quality the budget tries
   TexturedFrame out;
   out.preset = options.params.preset;
   out.camera.intrinsics = frame.intrinsics.pinhole();
@@ -213,7 +213,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   // A budget encodes the texture once it has chosen the quality (the geometry is measured without it).
   atlas.encode = options.budget_kb <= 0;
   // A budget starts from the best quality, so the texture is encoded once at it, not again.
-  if (options.budget_kb > 0) atlas.jpeg_quality = kMaxQuality;
+  if (options.budget_kb > 0) atlas.jpeg_quality = max_quality;
   // Draco's edgebreaker orders the triangles itself: meshoptimizer's vertex-cache order (for meshopt's delta
   // codecs) would be spent for nothing.
   if (!atlas.reorder_triangles && options.glb.flavor == GlbFlavor::kCompact &&
@@ -376,7 +376,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
            static_cast<double>(count_at(tolerance)) * kKeptPrior * bytes_per_triangle > 1.1 * geometry_cap;
   };
   constexpr double kRestPriorBytes = 1500;  // the GLB's JSON and headers before a first measurement
-  // The mesh textured, its geometry measured into *geometry and its texture's JPEGs at kMaxQuality and kMinQuality
+  // The mesh textured, its geometry measured into *geometry and its texture's JPEGs at max_quality and kMinQuality
   // (and kOutlineFloorQuality when it anticipates) into *jpegs; the collapses' limit it ended at into *limit_px.
   auto mesh_with_texture_beside = [&](double tolerance, double simplify_px, std::vector<StageReport>* stages,
                                       Status* geometry, Jpegs* jpegs, double* limit_px) -> Result<AtlasResult> {
@@ -429,14 +429,14 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
       } else {
         floor_bytes.set_value(-1);
       }
-      if (st) st = add({kMaxQuality, kMinQuality});
+      if (st) st = add({max_quality, kMinQuality});
       if (!st) {
         *jpegs = st.error();
         return;
       }
       const double left = predicted_ready.get();
-      if (left > tried_bytes(out, kMinQuality, 1.0) && left < tried_bytes(out, kMaxQuality, 1.0)) {
-        int q_lo = kMinQuality, q_hi = kMaxQuality;
+      if (left > tried_bytes(out, kMinQuality, 1.0) && left < tried_bytes(out, max_quality, 1.0)) {
+        int q_lo = kMinQuality, q_hi = max_quality;
         narrow_to_tried(out, 1.0, left, &q_lo, &q_hi);
         const std::vector<int> qs = next_qualities(out, 1.0, q_lo, q_hi, left);
         if (!qs.empty()) st = add(qs);
@@ -519,7 +519,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     tried.clear();
     scaled = Image{};
     scaled_at = 1.0;
-    auto encode_texture = [&](int workers) { texture = encode_at(1.0, {kMaxQuality, kMinQuality}, workers); };
+    auto encode_texture = [&](int workers) { texture = encode_at(1.0, {max_quality, kMinQuality}, workers); };
     if (texture_beside) {  // both measured already
       if (!side_jpegs) return side_jpegs.error();
       b.encodes += static_cast<int>(side_jpegs->size());
@@ -535,14 +535,14 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     ++b.encodes;  // the geometry's
     if (!geometry) return geometry;
     if (!texture) return texture;
-    b.texture_bytes = static_cast<size_t>(bytes_of(kMaxQuality, 1.0));
+    b.texture_bytes = static_cast<size_t>(bytes_of(max_quality, 1.0));
     update_total();
     bytes_per_triangle = static_cast<double>(b.geometry_bytes) / std::max(1.0, triangles);
     return ok_status();
   };
   auto geometry_for = [&](double bytes) { return tolerance_for(bytes / bytes_per_triangle); };
 
-  b.jpeg_quality = kMaxQuality;
+  b.jpeg_quality = max_quality;
   if (auto s = remesh(geometry_for(geometry_cap), simplify0); !s) return s.error();
   // One correction when the prior was off by more than 10 %.
   if (b.geometry_bytes > 1.1 * geometry_cap && b.tolerance_factor < kMaxToleranceFactor)
@@ -602,12 +602,12 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   // quality is interpolated on log bytes against log scale between the closest qualities tried on either side and
   // refined (two encodes a step, on two threads) until within 5 % under what is left, at most three times.
   const double texture_target = target - static_cast<double>(b.glb_bytes - b.texture_bytes);
-  // The largest quality at `at` whose bytes fit texture_target: kMaxQuality when it fits, kMinQuality when nothing
+  // The largest quality at `at` whose bytes fit texture_target: max_quality when it fits, kMinQuality when nothing
   // does (the caller then goes down in scale).
   auto fit_quality_at = [&](double at) -> Result<int> {
-    int lo = kMinQuality, hi = kMaxQuality;  // bytes at hi (at this scale) do not fit
+    int lo = kMinQuality, hi = max_quality;  // bytes at hi (at this scale) do not fit
     if (bytes_of(lo, at) < 0 || bytes_of(hi, at) < 0)
-      if (auto s = encode_at(at, {kMinQuality, kMaxQuality}, threads); !s) return s.error();
+      if (auto s = encode_at(at, {kMinQuality, max_quality}, threads); !s) return s.error();
     if (bytes_of(hi, at) <= texture_target) return hi;  // at a reduced resolution the best quality fits
     if (bytes_of(lo, at) > texture_target) return lo;
     // The closest qualities already tried (the floor's and the second thread's first step) bracket it.
@@ -624,7 +624,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     return lo;
   };
   double scale = 1.0;
-  int q_lo = kMaxQuality;
+  int q_lo = max_quality;
   if (static_cast<double>(b.texture_bytes) > texture_target) {
     const double outline_scale = options.budget_outline_texture_scale;
     for (;;) {
