@@ -280,7 +280,9 @@ TEST_F(StreamCli, RefinesBetweenKeyframesWhileTrackingAtALargerBudget) {
   EXPECT_TRUE(fine) << cmd.out;
   for (const auto& k : run.mission["keyframes"]) {
     for (const auto& e : run.outbox) {
-      if (e["seq"] == k["seq"]) EXPECT_EQ(k.value("rev", 0), e.value("rev", 0)) << k.dump();
+      if (e["seq"] == k["seq"]) {
+        EXPECT_EQ(k.value("rev", 0), e.value("rev", 0)) << k.dump();
+      }
     }
   }
 }
