@@ -297,16 +297,33 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     return ok_status();
   };
   auto update_total = [&] { b.glb_bytes = b.geometry_bytes + b.texture_bytes + rest_bytes; };
+  const int threads = openmp_threads(options.params.threads);
+  // With two threads and nothing to drop for earlier views, the texture is made from the mesh before its collapses
+  // on a second thread (texture_before_collapses, then its JPEGs at the best and the least quality), beside the
+  // collapses and the geometry's measurement on this one.
+  const bool texture_beside = threads > 1 && earlier.empty() && atlas.mode == TextureMode::kFrame &&
+                              atlas.fill_unsampled.value_or(false);
   // The smallest tolerance >= tol0 whose mesh has at most `want` triangles, from the counts at every tolerance
   // (one walk of the hierarchy). The walk starts at kCountsFirstSigma: it visits every triangle whose parent's error
   // is above its minimum, and the budget rarely goes below it (every shared frame at 40 kB ends at the largest
   // tolerance), so the walk from tol0 is made only when a tolerance below it is asked for. The counts above the
   // minimum are the same either way (TriangleCounts: a triangle counts where own <= t < parent).
+  // Beside the walk, on the second thread, the mesh at the largest tolerance is extracted: every shared frame's first
+  // mesh at 40 kB is that one (its geometry is over its share at any tolerance), so its extraction leaves the
+  // critical path; a first mesh at another tolerance is extracted when it is asked for, as before.
   constexpr double kCountsFirstSigma = 8;
-  DepthMeshHierarchy::TriangleCounts counts =
-      hierarchy.counts(std::max(tol0, kCountsFirstSigma), openmp_threads(options.params.threads));
+  const double speculative_tolerance = DepthMeshHierarchy::TriangleCounts::bin_top_of(kMaxToleranceFactor);
+  Result<ReducedFrame> speculative = make_error(ErrorCode::kInternal, "not extracted");
+  DepthMeshHierarchy::TriangleCounts counts;
+  {
+    std::thread side;
+    if (texture_beside)
+      side = std::thread([&] { speculative = extract_realtime(*prepared, frame, speculative_tolerance, 0); });
+    counts = hierarchy.counts(std::max(tol0, kCountsFirstSigma), texture_beside ? 1 : threads);
+    if (side.joinable()) side.join();
+  }
   auto counts_from_tol0 = [&] {
-    if (counts.minimum() > tol0) counts = hierarchy.counts(tol0, openmp_threads(options.params.threads));
+    if (counts.minimum() > tol0) counts = hierarchy.counts(tol0, threads);
   };
   auto count_at = [&](double tolerance) {
     if (tolerance < counts.minimum()) counts_from_tol0();
@@ -324,7 +341,6 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   // JPEG encodes tried on the current mesh's texture: (quality, scale) -> bytes. A remesh changes the texture's
   // fill, so it clears them.
   std::vector<Tried> tried;
-  const int threads = openmp_threads(options.params.threads);
   Image scaled;  // the texture at scaled_at < 1, made when needed
   double scaled_at = 1.0;
   auto encode_at = [&](double scale, const std::vector<int>& qualities, int workers) -> Status {
@@ -344,11 +360,6 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   // may follow needs both).
   const double simplify0 = options.params.depth_mesh.simplify_px;
   b.simplify_px = simplify0;
-  // With two threads and nothing to drop for earlier views, the texture is made from the mesh before its collapses
-  // on a second thread (texture_before_collapses, then its JPEGs at the best and the least quality), beside the
-  // collapses and the geometry's measurement on this one.
-  const bool texture_beside = threads > 1 && earlier.empty() && atlas.mode == TextureMode::kFrame &&
-                              atlas.fill_unsampled.value_or(false);
   using Jpegs = Result<std::vector<Tried>>;
   // The last mesh's tolerance, collapses' limit, its mesh before them and after: when the outline is straightened
   // further at the same tolerance, the collapses go on from the collapsed mesh at the new limit, not from a new
@@ -381,8 +392,11 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   auto mesh_with_texture_beside = [&](double tolerance, double simplify_px, std::vector<StageReport>* stages,
                                       Status* geometry, Jpegs* jpegs, double* limit_px) -> Result<AtlasResult> {
     const bool go_on = tolerance == last.tolerance && simplify_px > last.simplify_px && last.simplify_px > 0;
-    Result<ReducedFrame> reduced = go_on ? Result<ReducedFrame>(std::move(last.collapsed))
-                                         : extract_realtime(*prepared, frame, tolerance, 0);
+    const bool use_speculative = !go_on && speculative && tolerance == speculative_tolerance;
+    Result<ReducedFrame> reduced = go_on             ? Result<ReducedFrame>(std::move(last.collapsed))
+                                   : use_speculative ? std::move(speculative)
+                                                     : extract_realtime(*prepared, frame, tolerance, 0);
+    if (use_speculative) speculative = make_error(ErrorCode::kInternal, "used");
     if (!reduced) return reduced.error();
     Mesh before;
     if (go_on) {

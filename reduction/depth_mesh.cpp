@@ -801,6 +801,8 @@ DepthMeshHierarchy::TriangleCounts DepthMeshHierarchy::counts(double tol, int th
   return c;
 }
 
+double DepthMeshHierarchy::TriangleCounts::bin_top_of(double tol) { return bin_top(tolerance_bin(tol)); }
+
 size_t DepthMeshHierarchy::TriangleCounts::at(double tol) const {
   if (tol <= min_) return at_min_;
   const int bin = tolerance_bin(tol) - first_bin_;

@@ -135,6 +135,9 @@ class DepthMeshHierarchy {
     // tolerance_max's bin top when none is.
     double smallest_with_at_most(double triangles, double tolerance_max) const;
     double minimum() const { return min_; }  // the walk's tolerance
+    // The top of a tolerance's bin: what smallest_with_at_most answers with that tolerance as its maximum when no
+    // smaller tolerance will do.
+    static double bin_top_of(double tolerance_factor);
 
    private:
     friend class DepthMeshHierarchy;
