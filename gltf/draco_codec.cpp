@@ -135,7 +135,8 @@ RGBDCAST_DRACO_EXPORT Encoded encode_mesh(const MeshIn& in, std::string* error) 
     result.decoded_max.resize(in.attributes.size());
     for (size_t k = 0; k < in.attributes.size(); ++k) {
       const AttributeIn& a = in.attributes[k];
-      if (a.component_type != 5126 || a.quantization_bits <= 0) continue;
+      if (a.semantic != AttributeIn::Semantic::kPosition || a.component_type != 5126 || a.quantization_bits <= 0)
+        continue;
       const draco::PointAttribute& att = *mesh.attribute(ids[k]);
       draco::AttributeQuantizationTransform q;
       if (!q.ComputeParameters(att, a.quantization_bits)) continue;  // (the encoder failed on it already)
@@ -144,12 +145,12 @@ RGBDCAST_DRACO_EXPORT Encoded encode_mesh(const MeshIn& in, std::string* error) 
       draco::Dequantizer dequantizer;
       quantizer.Init(q.range(), max_quantized);
       if (!dequantizer.Init(q.range(), max_quantized)) continue;
-      std::vector<float> lo(a.components), hi(a.components), v(a.components);
-      att.GetValue(draco::AttributeValueIndex(0), lo.data());
-      hi = lo;
+      // The least values are the quantizer's origin (ComputeParameters found them); the largest are found here.
+      std::vector<float> lo = q.min_values(), hi(a.components), v(a.components);
+      att.GetValue(draco::AttributeValueIndex(0), hi.data());
       for (draco::AttributeValueIndex i(1); i < static_cast<std::uint32_t>(att.size()); ++i) {
         att.GetValue(i, v.data());
-        for (int c = 0; c < a.components; ++c) lo[c] = std::min(lo[c], v[c]), hi[c] = std::max(hi[c], v[c]);
+        for (int c = 0; c < a.components; ++c) hi[c] = std::max(hi[c], v[c]);
       }
       for (int c = 0; c < a.components; ++c) {
         const float origin = q.min_value(c);

@@ -39,8 +39,8 @@ struct MeshIn {
 struct Encoded {
   std::vector<std::uint8_t> bytes;      // the Draco bitstream (2.2); empty on failure
   std::vector<int> attribute_ids;       // Draco unique id of each MeshIn attribute, in order
-  // What a decoder gets back, without decoding: the points and faces (the encoder's tracked properties), and for
-  // each quantized float attribute the per-component least and largest decoded value (the input's extremes through
+  // What a decoder gets back, without decoding: the points and faces (the encoder's tracked properties), and for a
+  // quantized float POSITION attribute the per-component least and largest decoded value (the input's extremes through
   // Draco's own quantizer and dequantizer, with the parameters the encoder computes: quantization is monotone, so
   // they are the decoded extremes whenever every point is referenced). Empty vectors for other attributes.
   size_t num_points = 0, num_faces = 0;

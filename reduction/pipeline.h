@@ -63,7 +63,7 @@ struct ReducedFrame {
   Mesh mesh;         // triangulated, perimeter-filtered; vertex-coloured; camera frame
   std::vector<StageReport> stages;
   // Realtime preset: the triangles using each index slot's edge (edge_use_counts) of mesh as extracted, which the
-  // extraction has counted already; emptied when the collapses change the mesh.
+  // extraction has counted already, for the collapses (simplify_realtime empties it).
   std::vector<std::uint32_t> edge_uses;
 };
 

@@ -42,11 +42,8 @@ Result<std::unique_ptr<Uplink>> Uplink::create(const UplinkOptions& options) {
 }
 
 Status Uplink::check_reachable() {
-  impl_->set_io_timeout(5);
-  auto res = impl_->client.Get("/healthz");
-  if (!res)
-    return make_error(ErrorCode::kUnavailable,
-                      "cannot reach " + impl_->options.server_url + ": " + httplib::to_string(res.error()));
+  auto seconds = round_trip_s();
+  if (!seconds) return seconds.error();
   return ok_status();
 }
 
