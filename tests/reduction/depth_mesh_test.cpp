@@ -277,6 +277,74 @@ TEST(DepthMesh, FilterAndCountsAreTheSameOnTwoThreads) {
   EXPECT_EQ(c1.at(2.0), h->extract(2.0).triangle_count());  // the minimum is exact
 }
 
+// The gap fill, read window by window as its rule says: an invalid pixel (no kept depth) whose (2R + 1)^2 window holds
+// kept depth on at least a quarter of its pixels, all within twice the jump of each other, takes their mean; no
+// other pixel changes. The filter's separable tests must pick the same pixels, and the fills must be the window's
+// float sum in row-major order over the count, bit for bit (what the fill has always computed: the realtime
+// goldens depend on it), on real frames of two cameras.
+TEST(DepthMesh, GapFillIsTheWindowMeanOfOneSurface) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  REQUIRE_DATA("augmented_icl_livingroom");
+  std::vector<cv::Mat> depths;
+  for (size_t i : {0, 1}) {
+    auto frame = fr1_frame(i);
+    ASSERT_TRUE(frame) << frame.error().message;
+    depths.push_back(frame->depth_m);
+  }
+  {
+    auto src = open_frame_source(test::data_path("augmented_icl_livingroom"), SourceOptions{});
+    ASSERT_TRUE(src) << src.error().message;
+    auto frame = (*src)->frame(0);
+    ASSERT_TRUE(frame) << frame.error().message;
+    depths.push_back(frame->depth_m);
+  }
+  for (size_t d = 0; d < depths.size(); ++d) {
+    DepthFilterParams unfilled;
+    unfilled.gap_fill_px = 0;
+    auto kept = filter_depth(depths[d], unfilled, 2);
+    auto f = filter_depth(depths[d], DepthFilterParams{}, 2);
+    ASSERT_TRUE(kept && f);
+    const int R = DepthFilterParams{}.gap_fill_px, w = depths[d].cols, h = depths[d].rows;
+    const double max_ratio = 1 + 2 * DepthFilterParams{}.jump_relative;
+    size_t expected = 0, worst_mismatch = 0;
+    double worst_relative = 0;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const float own = kept->depth_m.at<float>(y, x);
+        const float got = f->depth_m.at<float>(y, x);
+        if (own > 0.f) {
+          ASSERT_EQ(got, own) << "a kept pixel changed at " << x << "," << y;
+          continue;
+        }
+        float sum = 0;
+        double far = 0, near = 1e30;
+        int count = 0;
+        for (int yy = std::max(0, y - R); yy <= std::min(h - 1, y + R); ++yy)
+          for (int xx = std::max(0, x - R); xx <= std::min(w - 1, x + R); ++xx) {
+            const float z = kept->depth_m.at<float>(yy, xx);
+            if (z <= 0) continue;
+            sum += z, ++count, far = std::max<double>(far, z), near = std::min<double>(near, z);
+          }
+        const bool fill = count >= 0.25 * (2 * R + 1) * (2 * R + 1) && far <= near * max_ratio;
+        if (!fill) {
+          if (got != 0.f) ++worst_mismatch;
+          continue;
+        }
+        ++expected;
+        if (got <= 0.f) {
+          ++worst_mismatch;
+          continue;
+        }
+        const float mean = sum / static_cast<float>(count);
+        if (got != mean) worst_relative = std::max(worst_relative, std::abs(double(got) - mean) / mean);
+      }
+    EXPECT_GT(expected, 500u) << "frame " << d;
+    EXPECT_EQ(f->filled, expected) << "frame " << d;
+    EXPECT_EQ(worst_mismatch, 0u) << "frame " << d;
+    EXPECT_EQ(worst_relative, 0.0) << "frame " << d << ": a fill is not the window's mean";
+  }
+}
+
 // A hierarchy built with a layout made beforehand (as prepare_realtime makes it, beside the filter) is the one built
 // without; a layout for another image size or other parameters is not used, and the result is the same again.
 TEST(DepthMesh, AGivenLayoutGivesTheSameMeshAndAForeignOneIsIgnored) {
@@ -355,6 +423,35 @@ TEST(DepthMesh, EdgeUseCountsMatchAMapOfEdges) {
   // Three triangles on edge 0-1 (a fold), the rest on one each.
   const std::vector<std::uint32_t> fold = {0, 1, 2, 1, 0, 3, 0, 1, 4};
   EXPECT_EQ(edge_use_counts(fold, 5), (std::vector<std::uint32_t>{3, 1, 1, 3, 1, 1, 3, 1, 1}));
+}
+
+// The budget extracts with no collapses and collapses next (pipeline/frame_scene.cpp): the extraction's edge counts
+// must reach the collapses as the counts of the extracted mesh, and be gone once the collapses change the mesh.
+TEST(DepthMesh, TheExtractionsEdgeCountsReachTheCollapsesAndGoWithThem) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
+  auto frame = fr1_frame(1);
+  ASSERT_TRUE(frame) << frame.error().message;
+  const ReductionParams params = reduction_preset(Preset::kRealtime);
+  auto prepared = prepare_realtime(*frame, params);
+  ASSERT_TRUE(prepared) << prepared.error().message;
+  auto reduced = extract_realtime(*prepared, *frame, 32.0, 0);
+  ASSERT_TRUE(reduced) << reduced.error().message;
+  ASSERT_GT(reduced->mesh.triangle_count(), 1000u);
+  EXPECT_EQ(reduced->edge_uses, edge_use_counts(reduced->mesh.indices, reduced->mesh.positions.size()));
+  // The collapses with those counts give the mesh they give without them.
+  const size_t extracted = reduced->mesh.triangle_count();
+  ReducedFrame without = *reduced;
+  without.edge_uses.clear();
+  ASSERT_TRUE(simplify_realtime(*prepared, *frame, 2.0, &*reduced));
+  ASSERT_TRUE(simplify_realtime(*prepared, *frame, 2.0, &without));
+  EXPECT_LT(reduced->mesh.triangle_count(), extracted);
+  EXPECT_EQ(reduced->mesh.indices, without.mesh.indices);
+  EXPECT_TRUE(reduced->edge_uses.empty());
+  // With the collapses in the one call, nothing is left either.
+  auto collapsed = extract_realtime(*prepared, *frame, 32.0, 2.0);
+  ASSERT_TRUE(collapsed) << collapsed.error().message;
+  EXPECT_TRUE(collapsed->edge_uses.empty());
+  EXPECT_EQ(collapsed->mesh.indices, reduced->mesh.indices);
 }
 
 TEST(DepthMesh, RejectsAbsurdParameters) {
