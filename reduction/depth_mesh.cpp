@@ -123,6 +123,15 @@ void add_tap(const float* __restrict v, const float* __restrict present, const f
     near[x] = nearest[x] < near[x] ? nearest[x] : near[x];
   }
 }
+// One row of unit cells between grid rows r0 and r1: a cell is smooth (1) when its four points are valid and each of
+// its six pairs is within a ratio `step` of each other (branch-free, so that it vectorises).
+void smooth_cells(const float* __restrict r0, const float* __restrict r1, int n, float step,
+                  std::uint8_t* __restrict out) {
+  auto ok = [step](float a, float b) { return (a > 0.f) & (b > 0.f) & (std::max(a, b) <= std::min(a, b) * step); };
+  for (int x = 0; x < n; ++x)
+    out[x] = ok(r0[x], r0[x + 1]) & ok(r1[x], r1[x + 1]) & ok(r0[x], r1[x]) & ok(r0[x + 1], r1[x + 1]) &
+             ok(r0[x], r1[x + 1]) & ok(r0[x + 1], r1[x]);
+}
 // A row's horizontal counts added to the window's (vectorised).
 void add_counts(const float* __restrict row_count, int n, float* __restrict count) {
   for (int x = 0; x < n; ++x) count[x] += row_count[x];
@@ -576,34 +585,36 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
     std::vector<std::uint16_t> valid_px(first_leaf);  // every internal triangle's valid pixels
     std::vector<std::uint8_t> smooth_cell(skip_smooth ? static_cast<size_t>(S) * S : 0);
     std::vector<std::uint8_t> smooth_root(skip_smooth ? fit_end / 2 : 0);  // by root id - fit_end / 2
+    std::vector<std::int32_t> rough(skip_smooth ? static_cast<size_t>(S + 1) * (S + 1) : 0, 0);  // (row 0, column 0: 0)
     for (int tile; (tile = next_tile++) < tiles;) {
       const int ox = (tile % h.tiles_x_) * S, oy = (tile / h.tiles_x_) * S;
       if (skip_smooth) {
         // A unit cell is smooth when its four grid points are valid pixels of the image and its six pairs (edges
-        // and diagonals) are within kSmoothStep; a root is smooth when every cell of its bounding box is.
-        auto step_ok = [](float a, float b) { return a > 0.f && b > 0.f && std::max(a, b) <= std::min(a, b) * kSmoothStep; };
+        // and diagonals) are within kSmoothStep; a root is smooth when every cell of its bounding box is. The cells
+        // row by row without branches (vectorised), and the roots' boxes from a table of rough-cell counts (each box
+        // read in four loads, not cell by cell).
         const float* g = D.data() + static_cast<size_t>(oy) * GW + ox;
         const int cells_x = std::min(S, h.width_ - 1 - ox), cells_y = std::min(S, h.height_ - 1 - oy);
         std::fill(smooth_cell.begin(), smooth_cell.end(), std::uint8_t{0});
-        for (int y = 0; y < cells_y; ++y) {
-          const float* r0 = g + static_cast<size_t>(y) * GW;
-          const float* r1 = r0 + GW;
-          std::uint8_t* out = &smooth_cell[static_cast<size_t>(y) * S];
-          for (int x = 0; x < cells_x; ++x)
-            out[x] = step_ok(r0[x], r0[x + 1]) && step_ok(r1[x], r1[x + 1]) && step_ok(r0[x], r1[x]) &&
-                     step_ok(r0[x + 1], r1[x + 1]) && step_ok(r0[x], r1[x + 1]) && step_ok(r0[x + 1], r1[x]);
+        for (int y = 0; y < cells_y; ++y)
+          smooth_cells(g + static_cast<size_t>(y) * GW, g + static_cast<size_t>(y + 1) * GW, cells_x, kSmoothStep,
+                       &smooth_cell[static_cast<size_t>(y) * S]);
+        // rough[y * (S + 1) + x]: the cells that are not smooth among rows < y and columns < x.
+        for (int y = 0; y < S; ++y) {
+          int row = 0;
+          for (int x = 0; x < S; ++x) {
+            row += smooth_cell[static_cast<size_t>(y) * S + x] == 0;
+            rough[static_cast<size_t>(y + 1) * (S + 1) + x + 1] = rough[static_cast<size_t>(y) * (S + 1) + x + 1] + row;
+          }
         }
+        auto rough_at = [&](int x, int y) { return rough[static_cast<size_t>(y) * (S + 1) + x]; };
         for (int root = fit_end / 2; root < fit_end; ++root) {
           const int x0 = std::min({t.ax[root], t.bx[root], t.cx[root]}),
                     x1 = std::max({t.ax[root], t.bx[root], t.cx[root]});
           const int y0 = std::min({t.ay[root], t.by[root], t.cy[root]}),
                     y1 = std::max({t.ay[root], t.by[root], t.cy[root]});
-          bool smooth = x1 <= cells_x && y1 <= cells_y;
-          for (int y = y0; y < y1 && smooth; ++y) {
-            const std::uint8_t* c = &smooth_cell[static_cast<size_t>(y) * S];
-            for (int x = x0; x < x1 && smooth; ++x) smooth = c[x] != 0;
-          }
-          smooth_root[root - fit_end / 2] = smooth;
+          smooth_root[root - fit_end / 2] = x1 <= cells_x && y1 <= cells_y &&
+                                            rough_at(x1, y1) - rough_at(x0, y1) - rough_at(x1, y0) + rough_at(x0, y0) == 0;
         }
       }
       const int finest_fit = fit_end / 2;
