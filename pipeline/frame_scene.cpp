@@ -145,12 +145,16 @@ Result<std::vector<std::vector<std::uint8_t>>> encode_jpegs(const Image& im, con
   return bytes;
 }
 
-// The frame texture of `before` (a mesh before its collapses, which keep its surface, outline included, within
-// simplify_px of where it was), its unsampled texels filled, the sampled ones (each lookup's bilinear footprint
-// included) grown by that much: so the texels the collapsed mesh samples keep their colour, and the texture can be
-// made beside the collapses.
-Result<AtlasResult> texture_before_collapses(const Mesh& before, const RgbdFrame& frame, AtlasOptions o,
-                                             double simplify_px) {
+// The frame texture of `before` (a mesh before its collapses), unfilled, and the texels its triangles sample (each
+// lookup's bilinear footprint included): what a texture made beside the collapses starts from.
+struct SampledTexture {
+  Image texture;
+  std::vector<std::uint8_t> sampled;
+  double ms = 0;
+};
+
+Result<std::shared_ptr<const SampledTexture>> sample_before_collapses(const Mesh& before, const RgbdFrame& frame,
+                                                                      AtlasOptions o) {
   const auto t0 = Clock::now();
   o.mode = TextureMode::kFrame;
   o.fill_unsampled = false;
@@ -158,17 +162,34 @@ Result<AtlasResult> texture_before_collapses(const Mesh& before, const RgbdFrame
   o.reorder_triangles = false;
   auto r = build_atlas(before, frame.color_rgb, frame.intrinsics.pinhole(), o);
   if (!r) return r.error();
-  const int w = r->mesh.texture.width, h = r->mesh.texture.height;
-  auto sampled = texels_sampled_by_uvs(r->mesh, w, h);
+  auto sampled = texels_sampled_by_uvs(r->mesh, r->mesh.texture.width, r->mesh.texture.height);
   if (!sampled) return sampled.error();
+  auto out = std::make_shared<SampledTexture>();
+  out->texture = std::move(r->mesh.texture);
+  out->sampled = std::move(*sampled);
+  out->ms = ms_since(t0);
+  return std::shared_ptr<const SampledTexture>(std::move(out));
+}
+
+// The texture made from it for collapses that keep the surface, outline included, within simplify_px of where it
+// was: its unsampled texels filled, the sampled ones grown by that much first, so the texels the collapsed mesh
+// samples keep their colour. The sample is left as it was, so that collapses that go further from the same mesh
+// (a second limit) start from it again instead of rasterising the same triangles anew.
+Result<AtlasResult> fill_before_collapses(const SampledTexture& s, double simplify_px) {
+  const auto t0 = Clock::now();
+  AtlasResult r;
+  r.mode = TextureMode::kFrame;
+  r.mesh.texture = s.texture;
+  std::vector<std::uint8_t> sampled = s.sampled;
+  const int w = r.mesh.texture.width, h = r.mesh.texture.height;
   const int grow = static_cast<int>(std::ceil(std::max(0.0, simplify_px)));
-  cv::Mat mask(h, w, CV_8UC1, sampled->data());
+  cv::Mat mask(h, w, CV_8UC1, sampled.data());
   if (grow > 0) cv::dilate(mask, mask, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * grow + 1, 2 * grow + 1)));
-  r->unsampled_texels = static_cast<size_t>(std::count(sampled->begin(), sampled->end(), 0));
+  r.unsampled_texels = static_cast<size_t>(std::count(sampled.begin(), sampled.end(), 0));
   const auto f0 = Clock::now();
-  if (auto st = fill_unsampled_texels(&r->mesh.texture, *sampled); !st) return st.error();
-  r->fill_ms = ms_since(f0);
-  r->ms = ms_since(t0);
+  if (auto st = fill_unsampled_texels(&r.mesh.texture, sampled); !st) return st.error();
+  r.fill_ms = ms_since(f0);
+  r.ms = s.ms + ms_since(t0);
   return r;
 }
 
@@ -299,8 +320,8 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   auto update_total = [&] { b.glb_bytes = b.geometry_bytes + b.texture_bytes + rest_bytes; };
   const int threads = openmp_threads(options.params.threads);
   // With two threads and nothing to drop for earlier views, the texture is made from the mesh before its collapses
-  // on a second thread (texture_before_collapses, then its JPEGs at the best and the least quality), beside the
-  // collapses and the geometry's measurement on this one.
+  // on a second thread (sample_before_collapses and fill_before_collapses, then its JPEGs at the best and the least
+  // quality), beside the collapses and the geometry's measurement on this one.
   const bool texture_beside = threads > 1 && earlier.empty() && atlas.mode == TextureMode::kFrame &&
                               atlas.fill_unsampled.value_or(false);
   // The smallest tolerance >= tol0 whose mesh has at most `want` triangles, from the counts at every tolerance
@@ -369,6 +390,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     double tolerance = -1, simplify_px = 0, moved_px = 0;
     Mesh before;
     ReducedFrame collapsed;
+    std::shared_ptr<const SampledTexture> sampled;  // before's texture and sampled texels (a second limit's too)
   };
   LastMesh last;
   // Past the largest tolerance the outline may have to be straightened at twice the limit (the loop below). The mesh
@@ -421,8 +443,14 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
       if (!predicted_set) predicted_left.set_value(value);
       predicted_set = true;
     };
+    std::shared_ptr<const SampledTexture> sample = go_on ? last.sampled : nullptr;
     std::thread side([&] {
-      side_texture = texture_before_collapses(before, frame, atlas, mask_px);
+      if (!sample) {
+        auto made = sample_before_collapses(before, frame, atlas);
+        if (made) sample = std::move(*made);
+        else side_texture = made.error();
+      }
+      if (sample) side_texture = fill_before_collapses(*sample, mask_px);
       if (!side_texture) {
         floor_bytes.set_value(-1);
         *jpegs = side_texture.error();
@@ -501,6 +529,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     last.simplify_px = limit;
     last.moved_px = moved_px;
     last.before = std::move(before);
+    last.sampled = std::move(sample);
     *limit_px = limit;
     if (!t) return t.error();
     if (!side_texture) return side_texture.error();
