@@ -115,9 +115,6 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
     fail_stream(make_error(ErrorCode::kInvalidArgument, "--fine-simplify-px must be >= 0 (0: off)"));
   if (a.fine.max_jpeg_quality < 20 || a.fine.max_jpeg_quality > 100)
     fail_stream(make_error(ErrorCode::kInvalidArgument, "--fine-max-quality must be 20..100"));
-  if (!(a.fine.finer_ratio == 0 || (std::isfinite(a.fine.finer_ratio) && a.fine.finer_ratio >= 1 &&
-                                    a.fine.finer_ratio <= 1000)))
-    fail_stream(make_error(ErrorCode::kInvalidArgument, "--fine-finer-ratio must be 0 (off) or 1..1000"));
   if (a.reduce_nice < 0 || a.reduce_nice > 19)
     fail_stream(make_error(ErrorCode::kInvalidArgument, "--reduce-nice must be 0..19"));
   // One uplink (one keep-alive connection) per lane of the sender.
@@ -309,10 +306,6 @@ void register_stream(CLI::App& app) {
                   "Collapses' limit of a fine reduction (pixels; 0: off)")
       ->capture_default_str();
   cmd->add_option("--fine-max-quality", args->fine.max_jpeg_quality, "Best JPEG quality of a fine reduction")
-      ->capture_default_str();
-  cmd->add_option("--fine-finer-ratio", args->fine.finer_ratio,
-                  "Resolution-aware deltas in a fine reduction: surface an earlier keyframe saw at less than "
-                  "1/ratio of the pixels this one sees is sent again (0: off)")
       ->capture_default_str();
   cmd->add_option("--post-log", args->post_log,
                   "Write every POST of this run (seq, rev, bytes, start and answer times) to this file, one JSON line "

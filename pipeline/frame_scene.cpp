@@ -189,9 +189,6 @@ Status FrameReductionOptions::validate() const {
     return make_error(ErrorCode::kInvalidArgument, "the budget's geometry share must be between 0 and 1");
   if (budget_max_jpeg_quality < kMinQuality || budget_max_jpeg_quality > 100)
     return make_error(ErrorCode::kInvalidArgument, "the budget's best JPEG quality must be 20..100");
-  if (!(coverage_finer_ratio == 0 || (std::isfinite(coverage_finer_ratio) && coverage_finer_ratio >= 1 &&
-                                      coverage_finer_ratio <= 1000)))
-    return make_error(ErrorCode::kInvalidArgument, "the coverage's finer ratio must be 0 (off) or 1..1000");
   if (budget_kb > 0 && params.preset != Preset::kRealtime)
     return make_error(ErrorCode::kInvalidArgument, "a byte budget needs the realtime preset (--preset realtime)");
   return ok_status();
@@ -239,10 +236,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     *stages = reduced->stages;
     if (!earlier.empty()) {
       const auto t0 = Clock::now();
-      CoverageParams coverage;
-      coverage.finer_ratio = options.coverage_finer_ratio;
-      coverage.own = frame.intrinsics.pinhole();
-      drop_covered_triangles(reduced->mesh, camera_to_world, earlier, coverage);
+      drop_covered_triangles(reduced->mesh, camera_to_world, earlier);
       stages->push_back({"covered", "triangles", reduced->mesh.triangle_count(), ms_since(t0)});
       if (reduced->mesh.indices.empty())
         return make_error(ErrorCode::kEmpty, "every triangle is covered by earlier keyframes");

@@ -42,9 +42,6 @@ struct FrameReductionOptions {
   // The best JPEG quality a budget tries (20..100). 92 by default; a large budget whose scene saturates at 92 (a
   // stream's refinements, rgbdcast stream --fine-max-quality) can turn more bytes into a better texture above it.
   int budget_max_jpeg_quality = 92;
-  // With earlier views: CoverageParams::finer_ratio (0: off, the default; otherwise >= 1): a triangle an earlier view
-  // saw at less than 1/ratio of this frame's pixels is kept (rgbdcast stream's fine reductions, --fine-finer-ratio).
-  double coverage_finer_ratio = 0;
 
   Status validate() const;
 };

@@ -22,13 +22,6 @@ bool seen_by(const Eigen::Vector3d& world, const CoverageView& view, const Eigen
   return std::abs(d - c.z()) <= p.depth_tolerance_m + 3 * sigma;
 }
 
-// The triangle's area in pixels in an image of `in` (camera-frame corners, z > 0 assumed by the caller's checks).
-double pixel_area(const Intrinsics& in, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  const Eigen::Vector2d pa = in.project(a), pb = in.project(b), pc = in.project(c);
-  const Eigen::Vector2d u = pb - pa, v = pc - pa;
-  return 0.5 * std::abs(u.x() * v.y() - u.y() * v.x());
-}
-
 }  // namespace
 
 size_t drop_covered_triangles(Mesh& mesh, const Eigen::Matrix4d& mesh_to_world,
@@ -47,22 +40,10 @@ size_t drop_covered_triangles(Mesh& mesh, const Eigen::Matrix4d& mesh_to_world,
   std::vector<std::uint32_t> kept;
   kept.reserve(mesh.indices.size());
   size_t removed = 0;
-  const bool by_resolution = params.finer_ratio > 0;
-  auto fine_enough = [&](size_t k, std::uint32_t a, std::uint32_t b, std::uint32_t c) {
-    if (!by_resolution) return true;
-    const Eigen::Vector3d pa = mesh.positions[a].cast<double>(), pb = mesh.positions[b].cast<double>(),
-                          pc = mesh.positions[c].cast<double>();
-    if (pa.z() <= 0 || pb.z() <= 0 || pc.z() <= 0) return true;
-    const double own_px = pixel_area(params.own, pa, pb, pc);
-    auto in_view = [&](std::uint32_t i) { return (world_to_camera[k] * world[i].homogeneous()).head<3>(); };
-    const double there_px = pixel_area(earlier[k].intrinsics, in_view(a), in_view(b), in_view(c));
-    return there_px * params.finer_ratio >= own_px;
-  };
   for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
     const std::uint32_t a = mesh.indices[t], b = mesh.indices[t + 1], c = mesh.indices[t + 2];
     bool covered = false;
-    for (size_t k = 0; k < earlier.size() && !covered; ++k)
-      covered = seen[k][a] && seen[k][b] && seen[k][c] && fine_enough(k, a, b, c);
+    for (size_t k = 0; k < earlier.size() && !covered; ++k) covered = seen[k][a] && seen[k][b] && seen[k][c];
     if (covered) ++removed;
     else kept.insert(kept.end(), {a, b, c});
   }

@@ -140,7 +140,6 @@ FrameReductionOptions reduction_for_budget(const FrameReductionOptions& base, co
     o.params.depth_mesh.tolerance_factor = std::min(o.params.depth_mesh.tolerance_factor, fine.tolerance);
     o.params.depth_mesh.simplify_px = std::min(o.params.depth_mesh.simplify_px, fine.simplify_px);
     o.budget_max_jpeg_quality = std::max(o.budget_max_jpeg_quality, fine.max_jpeg_quality);
-    o.coverage_finer_ratio = fine.finer_ratio;
   }
   return o;
 }

@@ -122,7 +122,6 @@ struct FineReduction {
   double tolerance = 2.0;     // --fine-tolerance: the tolerance floor, sigma (never above the default reduction's)
   double simplify_px = 2.0;   // --fine-simplify-px: the collapses' limit (0: off; never above the default's)
   int max_jpeg_quality = 98;  // --fine-max-quality: the budget's best JPEG quality (never below the default's 92)
-  double finer_ratio = 0;     // --fine-finer-ratio: resolution-aware deltas (FrameReductionOptions::coverage_finer_ratio)
 };
 
 // `base` for a keyframe or refinement of budget_kb: above fine.above_kb (when that is > 0), its tolerance floor and
