@@ -283,7 +283,9 @@ void Sender::run(Uplink& uplink) {
       return;
     }
     const double post_started = unix_now();
-    if (!entry->attempted && entry->reduced > 0) {
+    // A first revision's wait only: a refinement's `reduced` is its keyframe's, seconds or minutes ago, and would
+    // make the latency rule starve the keyframes that follow it.
+    if (!entry->attempted && entry->rev == 0 && entry->reduced > 0) {
       const double wait = std::max(0.0, post_started - entry->reduced);
       std::lock_guard lock(mu_);
       queue_wait_s_ = queue_wait_s_ ? 0.3 * wait + 0.7 * *queue_wait_s_ : wait;

@@ -96,7 +96,8 @@ class Sender {
   void release(int seq);
   double estimate_kbps() const;
   // How long a keyframe waits in the outbox before its first POST starts (pacing, a POST in flight), smoothed
-  // (EWMA, weight 0.3; 0 before the first): part of the overhead the latency rule subtracts (link_estimator.h).
+  // (EWMA, weight 0.3; 0 before the first; first revisions only): part of the overhead the latency rule subtracts
+  // (link_estimator.h).
   double queue_wait_s() const;
   size_t acknowledged_posts() const;  // samples of the link estimate so far (0: it is still the initial guess)
   // Seconds until what is pending would be across the link: with a cap, the time left on the paced virtual line
