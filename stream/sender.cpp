@@ -230,6 +230,7 @@ void Sender::run(Uplink& uplink) {
           if (e->rev > 0) {
             paced_chunks = true;
             refinement_writing_ = true;
+            refinement_writer_ = seq;
             refinement_left_bytes_ = e->bytes;
           } else {
             line_free_ = std::max(line_free_, clock::now()) + line_time(e->bytes);
@@ -241,10 +242,14 @@ void Sender::run(Uplink& uplink) {
     // waiting to start (a new keyframe goes ahead of the rest of the body), then takes bytes / cap on it. A body
     // that had to wait for another one is `preempted`: its POST's time is not a sample of the link.
     bool preempted = false;
+    // Only the refinement being written clears the state: one whose body is done and whose answer comes while the
+    // next refinement is being written must not (it would let a third start beside it).
     auto end_writing = [&] {
       if (!paced_chunks) return;
       std::lock_guard lock(mu_);
+      if (refinement_writer_ != seq) return;
       refinement_writing_ = false;
+      refinement_writer_ = -1;
       refinement_left_bytes_ = 0;
     };
     const ChunkGate gate = [&](size_t offset, size_t bytes) {
@@ -262,7 +267,10 @@ void Sender::run(Uplink& uplink) {
       if (estimator_.cap_kbps() > 0) line_free_ = std::max(line_free_, clock::now()) + line_time(bytes);
       own_line_end_ = line_free_;
       refinement_left_bytes_ = offset + bytes >= refinement_bytes_total_ ? 0 : refinement_bytes_total_ - offset - bytes;
-      if (refinement_left_bytes_ == 0) refinement_writing_ = false;
+      if (refinement_left_bytes_ == 0) {
+        refinement_writing_ = false;
+        refinement_writer_ = -1;
+      }
       return true;
     };
     auto finish = [&](const std::string& fatal) {

@@ -142,6 +142,7 @@ class Sender {
   std::chrono::steady_clock::time_point line_free_{};         // pacing: when the bodies posted so far are across
   // The refinement whose body is being written chunk by chunk (at most one: see pick_locked), under a cap.
   bool refinement_writing_ = false;
+  int refinement_writer_ = -1;  // its seq
   size_t refinement_bytes_total_ = 0, refinement_left_bytes_ = 0;
   std::chrono::steady_clock::time_point own_line_end_{};  // where its last chunk ended on the virtual line
   std::optional<double> queue_wait_s_;

@@ -9,6 +9,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <fstream>
 #include <chrono>
@@ -443,6 +444,69 @@ TEST(SenderLanes, ARefinementFillsTheWaitForAnAnswerAndANewKeyframeOvertakesIt) 
   // The outbox wait the latency rule counts is the keyframes' (B waited for nothing, C for a chunk or a lane), not
   // the minute since the refined keyframe was first reduced.
   EXPECT_LT(queue_wait_s, 2.0);
+}
+
+
+// Three refinements pending (30 kB each), three lanes, a cap of 800 kbit/s (0.3 s a body) and a server that answers
+// 0.2 s after reading one: one refinement's body is written at a time, so their bodies reach the server one cap-time
+// apart, although the first one's answer comes while the second is being written (it must not let the third start
+// beside the second: their chunks would then share the line and both arrive late).
+TEST(SenderLanes, RefinementBodiesAreWrittenOneAtATime) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz_200_319/rgb/1305031108.843264.png");
+  const std::string dir = test::temp_dir("sender_refine_one_at_a_time");
+  auto box = Outbox::open(dir, "refine3");
+  ASSERT_TRUE(box);
+  for (int i = 0; i < 3; ++i) {
+    OutboxEntry e;
+    e.frame_index = 10 * i;
+    e.captured = 1000 + i;
+    e.pose = {0.1 * i, 0, 0, 0, 0, 0, 1};
+    auto added = (*box)->add(e, real_bytes(5000, 5000 * static_cast<size_t>(i)));
+    ASSERT_TRUE(added);
+    ASSERT_TRUE((*box)->mark_attempted(added->seq, 1));
+    ASSERT_TRUE((*box)->mark_acked(added->seq, "{}"));
+    ASSERT_TRUE((*box)->revise(added->seq, real_bytes(30000, 20000 + 30000 * static_cast<size_t>(i)), 30, 100));
+  }
+  std::mutex mu;
+  std::vector<double> arrivals;
+  httplib::Server server;
+  auto now_s = [] { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); };
+  server.Post(R"(/v1/missions/([A-Za-z0-9_-]+)/keyframes)", [&](const httplib::Request&, httplib::Response& res) {
+    {
+      std::lock_guard lock(mu);
+      arrivals.push_back(now_s());
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    res.status = 201;
+    res.set_content("{}", "application/json");
+  });
+  const int port = server.bind_to_any_port("127.0.0.1");
+  std::thread t([&] { server.listen_after_bind(); });
+  Lanes lanes = make_lanes(port, 3);
+  SenderParams sp;
+  sp.mission = "refine3";
+  sp.link.cap_kbps = 800;
+  sp.max_first_in_flight = 2;
+  Sender sender(**box, lanes.uplinks, sp);
+  const double t0 = now_s();
+  sender.start();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (sender.stats().pending > 0 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  sender.stop();
+  const SenderStats stats = sender.stats();
+  server.stop();
+  t.join();
+  test::remove_tree_quietly(dir);
+
+  EXPECT_EQ(stats.refinements_acked, 3u);
+  EXPECT_EQ(stats.pending, 0u);
+  ASSERT_EQ(arrivals.size(), 3u);
+  std::sort(arrivals.begin(), arrivals.end());
+  EXPECT_GE(arrivals[0] - t0, 0.9 * 0.3);
+  for (size_t i = 1; i < arrivals.size(); ++i)  // one body after the other at the cap, not two sharing it
+    EXPECT_GE(arrivals[i] - arrivals[i - 1], 0.9 * 0.3) << i;
+  EXPECT_GT(stats.overlap_s, 0.1);  // an answer was awaited while the next body was written
 }
 
 }  // namespace rgbdcast::stream
