@@ -14,6 +14,7 @@
 #include <fstream>
 #include <chrono>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -331,6 +332,22 @@ std::vector<std::uint8_t> real_bytes(size_t n, size_t from) {
                                    all.begin() + static_cast<long>(std::min(from + n, all.size())));
 }
 
+// Starts `server` on its own thread and a sender with three lanes to it (two for keyframes, as rgbdcast stream gives
+// refinements one more) at a cap of 800 kbit/s (100 kB/s: 0.1 s per 10 kB).
+std::unique_ptr<Sender> start_three_lanes(httplib::Server& server, std::thread& server_thread, Lanes& lanes,
+                                          Outbox& box, const std::string& mission) {
+  const int port = server.bind_to_any_port("127.0.0.1");
+  server_thread = std::thread([&server] { server.listen_after_bind(); });
+  lanes = make_lanes(port, 3);
+  SenderParams sp;
+  sp.mission = mission;
+  sp.link.cap_kbps = 800;
+  sp.max_first_in_flight = 2;
+  auto sender = std::make_unique<Sender>(box, lanes.uplinks, sp);
+  sender->start();
+  return sender;
+}
+
 }  // namespace
 
 // Three lanes (two for keyframes, as rgbdcast stream gives refinements one more), a cap of 800 kbit/s (100 kB/s) and
@@ -382,16 +399,11 @@ TEST(SenderLanes, ARefinementFillsTheWaitForAnAnswerAndANewKeyframeOvertakesIt) 
     res.status = stored[{seq, rev}]++ == 0 ? 201 : 200;
     res.set_content("{\"seq\":" + std::to_string(seq) + ",\"rev\":" + std::to_string(rev) + "}", "application/json");
   });
-  const int port = server.bind_to_any_port("127.0.0.1");
-  std::thread t([&] { server.listen_after_bind(); });
-  Lanes lanes = make_lanes(port, 3);
-  SenderParams sp;
-  sp.mission = "refine";
-  sp.link.cap_kbps = 800;
-  sp.max_first_in_flight = 2;
-  Sender sender(**box, lanes.uplinks, sp);
+  std::thread t;
+  Lanes lanes;
   const double t0 = now_s();
-  sender.start();
+  auto started = start_three_lanes(server, t, lanes, **box, "refine");
+  Sender& sender = *started;
   // Once the refinement's POST has started (its entry is marked attempted first), keyframe C comes.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (!(*box)->entry(a->seq)->attempted && std::chrono::steady_clock::now() < deadline)
@@ -480,16 +492,11 @@ TEST(SenderLanes, RefinementBodiesAreWrittenOneAtATime) {
     res.status = 201;
     res.set_content("{}", "application/json");
   });
-  const int port = server.bind_to_any_port("127.0.0.1");
-  std::thread t([&] { server.listen_after_bind(); });
-  Lanes lanes = make_lanes(port, 3);
-  SenderParams sp;
-  sp.mission = "refine3";
-  sp.link.cap_kbps = 800;
-  sp.max_first_in_flight = 2;
-  Sender sender(**box, lanes.uplinks, sp);
+  std::thread t;
+  Lanes lanes;
   const double t0 = now_s();
-  sender.start();
+  auto started = start_three_lanes(server, t, lanes, **box, "refine3");
+  Sender& sender = *started;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (sender.stats().pending > 0 && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
