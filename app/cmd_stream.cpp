@@ -15,6 +15,7 @@
 #include "app/cli_error.h"
 #include "app/commands.h"
 #include "app/reduce_common.h"
+#include "gltf/atomic_file.h"
 #include "input/frame_source.h"
 #include "scene/frame_memory.h"
 #include "stream/keyframe_stream.h"
@@ -29,7 +30,7 @@ void on_signal(int) { g_stop = true; }
 
 struct StreamArgs {
   ReduceArgs reduce;  // input, intrinsics, features, keyframe rule, range
-  std::string server, mission, outbox, token_file, link_kbps_file;
+  std::string server, mission, outbox, token_file, link_kbps_file, post_log;
   bool realtime = false;
   double link_kbps = 0, initial_kbps = 500, latency_ms = 1000, max_backlog_s = 2.0, progress_interval_s = 2.0;
   double refine_kb = 200, refine_window_ms = 1000;
@@ -118,7 +119,9 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
     fail_stream(make_error(ErrorCode::kInvalidArgument, "--reduce-nice must be 0..19"));
   // One uplink (one keep-alive connection) per lane of the sender.
   std::vector<std::unique_ptr<stream::Uplink>> uplinks;
-  for (int i = 0; i < a.max_in_flight; ++i) {
+  // Refinements get a connection more (stream/sender.h): one being written never takes a keyframe's lane.
+  const int connections = a.max_in_flight + (a.refine_kb > 0 && a.max_in_flight >= 2 ? 1 : 0);
+  for (int i = 0; i < connections; ++i) {
     auto u = stream::Uplink::create(uo);
     if (!u) fail_stream(u.error());
     uplinks.push_back(std::move(*u));
@@ -153,6 +156,7 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   sp.mission = a.mission;
   sp.link = link;
   sp.seed = a.seed;
+  sp.max_first_in_flight = static_cast<size_t>(a.max_in_flight);
   std::vector<stream::Uplink*> lanes;
   for (auto& u : uplinks) lanes.push_back(u.get());
   stream::Sender sender(**outbox, lanes, sp);
@@ -181,6 +185,18 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
       **source, **outbox, sender, options, [&](const stream::StreamProgress& p) { line.update(p); },
       [] { return g_stop.load(); });
   line.finish();
+  if (!a.post_log.empty()) {  // one JSON line per POST of this run: {"seq","rev","bytes","started","ended","stored"}
+    std::string text;
+    char row[200];
+    for (const stream::PostRecord& p : sender.post_log()) {
+      std::snprintf(row, sizeof row,
+                    "{\"seq\": %d, \"rev\": %d, \"bytes\": %zu, \"started\": %.6f, \"ended\": %.6f, \"stored\": %s}\n",
+                    p.seq, p.rev, p.bytes, p.started, p.ended, p.stored ? "true" : "false");
+      text += row;
+    }
+    if (Status st = glb::write_file_atomically(a.post_log, std::vector<std::uint8_t>(text.begin(), text.end())); !st)
+      std::cerr << "rgbdcast stream: --post-log: " << st.error().message << "\n";
+  }
   if (!summary) fail_stream(summary.error());
   const auto& s = *summary;
   std::cout << "rgbdcast stream: " << s.frames << " frames (" << s.tracked << " tracked";
@@ -260,8 +276,8 @@ void register_stream(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seed", args->seed, "Seed of the retry jitter (0: random)");
   cmd->add_option("--max-in-flight", args->max_in_flight,
-                  "POSTs in flight at once, one connection each (1-4): a second one crosses the line while the "
-                  "first one's answer is outstanding")
+                  "Keyframes' POSTs in flight at once, one connection each (1-4): a second one crosses the line "
+                  "while the first one's answer is outstanding (with 2 or more, refinements get one connection more)")
       ->capture_default_str();
   cmd->add_flag("--keep-every-keyframe", args->keep_every_keyframe,
                 "Reduce and send every keyframe in order, even when the link cannot carry them (default: a "
@@ -291,6 +307,9 @@ void register_stream(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--fine-max-quality", args->fine.max_jpeg_quality, "Best JPEG quality of a fine reduction")
       ->capture_default_str();
+  cmd->add_option("--post-log", args->post_log,
+                  "Write every POST of this run (seq, rev, bytes, start and answer times) to this file, one JSON line "
+                  "each");
   cmd->add_option("--reduce-nice", args->reduce_nice,
                   "Niceness added to the keyframe reduction thread (0-19), so that tracking keeps up with the camera")
       ->capture_default_str();

@@ -26,6 +26,8 @@ declare -A VIEWS=([tum]="10 35 65 95 115" [icl]="1 2 3 4")
 RUNS=${STREAM_BENCH_RUNS:-"2000 500 100 500-outage"}   # a subset, e.g. STREAM_BENCH_RUNS=500
 DATASETS=${STREAM_BENCH_INPUTS:-"tum icl"}
 port=$((20000 + RANDOM % 20000))
+# A build that can log its POSTs writes them to NAME.posts.jsonl (table.py's timeline; older builds lack the flag).
+POST_LOG=; if "$BIN" stream --help 2>/dev/null | grep -- --post-log >/dev/null; then POST_LOG=1; fi
 
 
 eval_scene() {  # eval_scene NAME GLB DATASET -> NAME.eval.jsonl (one JSON line per novel view)
@@ -69,7 +71,7 @@ for ds in $DATASETS; do
     cut -d' ' -f1 /proc/loadavg > "$OUT/$name.load"   # the 1-minute load average before and after the run
     start=$(date +%s.%N)
     "$BIN" stream --input "${INPUT[$ds]}" --server "http://127.0.0.1:$rport" --mission "$ds$kbps" $REALTIME \
-      --outbox "$OUT/$name.outbox" --link-kbps "$kbps" --progress-interval 5 ${STREAM_BENCH_STREAM_ARGS:-} \
+      --outbox "$OUT/$name.outbox" --link-kbps "$kbps" --progress-interval 5 ${POST_LOG:+--post-log "$OUT/$name.posts.jsonl"} ${STREAM_BENCH_STREAM_ARGS:-} \
       > "$OUT/$name.stream.log" 2> "$OUT/$name.stream.err" || echo "stream exited $?" >> "$OUT/$name.stream.err"
     end=$(date +%s.%N)
     cut -d' ' -f1 /proc/loadavg >> "$OUT/$name.load"

@@ -588,6 +588,9 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
           const double now_s = std::chrono::duration<double>(steady::now() - t_start).count();
           free_s = last_keyframe_s + interval.seconds() + reduce_s.value() - now_s - took.value();
         }
+        // A refinement that yields to keyframes on the line need not end before the next one: its window is the
+        // drain's.
+        if (sender.refinements_yield()) free_s = options.refine_window_s;
         if (free_s <= 0 || sender.owed_s(true) > 0.05) continue;
         if (!refine_one(free_s, took, false)) {
           std::unique_lock lock(mu);  // nothing to refine at this window: wait for the next keyframe or answer

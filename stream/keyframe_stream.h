@@ -69,10 +69,14 @@
 //   only when the tracker and the keyframes' reduction leave one, so it takes neither's time; stop 17 measured what a
 //   refinement on the reduction thread cost: the next keyframe's reduction waited, and the latency rule took it out of
 //   that keyframe's bytes, 34 -> 18 kB at 2 Mbit/s) refines when no keyframe waits or is being reduced and the sender
-//   owes nothing, with the window until the next keyframe's POST is expected (the last keyframe's time + the interval
-//   + its reduction, less this refinement's own reduction). A keyframe that comes sooner goes first; at most the rest
-//   of the refinement's body is ahead of it on the line. Once tracking is done the thread returns to the normal
-//   class (a starved idle-class reduction would hold the drain).
+//   owes nothing (a refinement's unwritten bytes included). When the sender's refinements yield to keyframes on the
+//   line (Sender::refinements_yield: a cap and two lanes or more; rgbdcast stream gives refinements a lane of their
+//   own), its window is refine_window_s, as in the drain: a keyframe that comes meanwhile waits for at most a chunk
+//   of the refinement's body (or a round trip when every lane is busy), and the line carries the refinement while
+//   keyframes' answers are awaited. Otherwise the window ends when the next keyframe's POST is expected (the last
+//   keyframe's time + the interval + its reduction, less this refinement's own reduction): a keyframe that comes
+//   sooner goes first, with at most the rest of the refinement's body ahead of it on the line. Once tracking is done
+//   the thread returns to the normal class (a starved idle-class reduction would hold the drain).
 // - In the drain (every frame read): one after another, each reduced once the link owes no more than that takes, so
 //   it is ready when the line frees; when no acknowledged keyframe qualifies, one whose POST is out is refined ahead
 //   and its revision added once the answer comes (only once some answer has measured the link).
@@ -141,7 +145,7 @@ struct StreamOptions {
   double refine_ceiling_kb = 200;   // --refine-kb: a refinement's largest budget (0: no refinements)
   double refine_window_s = 1.0;     // --refine-window-ms: a refinement's longest time on the line
   // --no-refine-while-tracking turns off: refinements between keyframes while tracking, on their own thread at the
-  // idle scheduling class, sized to end on the line before the next keyframe is expected (see above).
+  // idle scheduling class (see above).
   bool refine_while_tracking = true;
   FineReduction fine;
 };

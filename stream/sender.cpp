@@ -96,6 +96,7 @@ double Sender::owed_s(bool include_refinements) const {
     if (e.pending() && !(paced && (e.attempted || in_flight_.count(e.seq))) &&
         (include_refinements || e.rev == 0 || in_flight_.count(e.seq)))
       bytes += static_cast<double>(e.bytes);
+  if (include_refinements) bytes += static_cast<double>(refinement_left_bytes_);  // a refinement being written
   double line_s = 0;
   if (paced) line_s = std::max(0.0, std::chrono::duration<double>(line_free_ - clock::now()).count());
   return line_s + bytes / estimate_bps;
@@ -107,6 +108,11 @@ bool Sender::idle() const {
   for (const OutboxEntry& e : outbox_.entries())
     if (e.pending()) return false;
   return true;
+}
+
+bool Sender::refinements_yield() const {
+  std::lock_guard lock(mu_);
+  return estimator_.cap_kbps() > 0 && uplinks_.size() >= 2;
 }
 
 void Sender::set_cap_kbps(double cap_kbps) {
@@ -136,6 +142,16 @@ SenderStats Sender::stats() const {
   return s;
 }
 
+std::chrono::steady_clock::duration Sender::line_time(size_t bytes) const {
+  return std::chrono::microseconds(
+      static_cast<long long>(static_cast<double>(bytes) * 8.0 / (estimator_.cap_kbps() * 1000.0) * 1e6));
+}
+
+std::vector<PostRecord> Sender::post_log() const {
+  std::lock_guard lock(mu_);
+  return post_log_;
+}
+
 void Sender::flight_begin_locked(int seq) {
   const auto now = clock::now();
   in_flight_.insert(seq);
@@ -155,19 +171,42 @@ void Sender::flight_end_locked(int seq) {
 int Sender::pick_locked() const {
   const OutboxEntry* best = nullptr;
   const auto entries = outbox_.entries();
+  // One refinement's body is written at a time (paced, it yields to first revisions; two paused ones could hold
+  // both lanes while a keyframe waits for one).
+  const bool refinement_writing = refinement_writing_;
+  size_t first_in_flight = 0;
+  for (const OutboxEntry& e : entries)
+    if (in_flight_.count(e.seq) && e.rev == 0) ++first_in_flight;
+  const bool first_ok = params_.max_first_in_flight == 0 || first_in_flight < params_.max_first_in_flight;
+  const bool refinement_ok =
+      !refinement_writing && (uplinks_.size() < 2 || in_flight_.size() + 1 < uplinks_.size());
   auto before = [](const OutboxEntry& a, const OutboxEntry& b) {  // a goes before b
     if ((a.rev == 0) != (b.rev == 0)) return a.rev == 0;
     if (a.captured != b.captured) return a.captured > b.captured;
     return a.seq > b.seq;
   };
   for (const OutboxEntry& e : entries)
-    if (e.pending() && !claimed_.count(e.seq) && !in_flight_.count(e.seq) && (!best || before(e, *best))) best = &e;
+    if (e.pending() && !claimed_.count(e.seq) && !in_flight_.count(e.seq) && (e.rev > 0 ? refinement_ok : first_ok) &&
+        (!best || before(e, *best)))
+      best = &e;
   return best ? best->seq : -1;
+}
+
+bool Sender::first_revision_waiting_locked() const {
+  if (clock::now() < retry_not_before_) return false;  // backing off: nothing starts meanwhile
+  // With one lane the refinement holds it: the keyframe waits for the whole body (as every POST waits for the one
+  // before). With more, the other lanes hold first revisions or a refinement whose body is written (pick_locked):
+  // each ends with its answer, so a keyframe waiting for one of them starts within a round trip.
+  if (uplinks_.size() < 2) return false;
+  for (const OutboxEntry& e : outbox_.entries())
+    if (e.pending() && e.rev == 0 && !claimed_.count(e.seq) && !in_flight_.count(e.seq)) return true;
+  return false;
 }
 
 void Sender::run(Uplink& uplink) {
   for (;;) {
     int seq = -1;
+    bool paced_chunks = false;  // a refinement's body under a cap: written through the gate
     {
       std::unique_lock lock(mu_);
       for (;;) {
@@ -183,14 +222,59 @@ void Sender::run(Uplink& uplink) {
         cv_.wait_for(lock, std::chrono::milliseconds(200));
       }
       flight_begin_locked(seq);
-      // Pacing: this POST's body takes bytes / cap on the virtual line, after the bodies already on it.
+      // Pacing: a first revision's body takes bytes / cap on the virtual line, after the bodies already on it; a
+      // refinement's is put on it chunk by chunk as it is written (the gate below), so that a first revision that
+      // comes meanwhile goes ahead of the rest of it.
       if (estimator_.cap_kbps() > 0)
-        if (auto e = outbox_.entry(seq))
-          line_free_ = std::max(line_free_, clock::now()) +
-                       std::chrono::microseconds(static_cast<long long>(
-                           static_cast<double>(e->bytes) * 8.0 / (estimator_.cap_kbps() * 1000.0) * 1e6));
+        if (auto e = outbox_.entry(seq)) {
+          if (e->rev > 0) {
+            paced_chunks = true;
+            refinement_writing_ = true;
+            refinement_writer_ = seq;
+            refinement_left_bytes_ = e->bytes;
+          } else {
+            line_free_ = std::max(line_free_, clock::now()) + line_time(e->bytes);
+          }
+        }
     }
+    cv_.notify_all();  // a refinement paused for this first revision recomputes its next chunk's start
+    // The gate of a paced refinement: each chunk waits until the virtual line is free and no first revision is
+    // waiting to start (a new keyframe goes ahead of the rest of the body), then takes bytes / cap on it. A body
+    // that had to wait for another one is `preempted`: its POST's time is not a sample of the link.
+    bool preempted = false;
+    // Only the refinement being written clears the state: one whose body is done and whose answer comes while the
+    // next refinement is being written must not (it would let a third start beside it).
+    auto end_writing = [&] {
+      if (!paced_chunks) return;
+      std::lock_guard lock(mu_);
+      if (refinement_writer_ != seq) return;
+      refinement_writing_ = false;
+      refinement_writer_ = -1;
+      refinement_left_bytes_ = 0;
+    };
+    const ChunkGate gate = [&](size_t offset, size_t bytes) {
+      std::unique_lock lock(mu_);
+      for (;;) {
+        if (stopping_) return false;
+        const double cap = estimator_.cap_kbps();
+        if (cap <= 0) break;  // the cap was lifted: written at once
+        const auto now = clock::now();
+        const bool keyframe_waiting = first_revision_waiting_locked();
+        if (!keyframe_waiting && line_free_ <= now) break;
+        if (keyframe_waiting || (offset > 0 && line_free_ > own_line_end_)) preempted = true;
+        cv_.wait_until(lock, keyframe_waiting ? now + std::chrono::milliseconds(20) : line_free_);
+      }
+      if (estimator_.cap_kbps() > 0) line_free_ = std::max(line_free_, clock::now()) + line_time(bytes);
+      own_line_end_ = line_free_;
+      refinement_left_bytes_ = offset + bytes >= refinement_bytes_total_ ? 0 : refinement_bytes_total_ - offset - bytes;
+      if (refinement_left_bytes_ == 0) {
+        refinement_writing_ = false;
+        refinement_writer_ = -1;
+      }
+      return true;
+    };
     auto finish = [&](const std::string& fatal) {
+      end_writing();
       {
         std::lock_guard lock(mu_);
         flight_end_locked(seq);
@@ -207,7 +291,9 @@ void Sender::run(Uplink& uplink) {
       return;
     }
     const double post_started = unix_now();
-    if (!entry->attempted && entry->reduced > 0) {
+    // A first revision's wait only: a refinement's `reduced` is its keyframe's, seconds or minutes ago, and would
+    // make the latency rule starve the keyframes that follow it.
+    if (!entry->attempted && entry->rev == 0 && entry->reduced > 0) {
       const double wait = std::max(0.0, post_started - entry->reduced);
       std::lock_guard lock(mu_);
       queue_wait_s_ = queue_wait_s_ ? 0.3 * wait + 0.7 * *queue_wait_s_ : wait;
@@ -226,7 +312,14 @@ void Sender::run(Uplink& uplink) {
     const double estimate = std::max(estimate_kbps(), 64.0);
     const double transfer_s = static_cast<double>(glb->size()) * 8.0 / 1000.0 / estimate;
     const double io_timeout_s = std::clamp(3.0 + 4.0 * transfer_s, 3.0, 60.0);
-    PostResult r = uplink.post_keyframe(params_.mission, *entry, *glb, io_timeout_s);
+    if (paced_chunks) {
+      std::lock_guard lock(mu_);
+      refinement_bytes_total_ = glb->size();
+      own_line_end_ = line_free_;
+    }
+    PostResult r = uplink.post_keyframe(params_.mission, *entry, *glb, io_timeout_s,
+                                        paced_chunks ? gate : ChunkGate{});
+    end_writing();
     if (r.outcome == PostOutcome::kConflict) {
       // Ours from an earlier run whose answer was lost and whose bytes changed since? Read the mission back.
       auto mission = uplink.get_mission(params_.mission);
@@ -254,9 +347,11 @@ void Sender::run(Uplink& uplink) {
     {
       std::lock_guard lock(mu_);
       ++stats_.posts;
+      post_log_.push_back({seq, entry->rev, glb->size(), post_started, unix_now(),
+                                 r.outcome == PostOutcome::kStored});
       switch (r.outcome) {
         case PostOutcome::kStored:
-          estimator_.on_ack(glb->size(), r.seconds);
+          if (!preempted) estimator_.on_ack(glb->size(), r.seconds);
           backoff_.reset();
           stats_.acked_bytes += glb->size();
           if (entry->rev > 0) {

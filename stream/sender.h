@@ -12,7 +12,13 @@
 // Pacing: with a cap (--link-kbps), POST bodies are scheduled back to back on a virtual line at the cap: a POST
 // starts no earlier than when the previous bodies would have crossed it at the cap (line_free += bytes / cap), so
 // the rate never exceeds the cap even on a faster link, and with one lane it is the old rule (bytes / cap after the
-// previous POST started).
+// previous POST started). A refinement's body (rev > 0) is put on the line chunk by chunk as it is written
+// (Uplink's ChunkGate, kBodyChunkBytes each): with two lanes or more, a chunk waits while a first revision is
+// waiting to start, so a new keyframe goes ahead of the rest of a refinement instead of behind all of it. So a
+// refinement may be as large as the link has room for, not only as large as the gap before the next keyframe, and
+// the line carries it while keyframes' answers are awaited. One refinement's body is written at a time (two paused
+// ones could hold both lanes), and with two lanes or more a refinement starts only when it leaves a lane free; a
+// refinement that waited for another body is not a sample of the link estimate.
 // Failures: a POST without an answer, a 5xx or a 503/429 is retried after a backoff delay (stream/backoff.h), and
 // lowers the link estimate (stream/link_estimator.h); the same bytes are re-posted, so a POST whose answer was lost
 // is answered 200 by the server's idempotency on (mission, seq, rev). A 409 is resolved by reading the mission back:
@@ -41,6 +47,18 @@ struct SenderParams {
   LinkEstimatorParams link;
   BackoffParams backoff;
   unsigned seed = 0;  // of the jitter; 0: from std::random_device
+  // First revisions in flight at most (0: one per lane). rgbdcast stream gives refinements a lane more than
+  // --max-in-flight, so that a refinement being written never takes the lane a keyframe needs.
+  size_t max_first_in_flight = 0;
+};
+
+// One POST as the sender saw it (Unix s), for a benchmark that wants the line's timeline (rgbdcast stream
+// --post-log).
+struct PostRecord {
+  int seq = -1, rev = 0;
+  size_t bytes = 0;
+  double started = 0, ended = 0;  // the request's start; its answer (or failure)
+  bool stored = false;            // acknowledged
 };
 
 struct SenderStats {
@@ -78,7 +96,8 @@ class Sender {
   void release(int seq);
   double estimate_kbps() const;
   // How long a keyframe waits in the outbox before its first POST starts (pacing, a POST in flight), smoothed
-  // (EWMA, weight 0.3; 0 before the first): part of the overhead the latency rule subtracts (link_estimator.h).
+  // (EWMA, weight 0.3; 0 before the first; first revisions only): part of the overhead the latency rule subtracts
+  // (link_estimator.h).
   double queue_wait_s() const;
   size_t acknowledged_posts() const;  // samples of the link estimate so far (0: it is still the initial guess)
   // Seconds until what is pending would be across the link: with a cap, the time left on the paced virtual line
@@ -90,12 +109,19 @@ class Sender {
   double post_fixed_s() const;
   // Nothing pending and nothing in flight: the link is idle (a refinement may use it).
   bool idle() const;
+  // A refinement's body yields to first revisions (a cap, and two lanes or more): a new keyframe waits for at most a
+  // chunk of it (kBodyChunkBytes at the cap), or a round trip when every lane is busy, not for the whole body.
+  bool refinements_yield() const;
   void set_cap_kbps(double cap_kbps);
   SenderStats stats() const;
+  std::vector<PostRecord> post_log() const;  // every POST of this run, in the order they ended
 
  private:
   void run(Uplink& uplink);
   int pick_locked() const;
+  // A pending rev 0 that no lane is posting and no backoff holds, with two lanes or more (see the .cpp).
+  bool first_revision_waiting_locked() const;
+  std::chrono::steady_clock::duration line_time(size_t bytes) const;  // at the cap (> 0); mu_ held
   void flight_begin_locked(int seq);
   void flight_end_locked(int seq);
 
@@ -114,8 +140,14 @@ class Sender {
   std::chrono::steady_clock::time_point busy_since_{}, overlap_since_{};
   std::chrono::steady_clock::time_point retry_not_before_{};  // backoff
   std::chrono::steady_clock::time_point line_free_{};         // pacing: when the bodies posted so far are across
+  // The refinement whose body is being written chunk by chunk (at most one: see pick_locked), under a cap.
+  bool refinement_writing_ = false;
+  int refinement_writer_ = -1;  // its seq
+  size_t refinement_bytes_total_ = 0, refinement_left_bytes_ = 0;
+  std::chrono::steady_clock::time_point own_line_end_{};  // where its last chunk ended on the virtual line
   std::optional<double> queue_wait_s_;
   SenderStats stats_;
+  std::vector<PostRecord> post_log_;
 };
 
 }  // namespace rgbdcast::stream

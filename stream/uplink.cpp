@@ -2,6 +2,7 @@
 
 #include <httplib.h>
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -71,7 +72,8 @@ std::string error_line(int status, const std::string& body) {
 }  // namespace
 
 PostResult Uplink::post_keyframe(const std::string& mission, const OutboxEntry& e,
-                                 const std::vector<std::uint8_t>& glb, double io_timeout_s) {
+                                 const std::vector<std::uint8_t>& glb, double io_timeout_s,
+                                 const ChunkGate& gate) {
   impl_->set_io_timeout(io_timeout_s);
   char captured[32];
   std::snprintf(captured, sizeof captured, "%.6f", e.captured);
@@ -79,8 +81,14 @@ PostResult Uplink::post_keyframe(const std::string& mission, const OutboxEntry& 
                              "&pose=" + pose_query(e.pose) + "&captured=" + captured +
                              (e.rev > 0 ? "&rev=" + std::to_string(e.rev) : std::string());
   const auto t0 = std::chrono::steady_clock::now();
-  auto res = impl_->client.Post(target.c_str(), reinterpret_cast<const char*>(glb.data()), glb.size(),
-                                "model/gltf-binary");
+  const char* body = reinterpret_cast<const char*>(glb.data());
+  auto res = gate ? impl_->client.Post(target.c_str(), httplib::Headers{}, glb.size(),
+                                       [&](size_t offset, size_t length, httplib::DataSink& sink) {
+                                         const size_t n = std::min(length, kBodyChunkBytes);
+                                         return gate(offset, n) && sink.write(body + offset, n);
+                                       },
+                                       "model/gltf-binary")
+                  : impl_->client.Post(target.c_str(), body, glb.size(), "model/gltf-binary");
   PostResult out;
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (!res) {

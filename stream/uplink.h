@@ -2,6 +2,8 @@
 // The sender's HTTP side: posts keyframes to the missions routes (see the contract in README, "Live missions") with
 // cpp-httplib's client over one keep-alive connection, and reads a mission back. Each answer is classified for the
 // sender's retry logic. httplib stays inside uplink.cpp. Not thread-safe: one sender thread owns it.
+#include <cstddef>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -34,6 +36,12 @@ struct PostResult {
   double seconds = 0;          // from the request's start to its answer
 };
 
+// A body written in chunks (Uplink::post_keyframe): called before each chunk of at most kBodyChunkBytes, from the
+// posting thread; it may wait (the sender paces a refinement's body at the cap and lets a new keyframe's body go
+// ahead of the rest of it) and returns false to abort the POST (then the outcome is kRetry).
+using ChunkGate = std::function<bool(size_t offset, size_t bytes)>;
+inline constexpr size_t kBodyChunkBytes = 4096;
+
 class Uplink {
  public:
   // Errors: kInvalidArgument (a URL that is not http(s)://host[:port]).
@@ -46,10 +54,11 @@ class Uplink {
   // TCP handshake is in it): a request's round trip without a body, the POST model's first fixed cost. kUnavailable
   // without an answer.
   Result<double> round_trip_s();
-  // POST /v1/missions/{mission}/keyframes?seq=&pose=&captured=[&rev=, when entry.rev > 0]; io_timeout_s bounds the
-  // send and the wait.
+  // POST /v1/missions/{mission}/keyframes?seq=&pose=&captured=[&rev=, when entry.rev > 0]; io_timeout_s bounds each
+  // socket write and the wait for the answer. With a gate, the body is written chunk by chunk through it (above);
+  // without, in one piece.
   PostResult post_keyframe(const std::string& mission, const OutboxEntry& entry, const std::vector<std::uint8_t>& glb,
-                           double io_timeout_s);
+                           double io_timeout_s, const ChunkGate& gate = {});
   // GET /v1/missions/{mission}: the JSON text; kNotFound for an unknown mission, kUnavailable without an answer.
   Result<std::string> get_mission(const std::string& mission);
 

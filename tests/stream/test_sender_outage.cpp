@@ -9,10 +9,12 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <fstream>
 #include <chrono>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -315,4 +317,203 @@ TEST(Uplink, BadUrlsAndTokenFilesGetOneLineErrors) {
 }
 
 }  // namespace
+}  // namespace rgbdcast::stream
+
+namespace rgbdcast::stream {
+namespace {
+
+// Bodies of real bytes (a TUM colour PNG), cut to the sizes a test needs: the sender does not look inside.
+std::vector<std::uint8_t> real_bytes(size_t n, size_t from) {
+  std::ifstream in(test::data_path("tum/rgbd_dataset_freiburg1_xyz_200_319/rgb/1305031108.843264.png"),
+                   std::ios::binary);
+  std::vector<std::uint8_t> all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_GE(all.size(), from + n);
+  return std::vector<std::uint8_t>(all.begin() + static_cast<long>(std::min(from, all.size())),
+                                   all.begin() + static_cast<long>(std::min(from + n, all.size())));
+}
+
+// Starts `server` on its own thread and a sender with three lanes to it (two for keyframes, as rgbdcast stream gives
+// refinements one more) at a cap of 800 kbit/s (100 kB/s: 0.1 s per 10 kB).
+std::unique_ptr<Sender> start_three_lanes(httplib::Server& server, std::thread& server_thread, Lanes& lanes,
+                                          Outbox& box, const std::string& mission) {
+  const int port = server.bind_to_any_port("127.0.0.1");
+  server_thread = std::thread([&server] { server.listen_after_bind(); });
+  lanes = make_lanes(port, 3);
+  SenderParams sp;
+  sp.mission = mission;
+  sp.link.cap_kbps = 800;
+  sp.max_first_in_flight = 2;
+  auto sender = std::make_unique<Sender>(box, lanes.uplinks, sp);
+  sender->start();
+  return sender;
+}
+
+}  // namespace
+
+// Three lanes (two for keyframes, as rgbdcast stream gives refinements one more), a cap of 800 kbit/s (100 kB/s) and
+// a server that answers each POST 1 s after reading its body. Pending at the start: keyframe B's first revision
+// (20 kB) and a refinement of keyframe A (rev 1, 60 kB). B goes first; the refinement starts once B's body is on
+// the line, before B's answer (the line carries it while that answer is awaited); keyframe C (10 kB), added while the
+// refinement's body is being written, goes ahead of the rest of it (its body reaches the server first), and the
+// refinement's body still takes its bytes and C's at the cap (the cap holds). Everything is stored once.
+TEST(SenderLanes, ARefinementFillsTheWaitForAnAnswerAndANewKeyframeOvertakesIt) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz_200_319/rgb/1305031108.843264.png");
+  const std::string dir = test::temp_dir("sender_refine_lane");
+  auto box = Outbox::open(dir, "refine");
+  ASSERT_TRUE(box);
+  const double unix_now =
+      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  auto make = [&](int frame, double reduced) {
+    OutboxEntry e;
+    e.frame_index = frame;
+    e.captured = 1000 + frame;
+    e.reduced = reduced;
+    e.pose = {0.1 * frame, 0, 0, 0, 0, 0, 1};
+    return e;
+  };
+  // A: reduced a minute ago, acknowledged, now refined (a refinement keeps its keyframe's times).
+  auto a = (*box)->add(make(0, unix_now - 60), real_bytes(8000, 0));
+  ASSERT_TRUE(a);
+  ASSERT_TRUE((*box)->mark_attempted(a->seq, 1));
+  ASSERT_TRUE((*box)->mark_acked(a->seq, R"({"seq":0})"));
+  ASSERT_TRUE((*box)->revise(a->seq, real_bytes(60000, 8000), 60, 1000));
+  auto b = (*box)->add(make(10, unix_now), real_bytes(20000, 70000));
+  ASSERT_TRUE(b);
+
+  struct Arrival {
+    int seq, rev;
+    double body_s, answer_s;  // steady seconds: the body was read; the answer was sent
+  };
+  std::mutex mu;
+  std::vector<Arrival> arrivals;
+  std::map<std::pair<int, int>, int> stored;  // (seq, rev) -> times created
+  httplib::Server server;
+  auto now_s = [] { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); };
+  server.Post(R"(/v1/missions/([A-Za-z0-9_-]+)/keyframes)", [&](const httplib::Request& req, httplib::Response& res) {
+    const int seq = std::stoi(req.get_param_value("seq"));
+    const int rev = req.has_param("rev") ? std::stoi(req.get_param_value("rev")) : 0;
+    const double body_s = now_s();
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+    std::lock_guard lock(mu);
+    arrivals.push_back({seq, rev, body_s, now_s()});
+    res.status = stored[{seq, rev}]++ == 0 ? 201 : 200;
+    res.set_content("{\"seq\":" + std::to_string(seq) + ",\"rev\":" + std::to_string(rev) + "}", "application/json");
+  });
+  std::thread t;
+  Lanes lanes;
+  const double t0 = now_s();
+  auto started = start_three_lanes(server, t, lanes, **box, "refine");
+  Sender& sender = *started;
+  // Once the refinement's POST has started (its entry is marked attempted first), keyframe C comes.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (!(*box)->entry(a->seq)->attempted && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  const double c_added = now_s();
+  auto c = (*box)->add(
+      make(20, std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count()),
+      real_bytes(10000, 90000));
+  ASSERT_TRUE(c);
+  sender.notify();
+  while (sender.stats().pending > 0 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  sender.stop();
+  const SenderStats stats = sender.stats();
+  const std::vector<PostRecord> log = sender.post_log();
+  const double queue_wait_s = sender.queue_wait_s();
+  server.stop();
+  t.join();
+  test::remove_tree_quietly(dir);
+
+  EXPECT_EQ(stats.acked, 3u);
+  EXPECT_EQ(stats.pending, 0u);
+  EXPECT_EQ(stats.refinements_acked, 1u);
+  ASSERT_EQ(stored.size(), 3u);
+  for (const auto& [key, times] : stored) EXPECT_EQ(times, 1) << "seq " << key.first << " rev " << key.second;
+  ASSERT_EQ(arrivals.size(), 3u);
+  auto find = [&](int seq, int rev) {
+    for (const Arrival& x : arrivals)
+      if (x.seq == seq && x.rev == rev) return x;
+    ADD_FAILURE() << "seq " << seq << " rev " << rev << " never arrived";
+    return Arrival{seq, rev, 0, 0};
+  };
+  const Arrival ab = find(b->seq, 0), ar = find(a->seq, 1), ac = find(c->seq, 0);
+  // The refinement started before B's answer: the line carried it while that answer was awaited.
+  double refinement_started = 0;
+  for (const PostRecord& p : log)
+    if (p.seq == a->seq && p.rev == 1) refinement_started = p.started;
+  ASSERT_GT(refinement_started, 0);
+  double b_ended = 0;
+  for (const PostRecord& p : log)
+    if (p.seq == b->seq) b_ended = p.ended;
+  EXPECT_LT(refinement_started, b_ended);
+  EXPECT_LT(ar.body_s, ab.answer_s);
+  // C was added while the refinement's body was being written, and its body reached the server first.
+  EXPECT_GT(c_added, t0);
+  EXPECT_LT(ac.body_s, ar.body_s);
+  // The cap held: B's body, then the refinement's 60 kB with C's 10 kB inside it, each at 100 kB/s.
+  EXPECT_GE(ar.body_s - t0, 0.9 * (20000 + 60000 + 10000) / 100e3);
+  EXPECT_GT(stats.overlap_s, 0.5);
+  // The outbox wait the latency rule counts is the keyframes' (B waited for nothing, C for a chunk or a lane), not
+  // the minute since the refined keyframe was first reduced.
+  EXPECT_LT(queue_wait_s, 2.0);
+}
+
+
+// Three refinements pending (30 kB each), three lanes, a cap of 800 kbit/s (0.3 s a body) and a server that answers
+// 0.2 s after reading one: one refinement's body is written at a time, so their bodies reach the server one cap-time
+// apart, although the first one's answer comes while the second is being written (it must not let the third start
+// beside the second: their chunks would then share the line and both arrive late).
+TEST(SenderLanes, RefinementBodiesAreWrittenOneAtATime) {
+  REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz_200_319/rgb/1305031108.843264.png");
+  const std::string dir = test::temp_dir("sender_refine_one_at_a_time");
+  auto box = Outbox::open(dir, "refine3");
+  ASSERT_TRUE(box);
+  for (int i = 0; i < 3; ++i) {
+    OutboxEntry e;
+    e.frame_index = 10 * i;
+    e.captured = 1000 + i;
+    e.pose = {0.1 * i, 0, 0, 0, 0, 0, 1};
+    auto added = (*box)->add(e, real_bytes(5000, 5000 * static_cast<size_t>(i)));
+    ASSERT_TRUE(added);
+    ASSERT_TRUE((*box)->mark_attempted(added->seq, 1));
+    ASSERT_TRUE((*box)->mark_acked(added->seq, "{}"));
+    ASSERT_TRUE((*box)->revise(added->seq, real_bytes(30000, 20000 + 30000 * static_cast<size_t>(i)), 30, 100));
+  }
+  std::mutex mu;
+  std::vector<double> arrivals;
+  httplib::Server server;
+  auto now_s = [] { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); };
+  server.Post(R"(/v1/missions/([A-Za-z0-9_-]+)/keyframes)", [&](const httplib::Request&, httplib::Response& res) {
+    {
+      std::lock_guard lock(mu);
+      arrivals.push_back(now_s());
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    res.status = 201;
+    res.set_content("{}", "application/json");
+  });
+  std::thread t;
+  Lanes lanes;
+  const double t0 = now_s();
+  auto started = start_three_lanes(server, t, lanes, **box, "refine3");
+  Sender& sender = *started;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (sender.stats().pending > 0 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  sender.stop();
+  const SenderStats stats = sender.stats();
+  server.stop();
+  t.join();
+  test::remove_tree_quietly(dir);
+
+  EXPECT_EQ(stats.refinements_acked, 3u);
+  EXPECT_EQ(stats.pending, 0u);
+  ASSERT_EQ(arrivals.size(), 3u);
+  std::sort(arrivals.begin(), arrivals.end());
+  EXPECT_GE(arrivals[0] - t0, 0.9 * 0.3);
+  for (size_t i = 1; i < arrivals.size(); ++i)  // one body after the other at the cap, not two sharing it
+    EXPECT_GE(arrivals[i] - arrivals[i - 1], 0.9 * 0.3) << i;
+  EXPECT_GT(stats.overlap_s, 0.1);  // an answer was awaited while the next body was written
+}
+
 }  // namespace rgbdcast::stream
