@@ -8,7 +8,8 @@
 //     of the DECODED GLB at the capture pose: coverage of the valid pixels, PSNR over the pixels drawn, PSNR over all
 //     valid pixels with holes black (evaluation/image_metrics.h).
 //  B. Rate-distortion at budgets of 10-160 kB, capture pose and novel views at ground-truth poses (augmented ICL
-//     frames 1-4 from frame 0; TUM fr1/xyz 200-319 frames 5, 10, 15, 20 from frame 0), against JPEG-q + PNG16
+//     frames 1-4 from frame 0; TUM fr1/xyz 200-319 frames 5, 10, 15, 20 from frame 0; ICL-NUIM frames 1-4 from
+//     frame 0: every shared sequence with ground truth), against JPEG-q + PNG16
 //     (full, half and quarter resolution depth, meshed on the receiver), Draco colour clouds (2 px splats) and the
 //     paper preset.
 // Usage: realtime_bench [--runs N] [--frames N] [--paper-frames N] [--backend auto|vulkan|osmesa] [--data DIR]
@@ -420,6 +421,9 @@ int main(int argc, char** argv) {
     auto tum = load_tum_groundtruth_case(args.data_dir, {5, 10, 15, 20});
     if (!tum) die("TUM case", tum.error());
     rd_case(*tum, *renderer->renderer);
+    auto icl_nuim = load_icl_nuim_case(args.data_dir);
+    if (!icl_nuim) die("ICL-NUIM case", icl_nuim.error());
+    rd_case(*icl_nuim, *renderer->renderer);
   }
   return 0;
 }

@@ -54,27 +54,28 @@ Result<std::vector<RgbdFrame>> load_frames(const std::string& folder, size_t cou
   return frames;
 }
 
-}  // namespace
-
-Result<TestCase> load_icl_case(const std::string& data_dir) {
+// Frames 0..4 of `folder`, frame 0 sent, novel views at the trajectory's poses of frames 1.. (indexed by
+// frame), each checked against the frame odometry (a note; not used for rendering).
+template <typename Read>
+Result<TestCase> load_indexed_case(const std::string& name, const std::string& folder,
+                                   const std::string& trajectory_name, Read&& read) {
   TestCase tc;
-  tc.name = "Augmented ICL-NUIM living room (synthetic + simulated Kinect noise)";
-  tc.folder = data_dir + "/augmented_icl_livingroom";
+  tc.name = name;
+  tc.folder = folder;
   auto frames = load_frames(tc.folder, 5);
   if (!frames) return frames.error();
-  auto trajectory = read_redwood_log(tc.folder + "/trajectory.log");
+  auto trajectory = read(tc.folder + "/" + trajectory_name);
   if (!trajectory) return trajectory.error();
   const StampedPose* p0 = pose_with_index(*trajectory, 0);
-  if (!p0) return make_error(ErrorCode::kNotFound, "trajectory.log has no frame 0");
+  if (!p0) return make_error(ErrorCode::kNotFound, trajectory_name + " has no frame 0");
   tc.sent = (*frames)[0];
   tc.views.push_back(view_of(tc.sent, Eigen::Matrix4d::Identity(), "capture"));
   for (size_t k = 1; k < frames->size(); ++k) {
     const StampedPose* pk = pose_with_index(*trajectory, static_cast<int>(k));
-    if (!pk) return make_error(ErrorCode::kNotFound, "trajectory.log has no frame " + std::to_string(k));
+    if (!pk) return make_error(ErrorCode::kNotFound, trajectory_name + " has no frame " + std::to_string(k));
     const Eigen::Matrix4d rel = p0->camera_to_world.inverse() * pk->camera_to_world;
     tc.views.push_back(view_of((*frames)[k], rel, "frame " + std::to_string(k)));
     std::string note = "frame " + std::to_string(k) + ": ground-truth pose, " + motion_text(rel) + " from frame 0";
-    // Check the odometry used for TUM against this ground truth (not used for rendering here).
     if (auto est = odometry(tc.sent, (*frames)[k]))
       note += "; odometry error " + motion_text(rel.inverse() * est->cur_to_prev);
     else
@@ -82,6 +83,19 @@ Result<TestCase> load_icl_case(const std::string& data_dir) {
     tc.notes.push_back(note);
   }
   return tc;
+}
+
+}  // namespace
+
+Result<TestCase> load_icl_case(const std::string& data_dir) {
+  return load_indexed_case("Augmented ICL-NUIM living room (synthetic + simulated Kinect noise)",
+                           data_dir + "/augmented_icl_livingroom", "trajectory.log", read_redwood_log);
+}
+
+Result<TestCase> load_icl_nuim_case(const std::string& data_dir) {
+  return load_indexed_case("ICL-NUIM living room (synthetic, noise-free depth, widely spaced frames)",
+                           data_dir + "/icl_nuim_livingroom", "pose.txt",
+                           [](const std::string& path) { return read_icl_pose_txt(path); });
 }
 
 Result<TestCase> load_tum_case(const std::string& data_dir) {
