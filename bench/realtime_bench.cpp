@@ -187,7 +187,7 @@ void speed_section(const Args& args, Renderer& renderer) {
               "after them\n\n",
               args.runs, args.paper_frames);
   std::printf("| set | frames | realtime ms | paper ms | paper/realtime | realtime kB (max) | paper kB | JPEG90+PNG16 kB | "
-              "triangles (max) | coverage min / median | PSNR drawn dB | PSNR all valid dB | grid mesh coverage / "
+              "triangles (max) | coverage min / median | PSNR drawn dB (min) | PSNR all valid dB (min) | grid mesh coverage / "
               "all-valid dB | paper coverage / all-valid dB |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Dataset& d : sets) {
@@ -251,11 +251,12 @@ void speed_section(const Args& args, Renderer& renderer) {
         paper_pv.push_back(pf->psnr_valid);
       }
     }
-    std::printf("| %s | %zu | %.1f (%.1f) | %.0f | %.0fx | %.1f (%.1f) | %.1f | %.1f | %.0f (%.0f) | %.4f / %.4f | %.2f | "
-                "%.2f | %.4f / %.2f | %.4f / %.2f |\n",
+    std::printf("| %s | %zu | %.1f (%.1f) | %.0f | %.0fx | %.1f (%.1f) | %.1f | %.1f | %.0f (%.0f) | %.4f / %.4f | %.2f (%.2f) | "
+                "%.2f (%.2f) | %.4f / %.2f | %.4f / %.2f |\n",
                 d.name.c_str(), raw->size(), median(rt_ms), quantile(rt_ms, 0.9), median(paper_ms),
                 median(paper_ms) / std::max(1e-9, median(rt_ms)), median(rt_kb), max_of(rt_kb), median(paper_kb),
-                median(jp_kb), median(tris), max_of(tris), min_of(cov), median(cov), median(psnr), median(psnr_valid),
+                median(jp_kb), median(tris), max_of(tris), min_of(cov), median(cov), median(psnr), min_of(psnr),
+                median(psnr_valid), min_of(psnr_valid),
                 median(grid_cov), median(grid_pv), median(paper_cov), median(paper_pv));
     std::fflush(stdout);
   }
