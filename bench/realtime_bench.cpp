@@ -313,6 +313,14 @@ void rd_case(const TestCase& tc, Renderer& renderer) {
             std::string(outline_scale < 1 ? ", outline scale 0.75" : ""),
         encode(tc.sent, o), glb_decode, mesh);
   }
+  // The packed upper-triangle atlas (cells sized to each triangle's image footprint, the design card's shape)
+  // against the frame texture the preset defaults to, under the same budgets.
+  for (double kb : {20.0, 40.0, 80.0, 160.0}) {
+    FrameReductionOptions o = realtime_options(kb);
+    o.texture = TextureMode::kFootprint;
+    row("rgbdcast realtime, budget " + std::to_string(int(kb)) + " kB, footprint atlas", encode(tc.sent, o),
+        glb_decode, mesh);
+  }
   row("rgbdcast realtime, no budget (tolerance 2 sigma, q85)", encode(tc.sent, realtime_options(0)), glb_decode, mesh);
   row("rgbdcast paper preset", encode(tc.sent, paper_options()), glb_decode, mesh);
   for (int step : {1, 2, 4})
