@@ -34,7 +34,6 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
 
   auto options = frame_options(a);
   if (!options) fail(options.error());
-  if (auto st = apply_default_budget(a, *frame, &*options); !st) fail(st.error());
   auto textured = reduce_and_texture(*frame, *options);
   if (!textured) fail(textured.error());
   std::vector<StageReport> stages = textured->stages;

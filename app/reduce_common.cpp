@@ -16,18 +16,13 @@ Result<FrameReductionOptions> frame_options(const ReduceArgs& a) {
   o.glb = a.glb;
   if (!a.geometry_codec_chosen) o.glb.geometry_codec = default_geometry_codec(*preset);
   o.budget_kb = a.budget_kb >= 0 ? a.budget_kb : (*preset == Preset::kRealtime ? kDefaultBudgetKb : 0.0);
+  // The realtime default: min(40 kB, a quarter of the frame's JPEG90+PNG16 payload), each frame its own, estimated
+  // by reduce_and_texture beside the depth's preparation.
+  o.budget_within_payload_share = a.budget_kb < 0 && *preset == Preset::kRealtime;
   o.budget_outline_texture_scale = a.budget_outline_texture_scale;
   o.budget_max_jpeg_quality = a.budget_max_jpeg_quality;
   if (auto st = o.validate(); !st) return st.error();
   return o;
-}
-
-Status apply_default_budget(const ReduceArgs& a, const RgbdFrame& frame, FrameReductionOptions* o) {
-  if (a.budget_kb >= 0 || o->params.preset != Preset::kRealtime) return ok_status();
-  auto kb = default_budget_kb(frame);
-  if (!kb) return kb.error();
-  o->budget_kb = *kb;
-  return ok_status();
 }
 
 Result<SequenceParams> sequence_params(const ReduceArgs& a) {

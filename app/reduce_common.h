@@ -21,7 +21,7 @@ struct ReduceArgs {
   double depth_scale = 0;
   std::string preset = to_string(kDefaultPreset);  // realtime (pipeline/frame_defaults.h)
   // < 0: the preset's default (realtime: min(40 kB, a quarter of the frame's JPEG90+PNG16 payload), set per frame
-  // by apply_default_budget; paper: none).
+  // by reduce_and_texture for each frame: budget_within_payload_share; paper: none).
   double budget_kb = -1;
   double budget_outline_texture_scale = FrameReductionOptions{}.budget_outline_texture_scale;
   int budget_max_jpeg_quality = FrameReductionOptions{}.budget_max_jpeg_quality;
@@ -44,12 +44,9 @@ struct ReduceArgs {
 };
 
 // The frame -> scene options the arguments ask for (preset, texture mode, budget); errors name the bad option.
-// Without --budget-kb, the realtime preset's budget is kDefaultBudgetKb until apply_default_budget sets the frame's.
+// Without --budget-kb, the realtime preset's budget is each frame's default (default_budget_kb: min(40 kB, a quarter
+// of its JPEG90+PNG16 payload), which reduce_and_texture estimates: budget_within_payload_share).
 Result<FrameReductionOptions> frame_options(const ReduceArgs& args);
-
-// Without --budget-kb, with the realtime preset: sets options->budget_kb to the frame's default
-// (default_budget_kb: min(40 kB, a quarter of its JPEG90+PNG16 payload)). Otherwise leaves it as it is.
-Status apply_default_budget(const ReduceArgs& args, const RgbdFrame& frame, FrameReductionOptions* options);
 
 // The sequence options the arguments ask for (features, keyframe rule, range); errors name the bad option. Shared
 // by reduce --sequence and stream.

@@ -62,10 +62,9 @@ Status run_sequence(const ReduceArgs& a, const FrameSource& source) {
   auto options = frame_options(a);
   if (!options) return options.error();
   auto on_keyframe = [&](const RgbdFrame& frame, const FrameRecord& record) -> Status {
-    FrameReductionOptions keyframe_options = *options;  // the default budget is each keyframe's own
-    if (auto st = apply_default_budget(a, frame, &keyframe_options); !st) return st;
+    // (The default budget is each keyframe's own: budget_within_payload_share.)
     auto textured =
-        reduce_and_texture(frame, keyframe_options, record.pose, a.drop_covered ? earlier : std::vector<CoverageView>{});
+        reduce_and_texture(frame, *options, record.pose, a.drop_covered ? earlier : std::vector<CoverageView>{});
     if (!textured) return textured.error();
     bytes_so_far += textured->node.mesh.texture_encoded.size() + textured->node.mesh.positions.size() * 10;
     keyframes.push_back({{"index", record.index},

@@ -12,6 +12,7 @@
 
 #include "atlas/texture_encode.h"
 #include "atlas/unsampled_fill.h"
+#include "pipeline/frame_defaults.h"
 #include "reduction/openmp_threads.h"
 
 namespace rgbdcast {
@@ -245,9 +246,19 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
 
   // Mesh at a tolerance -> covered triangles dropped -> textured. The realtime preset prepares its hierarchy once.
   Result<RealtimeReduction> prepared = make_error(ErrorCode::kInternal, "not prepared");
+  double budget_kb = options.budget_kb;
   if (options.params.preset == Preset::kRealtime) {
+    // The payload's share of the budget, estimated beside the depth's preparation (two single-threaded encodes
+    // against its serial passes: about 5 ms before them on the 2-core machine).
+    Result<double> payload_kb = budget_kb;
+    std::thread estimate;
+    if (options.budget_within_payload_share && budget_kb > 0)
+      estimate = std::thread([&] { payload_kb = payload_share_kb(frame); });
     prepared = prepare_realtime(frame, options.params);
+    if (estimate.joinable()) estimate.join();
     if (!prepared) return prepared.error();
+    if (!payload_kb) return payload_kb.error();
+    budget_kb = std::min(budget_kb, *payload_kb);
   }
   auto texture_at = [&](double tolerance, double simplify_px,
                         std::vector<StageReport>* stages) -> Result<AtlasResult> {
@@ -269,7 +280,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   };
 
   const double tol0 = options.params.depth_mesh.tolerance_factor;
-  if (options.budget_kb <= 0) {
+  if (budget_kb <= 0) {
     auto textured = texture_at(tol0, -1, &out.stages);
     if (!textured) return textured.error();
     out.node.mesh = std::move(textured->mesh);
@@ -284,7 +295,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   // the texture is JPEG-encoded only once the mesh is chosen (a few qualities, then the one kept).
   const auto t0 = Clock::now();
   BudgetChoice& b = out.budget;
-  b.budget_bytes = options.budget_kb * 1000.0;
+  b.budget_bytes = budget_kb * 1000.0;
   const double target = b.budget_bytes - kExtrasReserveBytes;
   const double geometry_cap = options.budget_geometry_share * target;
   const DepthMeshHierarchy& hierarchy = prepared->hierarchy;

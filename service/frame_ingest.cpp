@@ -36,10 +36,9 @@ Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   if (upload.preset == Preset::kRealtime) {
     if (upload.budget_kb >= 0) {
       options.budget_kb = upload.budget_kb;
-    } else {
-      auto kb = default_budget_kb(*frame);
-      if (!kb) return kb.error();
-      options.budget_kb = *kb;
+    } else {  // the frame's default, estimated by reduce_and_texture beside the depth's preparation
+      options.budget_kb = kDefaultBudgetKb;
+      options.budget_within_payload_share = true;
     }
   }
   if (auto st = options.validate(); !st) return st.error();  // a budget out of range: kInvalidArgument (400)

@@ -53,14 +53,32 @@ TEST(FrameDefaults, TheDefaultBudgetKeepsTheGlbUnderAQuarterOfJpeg90Png16) {
     EXPECT_DOUBLE_EQ(*budget, std::min(kDefaultBudgetKb, quarter_kb)) << c.path;
     EXPECT_EQ(*budget < kDefaultBudgetKb, c.quarter_applies) << c.path << ": payload " << payload->bytes();
 
-    FrameReductionOptions o;  // the defaults, as reduce and the service build them
+    // The defaults, as reduce and the service build them: the payload's share is estimated inside the frame ->
+    // scene function (beside the depth's preparation). It gives the budget above, and the same file as that budget
+    // given explicitly.
+    FrameReductionOptions o;
     o.params = reduction_preset(kDefaultPreset);
     o.glb.geometry_codec = default_geometry_codec(kDefaultPreset);
-    o.budget_kb = *budget;
-    auto textured = reduce_and_texture(*frame, o);
-    ASSERT_TRUE(textured) << c.path << ": " << textured.error().message;
-    auto glb = encode_glb(frame_scene(std::move(*textured), "{}"), o.glb);
-    ASSERT_TRUE(glb) << glb.error().message;
+    o.budget_kb = kDefaultBudgetKb;
+    o.budget_within_payload_share = true;
+    FrameReductionOptions given = o;
+    given.budget_within_payload_share = false;
+    given.budget_kb = *budget;
+    auto glb_of = [&](const FrameReductionOptions& options, double* budget_bytes) -> Result<std::vector<std::uint8_t>> {
+      auto textured = reduce_and_texture(*frame, options);
+      if (!textured) return textured.error();
+      *budget_bytes = textured->budget.budget_bytes;
+      const GlbWriteOptions w = write_options(*textured, options.glb);
+      return encode_glb(frame_scene(std::move(*textured), "{}"), w);
+    };
+    double estimated_bytes = 0, given_bytes = 0;
+    auto glb = glb_of(o, &estimated_bytes);
+    ASSERT_TRUE(glb) << c.path << ": " << glb.error().message;
+    auto explicit_glb = glb_of(given, &given_bytes);
+    ASSERT_TRUE(explicit_glb) << c.path << ": " << explicit_glb.error().message;
+    EXPECT_DOUBLE_EQ(estimated_bytes, *budget * 1000.0) << c.path;
+    EXPECT_DOUBLE_EQ(given_bytes, *budget * 1000.0) << c.path;
+    EXPECT_TRUE(*glb == *explicit_glb) << c.path << ": the estimated default and the same budget given differ";
     std::cout << c.path << ": JPEG90+PNG16 " << payload->bytes() << " bytes, budget " << *budget << " kB, GLB "
               << glb->size() << " bytes\n";
     EXPECT_LE(glb->size(), payload->bytes() / 4) << c.path;
