@@ -343,7 +343,7 @@ void budget_section(const Args& args) {
   std::printf("\n## C. The default budget: min(40 kB, a quarter of the frame's JPEG90+PNG16 payload)\n");
   std::printf("per set: median (min-max) over its frames; estimate ms: default_budget_kb (one JPEG q90 and one PNG16 "
               "encode, on two threads), median over frames x %d runs; reduce ms: frame -> GLB at 40 kB, and at the "
-              "default as reduce and the service make it (the estimate inside, beside the depth's preparation), "
+              "default as reduce and the service make it (the estimate inside), "
               "alternating, median over frames x %d runs; same file: the default's GLB is the one at the estimated "
               "budget given explicitly\n\n",
               args.runs, args.runs);

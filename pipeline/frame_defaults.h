@@ -39,8 +39,8 @@ Result<JpegPng16> encode_jpeg_png16(const RgbdFrame& frame, int jpeg_quality, in
 // payload), so the GLB is at most a quarter of what the frame costs as images (issue 9) also on frames whose images
 // compress well (the PCL Kinect PCDs: 130.7 kB of JPEG90+PNG16, so 32.7 kB). Costs one JPEG and one PNG encode of
 // the frame (measured in BENCHMARKS.md, "Default budget"). Never below 4 kB (FrameReductionOptions'
-// floor). Errors: encode_jpeg_png16's. reduce_and_texture makes the same estimate beside the depth's preparation
-// when FrameReductionOptions::budget_within_payload_share is set (what reduce, sequence mode and the service do).
+// floor). Errors: encode_jpeg_png16's. reduce_and_texture makes the same estimate when
+// FrameReductionOptions::budget_within_payload_share is set (what reduce, sequence mode and the service do).
 Result<double> default_budget_kb(const RgbdFrame& frame);
 // A quarter of the frame's JPEG90+PNG16 payload, never below 4 kB (default_budget_kb without its 40 kB cap).
 Result<double> payload_share_kb(const RgbdFrame& frame);

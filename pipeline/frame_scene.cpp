@@ -248,17 +248,15 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   Result<RealtimeReduction> prepared = make_error(ErrorCode::kInternal, "not prepared");
   double budget_kb = options.budget_kb;
   if (options.params.preset == Preset::kRealtime) {
-    // The payload's share of the budget, estimated beside the depth's preparation (two single-threaded encodes
-    // against its serial passes: about 5 ms before them on the 2-core machine).
-    Result<double> payload_kb = budget_kb;
-    std::thread estimate;
-    if (options.budget_within_payload_share && budget_kb > 0)
-      estimate = std::thread([&] { payload_kb = payload_share_kb(frame); });
+    // The payload's share, before the depth's preparation: made beside it on a second thread, it took as long
+    // (its two encodes compete with the preparation's two threads; BENCHMARKS.md, stop 22).
+    if (options.budget_within_payload_share && budget_kb > 0) {
+      auto payload_kb = payload_share_kb(frame);
+      if (!payload_kb) return payload_kb.error();
+      budget_kb = std::min(budget_kb, *payload_kb);
+    }
     prepared = prepare_realtime(frame, options.params);
-    if (estimate.joinable()) estimate.join();
     if (!prepared) return prepared.error();
-    if (!payload_kb) return payload_kb.error();
-    budget_kb = std::min(budget_kb, *payload_kb);
   }
   auto texture_at = [&](double tolerance, double simplify_px,
                         std::vector<StageReport>* stages) -> Result<AtlasResult> {

@@ -30,8 +30,8 @@ struct FrameReductionOptions {
   // +-10 % of budget_kb * 1000 bytes, or under it when the scene needs less. 0: no budget.
   double budget_kb = 0;
   // With a budget: at most a quarter of the frame's own JPEG q90 + PNG16 payload too (the realtime preset's default,
-  // default_budget_kb in pipeline/frame_defaults.h). The two encodes are made on a second thread beside the depth's
-  // filter and hierarchy, not before them; the budget used is the report's budget_bytes.
+  // default_budget_kb in pipeline/frame_defaults.h, which reduce, sequence mode and the service ask for this way);
+  // the budget used is the report's budget_bytes.
   bool budget_within_payload_share = false;
   // The budget's split: the mesh keeps its tolerance while its bytes are at most this share of the budget; beyond it
   // the tolerance rises until they are. The texture gets the rest (bench/realtime_bench measures the split).

@@ -36,7 +36,7 @@ Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   if (upload.preset == Preset::kRealtime) {
     if (upload.budget_kb >= 0) {
       options.budget_kb = upload.budget_kb;
-    } else {  // the frame's default, estimated by reduce_and_texture beside the depth's preparation
+    } else {  // the frame's default, estimated by reduce_and_texture
       options.budget_kb = kDefaultBudgetKb;
       options.budget_within_payload_share = true;
     }

@@ -54,8 +54,7 @@ TEST(FrameDefaults, TheDefaultBudgetKeepsTheGlbUnderAQuarterOfJpeg90Png16) {
     EXPECT_EQ(*budget < kDefaultBudgetKb, c.quarter_applies) << c.path << ": payload " << payload->bytes();
 
     // The defaults, as reduce and the service build them: the payload's share is estimated inside the frame ->
-    // scene function (beside the depth's preparation). It gives the budget above, and the same file as that budget
-    // given explicitly.
+    // scene function. It gives the budget above, and the same file as that budget given explicitly.
     FrameReductionOptions o;
     o.params = reduction_preset(kDefaultPreset);
     o.glb.geometry_codec = default_geometry_codec(kDefaultPreset);
