@@ -175,7 +175,7 @@ class MultipartServer : public httplib::Server {
   static constexpr size_t kLimit = 4u << 20;
   MultipartServer() {
     set_payload_max_length(kLimit);
-    Post("/v1/scenes", [this](const httplib::Request& req, httplib::Response& res,
+    Post("/v1/scenes", [](const httplib::Request& req, httplib::Response& res,
                               const httplib::ContentReader& reader) {
       if (!req.is_multipart_form_data()) return;
       service::FrameParts parts;
