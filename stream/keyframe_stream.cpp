@@ -413,37 +413,52 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   // Refinements: the newest acknowledged keyframe whose revision now (or the last refinement tried of it) was made at
   // a budget the window beats by 1.25 x and 8 kB, reduced again at what the link carries in window_s (at most
   // refine_window_s), as its next revision. With `ahead` (the drain), when no acknowledged keyframe qualifies, one
-  // whose POST is out (attempted, not answered yet) may be: its refinement is reduced while that POST is on the line
-  // and added once it is acknowledged (Outbox::revise needs the answer), so the line does not idle for the reduction
-  // (a single keyframe's stream, ICL: its only refinement followed its answer 0.3-0.6 s later). Returns false when
-  // there is no such keyframe; true when one was handled (refined, or not kept: the new GLB was under 1.1 x the old
-  // one's bytes, or its first POST was rejected or never answered before a stop; it is tried again only at a larger
-  // budget). Called by the refiner thread while tracking, then by the drain (never both at once).
+  // whose POST is out (attempted, not answered yet, the link not down) may be: its refinement is reduced while that
+  // POST is on the line and added once it is acknowledged (Outbox::revise needs the answer), so the line does not idle
+  // for the reduction (a single keyframe's stream, ICL: its only refinement followed its answer 0.3-0.6 s later).
+  // Before any answer has measured the link, that is done only under a cap, at what the cap carries in the window (the
+  // estimate never exceeds the cap, so no measured budget is larger); once the answer comes, the GLB is added if it
+  // fits in what the measured link carries in the window, else it is dropped and the keyframe refined again at the
+  // measured budget, as it is without a cap. Returns false when there is no such keyframe; true when one was handled
+  // (refined, or not kept: the new GLB was under 1.1 x the old one's bytes, or too large for the measured link, or its
+  // first POST was rejected or never answered before a stop; it is tried again only at a larger budget, or at once
+  // when it was too large). Called by the refiner thread while tracking, then by the drain (never both at once).
   std::map<int, double> refined_at;  // seq -> the largest budget a refinement of it was reduced at
   std::atomic<bool> tracking_done_for_refiner{false};  // the drain's refinements are not counted as while tracking
   auto refine_one = [&](double window_s, SmoothedDuration& took_s, bool ahead) {
     if (!(options.refine_ceiling_kb > 0)) return false;
-    const double budget_kb = refinement_budget_kb(sender.line_kbps(), std::min(window_s, options.refine_window_s),
-                                                  sender.post_fixed_s(), options.refine_ceiling_kb,
-                                                  options.budget.headroom);
-    auto beats = [&](double base) { return budget_kb >= std::max(1.25 * base, base + 8); };
-    std::optional<OutboxEntry> best;
-    const std::vector<OutboxEntry> all = outbox.entries();
-    // Acknowledged ones first; then, ahead, one whose POST is out, but only once an answer has measured the link: a
-    // budget from the initial guess would be replaced by the next refinement as soon as the link is known (ICL at
-    // 2 Mbit/s: a 52 kB revision, then a 133 kB one).
+    const double window = std::min(window_s, options.refine_window_s);
+    auto carried_kb = [&](double line_kbps, double fixed_s) {  // what the line carries in the window
+      return refinement_budget_kb(line_kbps, window, fixed_s, options.refine_ceiling_kb, options.budget.headroom);
+    };
+    const double measured_kb = carried_kb(sender.line_kbps(), sender.post_fixed_s());
+    // Acknowledged ones first; then, ahead, one whose POST is out. Without a cap only once an answer has measured
+    // the link: a budget from the initial guess would be replaced by the next refinement as soon as the link is
+    // known (ICL at 2 Mbit/s: a 52 kB revision, then a 133 kB one). Under a cap, before that answer, at the cap's
+    // budget (checked against the measured link when the answer comes, below).
     const bool measured = sender.acknowledged_posts() > 0;
+    const double cap_kbps = sender.cap_kbps();
+    const bool from_cap = !measured && cap_kbps > 0;
+    const double ahead_kb = from_cap ? carried_kb(cap_kbps, 0.0) : measured_kb;
+    std::optional<OutboxEntry> best;
+    double budget_kb = measured_kb;
+    const std::vector<OutboxEntry> all = outbox.entries();
     for (bool answered : {true, false}) {
-      if (best || (!answered && !(ahead && measured))) break;
+      if (best || (!answered && !(ahead && (measured || from_cap) && !sender.stats().link_down))) break;
+      const double kb = answered ? measured_kb : ahead_kb;
       for (const OutboxEntry& e : all) {
         const auto tried = refined_at.find(e.seq);
+        const double base = std::max(e.budget_kb, tried == refined_at.end() ? 0.0 : tried->second);
         const bool state = answered ? e.acked : (!e.acked && e.attempted && e.rejected.empty());
-        if (state && beats(std::max(e.budget_kb, tried == refined_at.end() ? 0.0 : tried->second)) &&
-            (!best || e.captured > best->captured || (e.captured == best->captured && e.seq > best->seq)))
+        if (state && kb >= std::max(1.25 * base, base + 8) &&
+            (!best || e.captured > best->captured || (e.captured == best->captured && e.seq > best->seq))) {
           best = e;
+          budget_kb = kb;
+        }
       }
     }
     if (!best) return false;
+    const bool made_ahead = !best->acked, made_from_cap = made_ahead && from_cap;
     refined_at[best->seq] = budget_kb;
     auto frame = [&] {
       std::lock_guard lock(source_mu);
@@ -471,12 +486,22 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       if (!now || !now->rejected.empty() || now->rev != best->rev) return true;
       best = std::move(now);
     }
+    // Sized to the cap before the link was measured: added only if the measured link carries it in the window;
+    // otherwise the next call refines the keyframe at the measured budget (as without a cap).
+    if (made_from_cap &&
+        static_cast<double>(fine->glb.size()) > 1000.0 * carried_kb(sender.line_kbps(), sender.post_fixed_s())) {
+      refined_at.erase(best->seq);
+      std::lock_guard lock(mu);
+      ++summary.refined_ahead_redone;
+      return true;
+    }
     Status st = outbox.revise(best->seq, fine->glb, budget_kb, fine->triangles);
     {
       std::lock_guard lock(mu);
       if (st) {
         ++summary.refined;
         if (!tracking_done_for_refiner) ++summary.refined_while_tracking;
+        if (made_ahead) ++summary.refined_ahead;
       } else {
         summary.errors.push_back(st.error().message);
       }

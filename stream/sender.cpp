@@ -120,6 +120,11 @@ void Sender::set_cap_kbps(double cap_kbps) {
   estimator_.set_cap_kbps(cap_kbps);
 }
 
+double Sender::cap_kbps() const {
+  std::lock_guard lock(mu_);
+  return estimator_.cap_kbps();
+}
+
 SenderStats Sender::stats() const {
   std::lock_guard lock(mu_);
   SenderStats s = stats_;

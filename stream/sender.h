@@ -113,6 +113,7 @@ class Sender {
   // chunk of it (kBodyChunkBytes at the cap), or a round trip when every lane is busy, not for the whole body.
   bool refinements_yield() const;
   void set_cap_kbps(double cap_kbps);
+  double cap_kbps() const;  // the cap now; 0: none
   SenderStats stats() const;
   std::vector<PostRecord> post_log() const;  // every POST of this run, in the order they ended
 
