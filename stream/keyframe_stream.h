@@ -85,6 +85,11 @@
 //   window, else it is dropped and the keyframe refined again at the measured budget (counted in
 //   refined_ahead_redone). So a single keyframe's stream (ICL) does not idle for its refinement's reduction between
 //   the first answer and the refinement's POST. Without a cap, only once some answer has measured the link.
+// - Before the first answer, under a cap, when refinements yield (above): the reduction thread refines the keyframe
+//   it has just written at once, at the cap's budget (it was sized to the initial estimate), and its revision is
+//   added beside the POST still out (Outbox::revise_in_flight: the sender posts it while the first answer is awaited;
+//   the server keeps the higher rev whichever arrives first). A keyframe tracked meanwhile waits for that reduction
+//   (once per run: only until the first answer).
 
 // Resume: with entries or deferred records in the outbox, tracking restarts at the latest keyframe's frame, over
 // both (the highest frame index: a deferred keyframe reduced already may have a higher seq but an older frame, and a
