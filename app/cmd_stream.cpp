@@ -180,6 +180,11 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   sa.sa_handler = on_signal;
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+  // httplib's client writes without MSG_NOSIGNAL: a server that answers and closes while a body is still being
+  // written (a 408 after an outage) would kill the stream with SIGPIPE; ignored, the write fails and is retried.
+  struct sigaction ignore {};
+  ignore.sa_handler = SIG_IGN;
+  sigaction(SIGPIPE, &ignore, nullptr);
   ProgressLine line(a.progress_interval_s);
   auto summary = stream::run_stream(
       **source, **outbox, sender, options, [&](const stream::StreamProgress& p) { line.update(p); },
