@@ -498,6 +498,16 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
           sender.notify();
           return true;
         }
+    // The reduction thread does not wait for an answer (the next keyframe would wait with it): the drain or the
+    // refiner thread makes the refinement again once the keyframe qualifies there.
+    if (only_seq >= 0 && !best->acked) {
+      auto now = outbox.entry(best->seq);
+      if (!now || !now->acked || now->rev != best->rev) {
+        refined_at.erase(best->seq);
+        return true;
+      }
+      best = std::move(now);  // answered meanwhile: checked against the measured link below
+    }
     while (!best->acked) {  // made ahead: wait for the answer to the revision it replaces
       if (should_stop() || !sender.stats().fatal.empty()) return true;
       if (sender.stats().link_down) {  // an outage: not worth holding the drain (its cap polls) for; made again later
