@@ -180,6 +180,11 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   sa.sa_handler = on_signal;
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+  // httplib's client writes without MSG_NOSIGNAL: a server that answers and closes while a body is still being
+  // written (a 408 after an outage) would kill the stream with SIGPIPE; ignored, the write fails and is retried.
+  struct sigaction ignore {};
+  ignore.sa_handler = SIG_IGN;
+  sigaction(SIGPIPE, &ignore, nullptr);
   ProgressLine line(a.progress_interval_s);
   auto summary = stream::run_stream(
       **source, **outbox, sender, options, [&](const stream::StreamProgress& p) { line.update(p); },
@@ -204,7 +209,9 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   std::cout << "), " << s.keyframes << " new keyframes (" << s.covered << " fully covered, not sent; " << s.coarsened
             << " coarsened, " << s.superseded << " deferred while the link owed too much: " << s.deferred_sent
             << " of them sent later, coarsened, " << s.deferred_dropped << " dropped; "
-            << s.refined_while_tracking << " made while tracking of " << s.refined << " refinements)";
+            << s.refined_while_tracking << " made while tracking, " << s.refined_ahead
+            << " reduced before their keyframe's answer (" << s.refined_ahead_redone
+            << " made again for the measured link) of " << s.refined << " refinements)";
   if (s.cap_changes > 0) std::cout << ", " << s.cap_changes << " caps read from " << a.link_kbps_file;
   if (s.resumed)
     std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries << " outbox entries and "

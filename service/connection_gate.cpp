@@ -25,6 +25,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 thread_local bool t_close_after = false;
+thread_local bool t_read_failed = false;  // this worker's request: a read of it timed out or failed
 
 Clock::duration seconds(double s) {
   return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
@@ -103,7 +104,7 @@ class GateStream final : public httplib::Stream {
       return static_cast<ssize_t>(n);
     }
     if (!wait_fd(c_.fd, POLLIN, read_wait_ms())) {
-      failed_ = true;
+      failed_ = t_read_failed = true;
       return -1;
     }
     for (;;) {
@@ -114,10 +115,10 @@ class GateStream final : public httplib::Stream {
         continue;
       }
       if (n > 0) socket_bytes_ += static_cast<size_t>(n);
-      if (n < 0) failed_ = true;
+      if (n < 0) failed_ = t_read_failed = true;
       return n;
     }
-    failed_ = true;
+    failed_ = t_read_failed = true;
     return -1;
   }
 
@@ -318,6 +319,7 @@ struct GatedServer::Impl {
     const bool last = ++c.served >= options.max_requests_per_connection;
     bool closed = false, ok = false, failed = false;
     t_close_after = false;
+    t_read_failed = false;
     {
       GateStream stream(c, options);
       ok = server->serve_request(stream, last, closed);
@@ -378,6 +380,8 @@ bool GatedServer::widen_backlog(int backlog) {
 }
 
 void GatedServer::close_after_response() { t_close_after = true; }
+
+bool GatedServer::request_read_failed() { return t_read_failed; }
 
 bool GatedServer::serve_request(httplib::Stream& stream, bool last, bool& closed) {
   return process_request(stream, last, closed, nullptr);

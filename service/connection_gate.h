@@ -54,6 +54,10 @@ class GatedServer : public httplib::Server {
   GateStats stats() const;
   // From a handler: close the connection once this response is written.
   static void close_after_response();
+  // On a worker, while it answers a request: a read of that request timed out or failed (its body stopped arriving,
+  // or came slower than the minimum rate). httplib then answers 400; the service makes that a 408 (not a verdict on
+  // bytes it never got: a client retries a 408).
+  static bool request_read_failed();
 
  private:
   // Called by httplib's accept loop for each accepted socket (the task queue runs it inline): hands the socket to

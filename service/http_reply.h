@@ -49,9 +49,12 @@ inline std::string media_type(const std::string& content_type) {
 }
 
 // The answer to a body that is not processed (service/upload_body.h): its 4xx, and the connection closed when the
-// body was not read to its end.
+// body was not read to its end. A body that could not be read because it stopped arriving (a read timed out: an
+// outage, or under the minimum rate) is a 408, which a client retries, not a 400 about bytes never received.
 inline void send_refusal(httplib::Response& res, const BodyRefusal& refusal) {
   if (refusal.close) GatedServer::close_after_response();
+  if (refusal.status == 400 && GatedServer::request_read_failed())
+    return send_error(res, 408, "request body not received in time (it stopped arriving)");
   send_error(res, refusal.status, refusal.detail);
 }
 

@@ -320,7 +320,11 @@ void ViewService::Impl::routes() {
       }
     }
     std::string detail;
+    // A body that stopped arriving (an outage, or under the minimum rate): httplib's 400 becomes a 408, which a
+    // client retries (rgbdcast stream's sender gives any other 4xx up for good).
+    if (res.status == 400 && GatedServer::request_read_failed()) res.status = 408;
     switch (res.status) {
+      case 408: detail = "request body not received in time"; break;
       case 404: detail = "no route " + req.method.substr(0, 20) + " " + req.path.substr(0, 200); break;
       case 413: detail = "request body over the limit of " + std::to_string(limit_bytes) + " bytes (--max-body-mib)"; break;
       case 414: detail = "request line over the limit of 8192 bytes"; break;

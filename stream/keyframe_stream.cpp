@@ -334,8 +334,8 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   // The reduction thread's work for one keyframe: budget, the one frame -> scene call, the outbox, the backlog rule.
   // `was_deferred`: a keyframe the backlog rule held back while a newer one went first; it is coarsened, and its record
   // goes once it is handled (Outbox::add removes it with the entry; a keyframe with nothing new or whose reduction
-  // failed leaves nothing to add; one whose outbox write failed keeps it, for a resumed run). Returns whether it
-  // reached the outbox.
+  // failed leaves nothing to add; one whose outbox write failed keeps it, for a resumed run). Returns its seq once it
+  // reached the outbox, else -1.
   auto reduce_keyframe = [&](const KeyframeJob& job, bool was_deferred) {
     double interval_s = 0;
     {
@@ -370,11 +370,11 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       std::lock_guard lock(mu);
       if (encoded.error().code == ErrorCode::kEmpty) {
         ++summary.covered;
-        return false;
+        return -1;
       }
       ++summary.failed;
       summary.errors.push_back("frame " + std::to_string(job.frame_index) + ": " + encoded.error().message);
-      return false;
+      return -1;
     }
     OutboxEntry e;
     e.frame_index = job.frame_index;
@@ -391,7 +391,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       std::lock_guard lock(mu);
       ++summary.failed;
       summary.errors.push_back(added.error().message);
-      return false;
+      return -1;
     }
     {
       std::lock_guard views_lock(views_mu);
@@ -407,43 +407,68 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     }
     sender.notify();
     coarsen_backlog(added->seq, interval_s);
-    return true;
+    return added->seq;
   };
 
   // Refinements: the newest acknowledged keyframe whose revision now (or the last refinement tried of it) was made at
   // a budget the window beats by 1.25 x and 8 kB, reduced again at what the link carries in window_s (at most
-  // refine_window_s), as its next revision. With `ahead` (the drain), when no acknowledged keyframe qualifies, one
-  // whose POST is out (attempted, not answered yet) may be: its refinement is reduced while that POST is on the line
-  // and added once it is acknowledged (Outbox::revise needs the answer), so the line does not idle for the reduction
-  // (a single keyframe's stream, ICL: its only refinement followed its answer 0.3-0.6 s later). Returns false when
-  // there is no such keyframe; true when one was handled (refined, or not kept: the new GLB was under 1.1 x the old
-  // one's bytes, or its first POST was rejected or never answered before a stop; it is tried again only at a larger
-  // budget). Called by the refiner thread while tracking, then by the drain (never both at once).
-  std::map<int, double> refined_at;  // seq -> the largest budget a refinement of it was reduced at
+  // refine_window_s), as its next revision. With `ahead` (the drain, and the reduction thread before any answer),
+  // when no acknowledged keyframe qualifies, one whose POST is out (not answered yet, the link not down) may be: its
+  // refinement is reduced while that POST is on the line and added once it is acknowledged (Outbox::revise needs the
+  // answer), so the line does not idle for the reduction (a single keyframe's stream, ICL: its only refinement
+  // followed its answer 0.3-0.6 s later). Before any answer has measured the link, that is done only under a cap, at
+  // what the cap carries in the window (the estimate never exceeds the cap, so no measured budget is larger): when
+  // refinements yield to keyframes (Sender::refinements_yield) and the POST is still out, the revision is added at
+  // once (Outbox::revise_in_flight) and goes beside it, so the line carries it while the first answer is awaited;
+  // otherwise, once the answer comes, it is added if the measured link carries its bytes in the window, else dropped
+  // and the keyframe refined again at the measured budget, as it is without a cap. Returns false when there is no
+  // such keyframe (or another thread is refining); true when one was handled (refined, or not kept: the new GLB was
+  // under 1.1 x the old one's bytes, or too large for the measured link, or its first POST was rejected or never
+  // answered before a stop; it is tried again only at a larger budget, or at once when it was too large). Called by
+  // the refiner thread and the reduction thread while tracking, then by the drain; one at a time (refine_mu).
+  std::map<int, double> refined_at;  // seq -> the largest budget a refinement of it was reduced at (refine_mu)
+  std::mutex refine_mu;
   std::atomic<bool> tracking_done_for_refiner{false};  // the drain's refinements are not counted as while tracking
-  auto refine_one = [&](double window_s, SmoothedDuration& took_s, bool ahead) {
+  // only_seq >= 0: that keyframe or none.
+  auto refine_one = [&](double window_s, SmoothedDuration& took_s, bool ahead, int only_seq = -1) {
     if (!(options.refine_ceiling_kb > 0)) return false;
-    const double budget_kb = refinement_budget_kb(sender.line_kbps(), std::min(window_s, options.refine_window_s),
-                                                  sender.post_fixed_s(), options.refine_ceiling_kb,
-                                                  options.budget.headroom);
-    auto beats = [&](double base) { return budget_kb >= std::max(1.25 * base, base + 8); };
-    std::optional<OutboxEntry> best;
-    const std::vector<OutboxEntry> all = outbox.entries();
-    // Acknowledged ones first; then, ahead, one whose POST is out, but only once an answer has measured the link: a
-    // budget from the initial guess would be replaced by the next refinement as soon as the link is known (ICL at
-    // 2 Mbit/s: a 52 kB revision, then a 133 kB one).
+    std::unique_lock refining(refine_mu, std::try_to_lock);
+    if (!refining) return false;
+    const double window = std::min(window_s, options.refine_window_s);
+    auto carried_kb = [&](double line_kbps, double fixed_s) {  // what the line carries in the window
+      return refinement_budget_kb(line_kbps, window, fixed_s, options.refine_ceiling_kb, options.budget.headroom);
+    };
+    const double measured_kb = carried_kb(sender.line_kbps(), sender.post_fixed_s());
+    // Acknowledged ones first; then, ahead, one whose POST is out. Without a cap only once an answer has measured
+    // the link: a budget from the initial guess would be replaced by the next refinement as soon as the link is
+    // known (ICL at 2 Mbit/s: a 52 kB revision, then a 133 kB one). Under a cap, before that answer, at the cap's
+    // budget (checked against the measured link when the answer comes, below).
     const bool measured = sender.acknowledged_posts() > 0;
+    const double cap_kbps = sender.cap_kbps();
+    const bool from_cap = !measured && cap_kbps > 0;
+    const double ahead_kb = from_cap ? carried_kb(cap_kbps, 0.0) : measured_kb;
+    std::optional<OutboxEntry> best;
+    double budget_kb = measured_kb;
+    const std::vector<OutboxEntry> all = outbox.entries();
     for (bool answered : {true, false}) {
-      if (best || (!answered && !(ahead && measured))) break;
+      if (best || (!answered && !(ahead && (measured || from_cap) && !sender.stats().link_down))) break;
+      const double kb = answered ? measured_kb : ahead_kb;
       for (const OutboxEntry& e : all) {
         const auto tried = refined_at.find(e.seq);
-        const bool state = answered ? e.acked : (!e.acked && e.attempted && e.rejected.empty());
-        if (state && beats(std::max(e.budget_kb, tried == refined_at.end() ? 0.0 : tried->second)) &&
-            (!best || e.captured > best->captured || (e.captured == best->captured && e.seq > best->seq)))
+        const double base = std::max(e.budget_kb, tried == refined_at.end() ? 0.0 : tried->second);
+        // Ahead from the cap, a keyframe just added qualifies before its lane marks it attempted (by the time its
+        // refinement is reduced it is: the sender takes a keyframe at once when nothing else waits).
+        const bool state =
+            answered ? e.acked : (!e.acked && (e.attempted || (from_cap && e.rev == 0)) && e.rejected.empty());
+        if (state && (only_seq < 0 || e.seq == only_seq) && kb >= std::max(1.25 * base, base + 8) &&
+            (!best || e.captured > best->captured || (e.captured == best->captured && e.seq > best->seq))) {
           best = e;
+          budget_kb = kb;
+        }
       }
     }
     if (!best) return false;
+    const bool made_ahead = !best->acked, made_from_cap = made_ahead && from_cap;
     refined_at[best->seq] = budget_kb;
     auto frame = [&] {
       std::lock_guard lock(source_mu);
@@ -460,6 +485,29 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
                                 earlier_than(best->seq));
     took_s.on_sample(std::chrono::duration<double>(steady::now() - t0).count());
     if (!fine || static_cast<double>(fine->glb.size()) < 1.1 * static_cast<double>(best->bytes)) return true;
+    // From the cap, with refinements that yield: beside the first revision's POST if it is still out.
+    if (made_from_cap && sender.refinements_yield())
+      if (auto now = outbox.entry(best->seq); now && now->rev == best->rev && now->attempted && now->pending())
+        if (outbox.revise_in_flight(best->seq, fine->glb, budget_kb, fine->triangles)) {
+          {
+            std::lock_guard lock(mu);
+            ++summary.refined;
+            ++summary.refined_ahead;
+            if (!tracking_done_for_refiner) ++summary.refined_while_tracking;
+          }
+          sender.notify();
+          return true;
+        }
+    // The reduction thread does not wait for an answer (the next keyframe would wait with it): the drain or the
+    // refiner thread makes the refinement again once the keyframe qualifies there.
+    if (only_seq >= 0 && !best->acked) {
+      auto now = outbox.entry(best->seq);
+      if (!now || !now->acked || now->rev != best->rev) {
+        refined_at.erase(best->seq);
+        return true;
+      }
+      best = std::move(now);  // answered meanwhile: checked against the measured link below
+    }
     while (!best->acked) {  // made ahead: wait for the answer to the revision it replaces
       if (should_stop() || !sender.stats().fatal.empty()) return true;
       if (sender.stats().link_down) {  // an outage: not worth holding the drain (its cap polls) for; made again later
@@ -471,12 +519,22 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       if (!now || !now->rejected.empty() || now->rev != best->rev) return true;
       best = std::move(now);
     }
+    // Sized to the cap before the link was measured: added only if the measured link carries it in the window;
+    // otherwise the next call refines the keyframe at the measured budget (as without a cap).
+    if (made_from_cap &&
+        static_cast<double>(fine->glb.size()) > 1000.0 * carried_kb(sender.line_kbps(), sender.post_fixed_s())) {
+      refined_at.erase(best->seq);
+      std::lock_guard lock(mu);
+      ++summary.refined_ahead_redone;
+      return true;
+    }
     Status st = outbox.revise(best->seq, fine->glb, budget_kb, fine->triangles);
     {
       std::lock_guard lock(mu);
       if (st) {
         ++summary.refined;
         if (!tracking_done_for_refiner) ++summary.refined_while_tracking;
+        if (made_ahead) ++summary.refined_ahead;
       } else {
         summary.errors.push_back(st.error().message);
       }
@@ -558,12 +616,20 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       }
       reducing = true;
       lock.unlock();
-      const bool written = reduce_keyframe(job, is_deferred);
+      const int written_seq = reduce_keyframe(job, is_deferred);
+      const bool written = written_seq >= 0;
       lock.lock();
       reducing = false;
       if (is_deferred && written) ++(job.resumed ? summary.resumed_deferred_sent : summary.deferred_sent);
+      const bool idle = jobs.empty() && deferred.empty();
       lock.unlock();
       jobs_cv.notify_all();
+      // Before any answer, under a cap with refinements that yield: the keyframe just written (sized to the initial
+      // estimate) is refined at once at the cap's budget and its refinement goes beside its first POST, so the line
+      // carries it while that POST's answer is awaited (the refiner thread would wait for the body to cross first,
+      // and the drain for tracking to end). Only until the first answer: a keyframe tracked meanwhile waits for it.
+      if (written && idle && sender.acknowledged_posts() == 0 && sender.cap_kbps() > 0 && sender.refinements_yield())
+        refine_one(options.refine_window_s, refine_s, true, written_seq);
     }
   });
   // Refinements while tracking: on their own thread, in the idle scheduling class (it gets a core only when the

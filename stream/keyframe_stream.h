@@ -78,8 +78,18 @@
 //   sooner goes first, with at most the rest of the refinement's body ahead of it on the line. Once tracking is done
 //   the thread returns to the normal class (a starved idle-class reduction would hold the drain).
 // - In the drain (every frame read): one after another, each reduced once the link owes no more than that takes, so
-//   it is ready when the line frees; when no acknowledged keyframe qualifies, one whose POST is out is refined ahead
-//   and its revision added once the answer comes (only once some answer has measured the link).
+//   it is ready when the line frees; when no acknowledged keyframe qualifies, one whose POST is out (the link not
+//   down) is refined ahead and its revision added once the answer comes. Before any answer has measured the link
+//   that is done only under a cap (--link-kbps), at what the cap carries in the window (the estimate never exceeds
+//   the cap); when the answer comes, the revision is added at once if the measured link carries its bytes in the
+//   window, else it is dropped and the keyframe refined again at the measured budget (counted in
+//   refined_ahead_redone). So a single keyframe's stream (ICL) does not idle for its refinement's reduction between
+//   the first answer and the refinement's POST. Without a cap, only once some answer has measured the link.
+// - Before the first answer, under a cap, when refinements yield (above): the reduction thread refines the keyframe
+//   it has just written at once, at the cap's budget (it was sized to the initial estimate), and its revision is
+//   added beside the POST still out (Outbox::revise_in_flight: the sender posts it while the first answer is awaited;
+//   the server keeps the higher rev whichever arrives first). A keyframe tracked meanwhile waits for that reduction
+//   (once per run: only until the first answer).
 
 // Resume: with entries or deferred records in the outbox, tracking restarts at the latest keyframe's frame, over
 // both (the highest frame index: a deferred keyframe reduced already may have a higher seq but an older frame, and a
@@ -171,6 +181,8 @@ struct StreamSummary {
   size_t deferred_dropped = 0;  // deferred keyframes dropped (more than max_deferred waited; resumed ones included)
   size_t refined = 0;         // refinements written to the outbox (revisions)
   size_t refined_while_tracking = 0;  // of which made between keyframes, before every frame was read
+  size_t refined_ahead = 0;   // of which reduced while their keyframe's POST was out (added once it was answered)
+  size_t refined_ahead_redone = 0;  // sized to the cap before any answer, too large for the measured link: made again
   size_t cap_changes = 0;     // values taken from --link-kbps-file
   size_t failed = 0;          // keyframes whose reduction or outbox write failed (message in errors)
   bool resumed = false;

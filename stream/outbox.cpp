@@ -241,17 +241,30 @@ Status Outbox::coarsen(int seq, const std::vector<std::uint8_t>& glb, double bud
 }
 
 Status Outbox::revise(int seq, const std::vector<std::uint8_t>& glb, double budget_kb, size_t triangles) {
+  return revise_entry(seq, glb, budget_kb, triangles, false);
+}
+
+Status Outbox::revise_in_flight(int seq, const std::vector<std::uint8_t>& glb, double budget_kb, size_t triangles) {
+  return revise_entry(seq, glb, budget_kb, triangles, true);
+}
+
+Status Outbox::revise_entry(int seq, const std::vector<std::uint8_t>& glb, double budget_kb, size_t triangles,
+                            bool in_flight) {
   std::lock_guard lock(mu_);
   auto it = entries_.find(seq);
   if (it == entries_.end()) return make_error(ErrorCode::kNotFound, "outbox: no keyframe " + std::to_string(seq));
-  if (!it->second.acked)
+  const OutboxEntry& now = it->second;
+  if (!in_flight && !now.acked)
     return make_error(ErrorCode::kInvalidArgument,
                       "outbox: keyframe " + std::to_string(seq) + " is not acknowledged yet: nothing to revise");
-  OutboxEntry e = it->second;
+  if (in_flight && !(now.attempted && now.pending()))
+    return make_error(ErrorCode::kInvalidArgument,
+                      "outbox: keyframe " + std::to_string(seq) + " has no POST out: nothing to revise beside it");
+  OutboxEntry e = now;
   if (e.rev == 0) {
     e.first_bytes = e.bytes;
     e.first_budget_kb = e.budget_kb;
-    e.first_ack = e.ack_json;
+    e.first_ack = e.ack_json;  // empty when in flight: its answer fills it (mark_acked)
   }
   ++e.rev;
   e.bytes = glb.size();
@@ -282,22 +295,27 @@ Status Outbox::update(int seq, const std::function<void(OutboxEntry&)>& change) 
   return ok_status();
 }
 
-Status Outbox::mark_attempted(int seq, double post_started) {
-  if (auto e = entry(seq); e && e->attempted) return ok_status();
+Status Outbox::mark_attempted(int seq, double post_started, int rev) {
+  if (auto e = entry(seq); e && (e->attempted || (rev >= 0 && e->rev > rev))) return ok_status();
   return update(seq, [&](OutboxEntry& e) {
     e.attempted = true;
     if (e.post_started <= 0) e.post_started = post_started;
   });
 }
 
-Status Outbox::mark_acked(int seq, const std::string& ack_json) {
+Status Outbox::mark_acked(int seq, const std::string& ack_json, int rev) {
   return update(seq, [&](OutboxEntry& e) {
+    if (rev >= 0 && e.rev > rev) {  // an older revision's answer: the newer one is still to be answered
+      if (rev == 0 && e.first_ack.empty()) e.first_ack = ack_json;
+      return;
+    }
     e.attempted = e.acked = true;
     e.ack_json = ack_json;
   });
 }
 
-Status Outbox::mark_rejected(int seq, const std::string& reason) {
+Status Outbox::mark_rejected(int seq, const std::string& reason, int rev) {
+  if (auto e = entry(seq); e && rev >= 0 && e->rev > rev) return ok_status();  // the newer revision is posted
   return update(seq, [&](OutboxEntry& e) { e.rejected = reason.empty() ? "rejected" : reason; });
 }
 
@@ -308,6 +326,10 @@ Result<std::vector<std::uint8_t>> Outbox::read_glb(int seq) const {
     auto it = entries_.find(seq);
     if (it != entries_.end()) rev = it->second.rev;
   }
+  return read_glb(seq, rev);
+}
+
+Result<std::vector<std::uint8_t>> Outbox::read_glb(int seq, int rev) const {
   return glb::read_file_bytes(glb_path(seq, rev), size_t{1} << 30);
 }
 

@@ -16,6 +16,11 @@
 // with rev + 1, which the server stores in place of the older one). revise() writes the new GLB under its own name,
 // then the JSON (the commit: rev + 1, queued again), then removes the older GLB; open() removes a GLB that is not
 // its entry's current revision. The entry keeps its first revision's answer and size (first_ack, first_bytes).
+// An attempted entry whose answer has not come may be revised too (revise_in_flight): the new revision is posted
+// beside the one in flight, and the server keeps the higher rev whichever arrives first (an older one arriving later
+// is answered 409 stale_revision, which the sender counts as stored). The answer to the older revision then only
+// fills first_ack (rev 0's) and never acknowledges the newer one: mark_attempted, mark_acked and mark_rejected take
+// the revision they are about and leave a newer one as it is.
 // Deferred keyframes (the backlog rule's, stream/keyframe_stream.h: tracked, not reduced yet, so no GLB and no seq:
 // a seq is given when the keyframe is reduced and added) are kept as `deferred-<frame, 8 digits>.json` records, by
 // the same atomic writer, so that a stop does not lose them: a restarted sender reduces them from their frames.
@@ -88,11 +93,17 @@ class Outbox {
   Status coarsen(int seq, const std::vector<std::uint8_t>& glb, double budget_kb, size_t triangles);
   // An acked entry's next revision (rev + 1, queued again; kInvalidArgument when the entry is not acked).
   Status revise(int seq, const std::vector<std::uint8_t>& glb, double budget_kb, size_t triangles);
-  // Persisted before the first POST; post_started (Unix s) is kept from the first attempt.
-  Status mark_attempted(int seq, double post_started = 0);
-  Status mark_acked(int seq, const std::string& ack_json);
-  Status mark_rejected(int seq, const std::string& reason);
+  // The same for an entry whose POST is out (attempted, not answered, not rejected; kInvalidArgument otherwise).
+  Status revise_in_flight(int seq, const std::vector<std::uint8_t>& glb, double budget_kb, size_t triangles);
+  // Persisted before the first POST; post_started (Unix s) is kept from the first attempt. `rev`: the revision the
+  // call is about (-1: the current one); when the entry holds a newer revision, mark_attempted and mark_rejected
+  // change nothing and mark_acked only keeps a rev 0 answer as first_ack.
+  Status mark_attempted(int seq, double post_started = 0, int rev = -1);
+  Status mark_acked(int seq, const std::string& ack_json, int rev = -1);
+  Status mark_rejected(int seq, const std::string& reason, int rev = -1);
   Result<std::vector<std::uint8_t>> read_glb(int seq) const;
+  // One revision's GLB (kNotFound once a newer revision replaced it).
+  Result<std::vector<std::uint8_t>> read_glb(int seq, int rev) const;
 
   // Deferred keyframes: defer() persists a record (replacing one of the same frame); undefer() removes it (when it
   // was dropped, or its reduction left nothing to add; no error when there is none); deferred() lists them by frame.
@@ -108,6 +119,9 @@ class Outbox {
   Status remove_deferred_locked(int frame_index);
   Status write_meta(const OutboxEntry& e) const;
   Status update(int seq, const std::function<void(OutboxEntry&)>& change);
+  // revise()'s body; `in_flight`: the entry is attempted and unanswered instead of acked.
+  Status revise_entry(int seq, const std::vector<std::uint8_t>& glb, double budget_kb, size_t triangles,
+                      bool in_flight);
 
   std::string dir_, mission_;
   mutable std::mutex mu_;

@@ -49,7 +49,7 @@ void Sender::notify() { cv_.notify_all(); }
 bool Sender::claim(int seq) {
   std::lock_guard lock(mu_);
   auto e = outbox_.entry(seq);
-  if (!e || e->attempted || in_flight_.count(seq)) return false;
+  if (!e || e->attempted || in_flight_.count({seq, e->rev})) return false;
   claimed_.insert(seq);
   return true;
 }
@@ -93,8 +93,8 @@ double Sender::owed_s(bool include_refinements) const {
   const bool paced = estimator_.cap_kbps() > 0;
   double bytes = 0;
   for (const OutboxEntry& e : outbox_.entries())
-    if (e.pending() && !(paced && (e.attempted || in_flight_.count(e.seq))) &&
-        (include_refinements || e.rev == 0 || in_flight_.count(e.seq)))
+    if (e.pending() && !(paced && (e.attempted || in_flight_.count({e.seq, e.rev}))) &&
+        (include_refinements || e.rev == 0 || in_flight_.count({e.seq, e.rev})))
       bytes += static_cast<double>(e.bytes);
   if (include_refinements) bytes += static_cast<double>(refinement_left_bytes_);  // a refinement being written
   double line_s = 0;
@@ -118,6 +118,11 @@ bool Sender::refinements_yield() const {
 void Sender::set_cap_kbps(double cap_kbps) {
   std::lock_guard lock(mu_);
   estimator_.set_cap_kbps(cap_kbps);
+}
+
+double Sender::cap_kbps() const {
+  std::lock_guard lock(mu_);
+  return estimator_.cap_kbps();
 }
 
 SenderStats Sender::stats() const {
@@ -152,31 +157,32 @@ std::vector<PostRecord> Sender::post_log() const {
   return post_log_;
 }
 
-void Sender::flight_begin_locked(int seq) {
+void Sender::flight_begin_locked(int seq, int rev) {
   const auto now = clock::now();
-  in_flight_.insert(seq);
+  in_flight_.insert({seq, rev});
   if (in_flight_.size() == 1) busy_since_ = now;
   if (in_flight_.size() == 2) overlap_since_ = now;
 }
 
-void Sender::flight_end_locked(int seq) {
-  if (!in_flight_.erase(seq)) return;
+void Sender::flight_end_locked(int seq, int rev) {
+  if (!in_flight_.erase({seq, rev})) return;
   const auto now = clock::now();
   if (in_flight_.empty()) stats_.busy_s += std::chrono::duration<double>(now - busy_since_).count();
   if (in_flight_.size() == 1) stats_.overlap_s += std::chrono::duration<double>(now - overlap_since_).count();
 }
 
 // The newest pending entry (first revisions before refinements, then by capture time, then seq) that the producer
-// has not claimed and no lane is posting; -1 when none.
-int Sender::pick_locked() const {
+// has not claimed and whose revision no lane is posting (an older revision of it may be in flight: see
+// Outbox::revise_in_flight); none when there is none.
+std::optional<OutboxEntry> Sender::pick_locked() const {
   const OutboxEntry* best = nullptr;
   const auto entries = outbox_.entries();
   // One refinement's body is written at a time (paced, it yields to first revisions; two paused ones could hold
   // both lanes while a keyframe waits for one).
   const bool refinement_writing = refinement_writing_;
   size_t first_in_flight = 0;
-  for (const OutboxEntry& e : entries)
-    if (in_flight_.count(e.seq) && e.rev == 0) ++first_in_flight;
+  for (const auto& [seq, rev] : in_flight_)
+    if (rev == 0) ++first_in_flight;
   const bool first_ok = params_.max_first_in_flight == 0 || first_in_flight < params_.max_first_in_flight;
   const bool refinement_ok =
       !refinement_writing && (uplinks_.size() < 2 || in_flight_.size() + 1 < uplinks_.size());
@@ -186,10 +192,11 @@ int Sender::pick_locked() const {
     return a.seq > b.seq;
   };
   for (const OutboxEntry& e : entries)
-    if (e.pending() && !claimed_.count(e.seq) && !in_flight_.count(e.seq) && (e.rev > 0 ? refinement_ok : first_ok) &&
-        (!best || before(e, *best)))
+    if (e.pending() && !claimed_.count(e.seq) && !in_flight_.count({e.seq, e.rev}) &&
+        (e.rev > 0 ? refinement_ok : first_ok) && (!best || before(e, *best)))
       best = &e;
-  return best ? best->seq : -1;
+  if (!best) return std::nullopt;
+  return *best;
 }
 
 bool Sender::first_revision_waiting_locked() const {
@@ -199,13 +206,13 @@ bool Sender::first_revision_waiting_locked() const {
   // each ends with its answer, so a keyframe waiting for one of them starts within a round trip.
   if (uplinks_.size() < 2) return false;
   for (const OutboxEntry& e : outbox_.entries())
-    if (e.pending() && e.rev == 0 && !claimed_.count(e.seq) && !in_flight_.count(e.seq)) return true;
+    if (e.pending() && e.rev == 0 && !claimed_.count(e.seq) && !in_flight_.count({e.seq, 0})) return true;
   return false;
 }
 
 void Sender::run(Uplink& uplink) {
   for (;;) {
-    int seq = -1;
+    std::optional<OutboxEntry> entry;  // the revision this lane posts (as picked: a newer one may come meanwhile)
     bool paced_chunks = false;  // a refinement's body under a cap: written through the gate
     {
       std::unique_lock lock(mu_);
@@ -217,26 +224,26 @@ void Sender::run(Uplink& uplink) {
           cv_.wait_until(lock, not_before);
           continue;
         }
-        seq = pick_locked();
-        if (seq >= 0) break;
+        entry = pick_locked();
+        if (entry) break;
         cv_.wait_for(lock, std::chrono::milliseconds(200));
       }
-      flight_begin_locked(seq);
+      flight_begin_locked(entry->seq, entry->rev);
       // Pacing: a first revision's body takes bytes / cap on the virtual line, after the bodies already on it; a
       // refinement's is put on it chunk by chunk as it is written (the gate below), so that a first revision that
       // comes meanwhile goes ahead of the rest of it.
-      if (estimator_.cap_kbps() > 0)
-        if (auto e = outbox_.entry(seq)) {
-          if (e->rev > 0) {
-            paced_chunks = true;
-            refinement_writing_ = true;
-            refinement_writer_ = seq;
-            refinement_left_bytes_ = e->bytes;
-          } else {
-            line_free_ = std::max(line_free_, clock::now()) + line_time(e->bytes);
-          }
+      if (estimator_.cap_kbps() > 0) {
+        if (entry->rev > 0) {
+          paced_chunks = true;
+          refinement_writing_ = true;
+          refinement_writer_ = entry->seq;
+          refinement_left_bytes_ = entry->bytes;
+        } else {
+          line_free_ = std::max(line_free_, clock::now()) + line_time(entry->bytes);
         }
+      }
     }
+    const int seq = entry->seq;
     cv_.notify_all();  // a refinement paused for this first revision recomputes its next chunk's start
     // The gate of a paced refinement: each chunk waits until the virtual line is free and no first revision is
     // waiting to start (a new keyframe goes ahead of the rest of the body), then takes bytes / cap on it. A body
@@ -277,7 +284,7 @@ void Sender::run(Uplink& uplink) {
       end_writing();
       {
         std::lock_guard lock(mu_);
-        flight_end_locked(seq);
+        flight_end_locked(seq, entry->rev);
         if (!fatal.empty()) {
           stats_.fatal = fatal;
           stopping_ = true;
@@ -285,11 +292,6 @@ void Sender::run(Uplink& uplink) {
       }
       cv_.notify_all();  // another lane may wait for this entry (a retry) or for the stop
     };
-    std::optional<OutboxEntry> entry = outbox_.entry(seq);
-    if (!entry) {
-      finish("outbox: keyframe " + std::to_string(seq) + " vanished");
-      return;
-    }
     const double post_started = unix_now();
     // A first revision's wait only: a refinement's `reduced` is its keyframe's, seconds or minutes ago, and would
     // make the latency rule starve the keyframes that follow it.
@@ -298,12 +300,17 @@ void Sender::run(Uplink& uplink) {
       std::lock_guard lock(mu_);
       queue_wait_s_ = queue_wait_s_ ? 0.3 * wait + 0.7 * *queue_wait_s_ : wait;
     }
-    if (Status st = outbox_.mark_attempted(seq, post_started); !st) {
+    if (Status st = outbox_.mark_attempted(seq, post_started, entry->rev); !st) {
       finish(st.error().message);
       return;
     }
-    auto glb = outbox_.read_glb(seq);
+    auto glb = outbox_.read_glb(seq, entry->rev);
     if (!glb) {
+      auto now = outbox_.entry(seq);
+      if (now && now->rev > entry->rev) {  // a newer revision replaced it since it was picked: that one goes
+        finish("");
+        continue;
+      }
       finish(glb.error().message);
       return;
     }
@@ -342,8 +349,8 @@ void Sender::run(Uplink& uplink) {
       }
     }
     Status written = ok_status();
-    if (r.outcome == PostOutcome::kStored) written = outbox_.mark_acked(seq, r.body);
-    if (r.outcome == PostOutcome::kRejected) written = outbox_.mark_rejected(seq, r.error);
+    if (r.outcome == PostOutcome::kStored) written = outbox_.mark_acked(seq, r.body, entry->rev);
+    if (r.outcome == PostOutcome::kRejected) written = outbox_.mark_rejected(seq, r.error, entry->rev);
     {
       std::lock_guard lock(mu_);
       ++stats_.posts;

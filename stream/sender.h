@@ -7,8 +7,9 @@
 // get higher seqs than the newer one reduced first). A first revision (rev 0) goes before any refinement (rev > 0).
 // Lanes: one thread per Uplink (each its own keep-alive connection), so up to that many POSTs are in flight; a
 // second POST starts only when another entry is pending, while the first one's answer (round trip + the server's
-// time, about 0.15 s here) is still outstanding, so that the line does not sit idle during it. An entry is in flight
-// on at most one lane at a time.
+// time, about 0.15 s here) is still outstanding, so that the line does not sit idle during it. A revision is in
+// flight on at most one lane at a time; a newer revision of an entry whose POST is out (Outbox::revise_in_flight)
+// may go beside it, and each answer is kept for the revision it is about.
 // Pacing: with a cap (--link-kbps), POST bodies are scheduled back to back on a virtual line at the cap: a POST
 // starts no earlier than when the previous bodies would have crossed it at the cap (line_free += bytes / cap), so
 // the rate never exceeds the cap even on a faster link, and with one lane it is the old rule (bytes / cap after the
@@ -33,6 +34,7 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "stream/backoff.h"
@@ -113,17 +115,18 @@ class Sender {
   // chunk of it (kBodyChunkBytes at the cap), or a round trip when every lane is busy, not for the whole body.
   bool refinements_yield() const;
   void set_cap_kbps(double cap_kbps);
+  double cap_kbps() const;  // the cap now; 0: none
   SenderStats stats() const;
   std::vector<PostRecord> post_log() const;  // every POST of this run, in the order they ended
 
  private:
   void run(Uplink& uplink);
-  int pick_locked() const;
+  std::optional<OutboxEntry> pick_locked() const;
   // A pending rev 0 that no lane is posting and no backoff holds, with two lanes or more (see the .cpp).
   bool first_revision_waiting_locked() const;
   std::chrono::steady_clock::duration line_time(size_t bytes) const;  // at the cap (> 0); mu_ held
-  void flight_begin_locked(int seq);
-  void flight_end_locked(int seq);
+  void flight_begin_locked(int seq, int rev);
+  void flight_end_locked(int seq, int rev);
 
   Outbox& outbox_;
   std::vector<Uplink*> uplinks_;
@@ -136,7 +139,7 @@ class Sender {
   Backoff backoff_;
   std::mt19937 rng_;
   std::set<int> claimed_;
-  std::set<int> in_flight_;
+  std::set<std::pair<int, int>> in_flight_;  // (seq, rev) of the POSTs out
   std::chrono::steady_clock::time_point busy_since_{}, overlap_since_{};
   std::chrono::steady_clock::time_point retry_not_before_{};  // backoff
   std::chrono::steady_clock::time_point line_free_{};         // pacing: when the bodies posted so far are across

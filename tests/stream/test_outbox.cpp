@@ -118,6 +118,43 @@ TEST(Outbox, AnAcknowledgedEntryIsRevisedUnderItsOwnGlbAndSurvivesAReopen) {
   test::remove_tree_quietly(dir);
 }
 
+// A revision beside the POST still out (Outbox::revise_in_flight): only an attempted, unanswered entry; the answers
+// are kept for the revision they are about: rev 0's (after rev 1's, as when the server took rev 1 first) fills
+// first_ack and does not touch rev 1's state; rev 0 cannot mark rev 1 attempted or rejected.
+TEST(Outbox, AnEntryWhosePostIsOutIsRevisedBesideItAndEachAnswerKeepsToItsRevision) {
+  const std::string dir = test::temp_dir("outbox_revise_in_flight");
+  auto box = Outbox::open(dir, "m1");
+  ASSERT_TRUE(box);
+  ASSERT_TRUE((*box)->add(OutboxEntry{}, bytes(4000, 1)));
+  EXPECT_FALSE((*box)->revise_in_flight(0, bytes(9000, 3), 90, 50));  // no POST out yet
+  ASSERT_TRUE((*box)->mark_attempted(0, 12.0, 0));
+  ASSERT_TRUE((*box)->revise_in_flight(0, bytes(9000, 3), 90, 50));
+  auto e = *(*box)->entry(0);
+  EXPECT_EQ(e.rev, 1);
+  EXPECT_TRUE(e.pending());
+  EXPECT_FALSE(e.attempted);
+  EXPECT_EQ(e.first_bytes, 4000u);
+  EXPECT_TRUE(e.first_ack.empty());
+  EXPECT_DOUBLE_EQ(e.post_started, 12.0);
+  EXPECT_FALSE((*box)->read_glb(0, 0));  // replaced: the POST out has its bytes
+  EXPECT_EQ(*(*box)->read_glb(0, 1), bytes(9000, 3));
+  // rev 0 can neither mark rev 1 attempted nor reject it.
+  ASSERT_TRUE((*box)->mark_attempted(0, 13.0, 0));
+  ASSERT_TRUE((*box)->mark_rejected(0, "too late", 0));
+  EXPECT_FALSE((*box)->entry(0)->attempted);
+  EXPECT_TRUE((*box)->entry(0)->rejected.empty());
+  ASSERT_TRUE((*box)->mark_attempted(0, 14.0, 1));
+  ASSERT_TRUE((*box)->mark_acked(0, R"({"seq":0,"rev":1})", 1));
+  ASSERT_TRUE((*box)->mark_acked(0, R"({"seq":0,"rev":1,"stale":0})", 0));  // rev 0's answer, after rev 1's
+  e = *(*box)->entry(0);
+  EXPECT_TRUE(e.acked);
+  EXPECT_EQ(e.rev, 1);
+  EXPECT_EQ(e.ack_json, R"({"seq":0,"rev":1})");
+  EXPECT_EQ(e.first_ack, R"({"seq":0,"rev":1,"stale":0})");
+  EXPECT_FALSE((*box)->revise_in_flight(0, bytes(9500, 4), 95, 50));  // answered: revise() is for that
+  test::remove_tree_quietly(dir);
+}
+
 TEST(Outbox, AGlbWithoutItsJsonIsRemovedAndItsSeqReused) {
   const std::string dir = test::temp_dir("outbox_orphan");
   {
