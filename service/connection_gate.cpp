@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
+#include <netinet/tcp.h>
 #include <poll.h>
 #include <sys/epoll.h>
 #include <sys/socket.h>
@@ -397,6 +398,11 @@ bool GatedServer::process_and_close_socket(socket_t sock) {
     return true;
   }
   ::fcntl(sock, F_SETFL, ::fcntl(sock, F_GETFL) | O_NONBLOCK);
+  // No Nagle: httplib writes an answer's headers and its body in two writes, and Nagle holds the body back until the
+  // client acknowledges the headers, which a client that waits for the body delays (Linux: 40 ms). That was 40 ms on
+  // every keyframe POST and every view (BENCHMARKS.md, stop 23).
+  int yes = 1;
+  ::setsockopt(sock, IPPROTO_TCP, TCP_NODELAY, &yes, sizeof yes);
   auto c = std::make_unique<Connection>();
   c->fd = sock;
   c->deadline = Clock::now() + seconds(impl_->options.header_timeout_s);

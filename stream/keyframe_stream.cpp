@@ -331,6 +331,30 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     }
   };
 
+  // The first keyframe's refinement, reduced beside the keyframe itself (reduce_keyframe below) and taken by
+  // refine_one instead of reducing it again. Only the reduction thread starts, takes and drops it.
+  struct Prefetch {
+    int seq = -1;
+    double budget_kb = 0;
+    std::thread thread;
+    std::optional<Result<EncodedKeyframe>> result;
+    double took_s = 0;
+  };
+  Prefetch prefetch;
+  auto drop_prefetch = [&] {
+    if (prefetch.thread.joinable()) prefetch.thread.join();
+    prefetch = Prefetch{};
+  };
+  // The prefetched refinement of `seq` at `budget_kb`, once it is done; nothing when there is none for them.
+  auto take_prefetch = [&](int seq, double budget_kb) -> std::optional<Result<EncodedKeyframe>> {
+    if (prefetch.seq < 0) return std::nullopt;
+    if (prefetch.thread.joinable()) prefetch.thread.join();
+    std::optional<Result<EncodedKeyframe>> out;
+    if (prefetch.seq == seq && prefetch.budget_kb == budget_kb && prefetch.result) out = std::move(prefetch.result);
+    prefetch = Prefetch{};
+    return out;
+  };
+
   // The reduction thread's work for one keyframe: budget, the one frame -> scene call, the outbox, the backlog rule.
   // `was_deferred`: a keyframe the backlog rule held back while a newer one went first; it is coarsened, and its record
   // goes once it is handled (Outbox::add removes it with the entry; a keyframe with nothing new or whose reduction
@@ -357,6 +381,26 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
             : std::min(keyframe_budget_kb(line_kbps, interval_s, options.budget, rate_fixed_s),
                        latency_budget_kb(line_kbps, overhead_s, options.latency, options.budget, fixed_s));
     const int seq = outbox.next_seq();
+    // Before any answer, under a cap with refinements that yield, the first keyframe is refined at once at the cap's
+    // budget and its refinement goes beside its first POST (the reduction thread's loop, below). That refinement is
+    // reduced here, beside the keyframe's own reduction, on a thread niced below it: made only after the keyframe was
+    // written, it was ready 50-60 ms after the first body had crossed the line, which idled meanwhile (BENCHMARKS.md,
+    // stop 23). The budget is the one refine_one asks for then (what the cap carries in the window); when refine_one
+    // asks for another, or the keyframe does not qualify, the prefetched one is dropped.
+    const double ahead_kb = refinement_budget_kb(sender.cap_kbps(), options.refine_window_s, 0.0,
+                                                 options.refine_ceiling_kb, options.budget.headroom);
+    if (!was_deferred && options.refine_ceiling_kb > 0 && sender.cap_kbps() > 0 && sender.refinements_yield() &&
+        sender.acknowledged_posts() == 0 && prefetch.seq < 0 && ahead_kb >= std::max(1.25 * budget_kb, budget_kb + 8)) {
+      prefetch.seq = seq;
+      prefetch.budget_kb = ahead_kb;
+      prefetch.thread = std::thread([&prefetch, &reduction_for, frame = job.frame, pose = job.pose,
+                                     views = earlier_than(seq), nice = std::max(1, options.reduce_nice)] {
+        renice_this_thread(nice);
+        const auto t0 = steady::now();
+        prefetch.result = encode_keyframe(frame, reduction_for(prefetch.budget_kb), prefetch.budget_kb, pose, views);
+        prefetch.took_s = std::chrono::duration<double>(steady::now() - t0).count();
+      });
+    }
     const auto t_reduce = steady::now();
     auto encoded = encode_keyframe(job.frame, reduction_for(budget_kb), budget_kb, job.pose, earlier_than(seq));
     const double took = std::chrono::duration<double>(steady::now() - t_reduce).count();
@@ -470,20 +514,33 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
     if (!best) return false;
     const bool made_ahead = !best->acked, made_from_cap = made_ahead && from_cap;
     refined_at[best->seq] = budget_kb;
-    auto frame = [&] {
-      std::lock_guard lock(source_mu);
-      return source.frame(static_cast<size_t>(best->frame_index));
-    }();
-    if (!frame) {
-      std::lock_guard lock(mu);
-      summary.errors.push_back("refining keyframe " + std::to_string(best->seq) + ": " + frame.error().message);
-      return true;
+    // Reduced already beside the keyframe (the reduction thread's first keyframe), or reduced now from its frame.
+    std::optional<Result<EncodedKeyframe>> prefetched;
+    bool beside_keyframe = false;
+    if (only_seq >= 0 && prefetch.seq >= 0) {
+      if (prefetch.thread.joinable()) prefetch.thread.join();
+      const double prefetch_took_s = prefetch.took_s;
+      prefetched = take_prefetch(best->seq, budget_kb);
+      if (prefetched) took_s.on_sample(prefetch_took_s);
+      beside_keyframe = prefetched.has_value();
     }
-    frame->index = best->frame_index;
-    const auto t0 = steady::now();
-    auto fine = encode_keyframe(*frame, reduction_for(budget_kb), budget_kb, entry_pose(*best),
-                                earlier_than(best->seq));
-    took_s.on_sample(std::chrono::duration<double>(steady::now() - t0).count());
+    if (!prefetched) {
+      auto frame = [&] {
+        std::lock_guard lock(source_mu);
+        return source.frame(static_cast<size_t>(best->frame_index));
+      }();
+      if (!frame) {
+        std::lock_guard lock(mu);
+        summary.errors.push_back("refining keyframe " + std::to_string(best->seq) + ": " + frame.error().message);
+        return true;
+      }
+      frame->index = best->frame_index;
+      const auto t0 = steady::now();
+      prefetched = encode_keyframe(*frame, reduction_for(budget_kb), budget_kb, entry_pose(*best),
+                                   earlier_than(best->seq));
+      took_s.on_sample(std::chrono::duration<double>(steady::now() - t0).count());
+    }
+    auto& fine = *prefetched;
     if (!fine || static_cast<double>(fine->glb.size()) < 1.1 * static_cast<double>(best->bytes)) return true;
     // From the cap, with refinements that yield: beside the first revision's POST if it is still out.
     if (made_from_cap && sender.refinements_yield())
@@ -493,6 +550,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
             std::lock_guard lock(mu);
             ++summary.refined;
             ++summary.refined_ahead;
+            if (beside_keyframe) ++summary.refined_beside_keyframe;
             if (!tracking_done_for_refiner) ++summary.refined_while_tracking;
           }
           sender.notify();
@@ -535,6 +593,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
         ++summary.refined;
         if (!tracking_done_for_refiner) ++summary.refined_while_tracking;
         if (made_ahead) ++summary.refined_ahead;
+        if (beside_keyframe) ++summary.refined_beside_keyframe;
       } else {
         summary.errors.push_back(st.error().message);
       }
@@ -630,6 +689,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       // and the drain for tracking to end). Only until the first answer: a keyframe tracked meanwhile waits for it.
       if (written && idle && sender.acknowledged_posts() == 0 && sender.cap_kbps() > 0 && sender.refinements_yield())
         refine_one(options.refine_window_s, refine_s, true, written_seq);
+      drop_prefetch();  // not taken (the keyframe did not qualify, or was not written): its thread ends here
     }
   });
   // Refinements while tracking: on their own thread, in the idle scheduling class (it gets a core only when the

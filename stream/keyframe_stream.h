@@ -89,7 +89,9 @@
 //   it has just written at once, at the cap's budget (it was sized to the initial estimate), and its revision is
 //   added beside the POST still out (Outbox::revise_in_flight: the sender posts it while the first answer is awaited;
 //   the server keeps the higher rev whichever arrives first). A keyframe tracked meanwhile waits for that reduction
-//   (once per run: only until the first answer).
+//   (once per run: only until the first answer). That refinement is reduced beside the keyframe's own reduction, on
+//   a thread niced below it, so that it is ready when the keyframe's body has crossed the line (counted in
+//   refined_beside_keyframe): made after the keyframe was written, it came 50-60 ms later and the line idled.
 
 // Resume: with entries or deferred records in the outbox, tracking restarts at the latest keyframe's frame, over
 // both (the highest frame index: a deferred keyframe reduced already may have a higher seq but an older frame, and a
@@ -183,6 +185,7 @@ struct StreamSummary {
   size_t refined_while_tracking = 0;  // of which made between keyframes, before every frame was read
   size_t refined_ahead = 0;   // of which reduced while their keyframe's POST was out (added once it was answered)
   size_t refined_ahead_redone = 0;  // sized to the cap before any answer, too large for the measured link: made again
+  size_t refined_beside_keyframe = 0;  // of the refinements added, reduced beside their keyframe's own reduction
   size_t cap_changes = 0;     // values taken from --link-kbps-file
   size_t failed = 0;          // keyframes whose reduction or outbox write failed (message in errors)
   bool resumed = false;

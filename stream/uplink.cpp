@@ -13,6 +13,9 @@ namespace rgbdcast::stream {
 struct Uplink::Impl {
   explicit Impl(const UplinkOptions& o) : options(o), client(o.server_url) {
     client.set_keep_alive(true);
+    // No Nagle: httplib writes a request's headers and its body separately, and the body's last partial segment
+    // would wait for the acknowledgement of what is ahead of it, which the server delays (service/connection_gate.cpp).
+    client.set_tcp_nodelay(true);
     const auto connect_us = static_cast<time_t>(o.connect_timeout_s * 1e6);
     client.set_connection_timeout(connect_us / 1000000, connect_us % 1000000);
     if (!o.token.empty()) client.set_bearer_token_auth(o.token);

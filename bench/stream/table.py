@@ -124,9 +124,12 @@ for ds in ("tum", "icl"):
 # headers were read; available: stored and appended to the resident mission, so it includes the body's time on the
 # line). "-" where the outbox predates those fields.
 print()
+# "POST beyond the line": per first-revision POST (the --post-log timeline), its time from start to answer less its
+# body's time at the link rate: the round trip (100 ms here) plus what the sender, the relay and the server add.
 print("| input | link | keyframes | capture -> tracked ms | tracked -> reduced ms | reduced -> POST start ms | "
-      "POST start -> received ms | received -> available ms | budget kB (median) | latency p95 s |")
-print("|---|---|---|---|---|---|---|---|---|---|")
+      "POST start -> received ms | received -> available ms | budget kB (median) | latency p95 s | "
+      "POST beyond the line ms (median) |")
+print("|---|---|---|---|---|---|---|---|---|---|---|")
 stages = [("captured", "tracked"), ("tracked", "reduced"), ("reduced", "post_started"), ("post_started", "received"),
           ("received", "available")]
 for ds in ("tum", "icl"):
@@ -153,8 +156,13 @@ for ds in ("tum", "icl"):
             cells.append(f"{statistics.median(d):.0f}" if d else "-")
         lat = [r["available"] - r["captured"] for r in rows if isinstance(r.get("available"), (int, float))]
         budgets = [r["budget_kb"] for r in rows]
+        kbps = float(run.split("-")[0])
+        posts = [json.loads(l) for l in open(f"{name}.posts.jsonl")] if os.path.exists(f"{name}.posts.jsonl") else []
+        beyond = [1000 * (p["ended"] - p["started"] - p["bytes"] * 8 / 1000 / kbps) for p in posts
+                  if p.get("rev", 0) == 0 and p.get("stored")]
         print(f"| {ds} | {run.replace('-outage', ' + 10 s outage')} kbit/s | {len(rows)} | " + " | ".join(cells) +
-              f" | {statistics.median(budgets) if budgets else float('nan'):.1f} | {percentile(lat, 0.95):.2f} |")
+              f" | {statistics.median(budgets) if budgets else float('nan'):.1f} | {percentile(lat, 0.95):.2f} | "
+              f"{statistics.median(beyond) if beyond else float('nan'):.0f} |")
 
 # Is the tracker keeping up (the stream's "tracking:" line): frames read / tracked / dropped behind the camera, per
 # frame the wall time from its due time (or read) to its tracking's end, the reader's and the tracker's CPU time, and

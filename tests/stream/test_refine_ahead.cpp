@@ -156,6 +156,7 @@ TEST(KeyframeStream, UnderACapTheRefinementIsPostedBesideTheFirstPostBeforeItsAn
   EXPECT_DOUBLE_EQ(run.first->budget_kb, refinement_budget_kb(2000, kWindowS, 0, 200, 0.9));
   EXPECT_DOUBLE_EQ(run.first->budget_kb, 200);
   EXPECT_EQ(run.summary.refined_while_tracking, 1u);  // made on the reduction thread, before the drain
+  EXPECT_EQ(run.summary.refined_beside_keyframe, 1u);  // reduced beside the keyframe itself, not after it
   EXPECT_LT(revision_started_after_answer_s(run), -0.5);  // well before: rev 0's answer took 1.5 s
   EXPECT_EQ(run.stale, 1);
   EXPECT_EQ(run.stored.count({0, 0}), 0u);
@@ -172,6 +173,7 @@ TEST(KeyframeStream, UnderACapWithOneLaneTheRefinementIsReducedAheadAndPostedWhe
   stream_one_keyframe(2000, kAnswerDelayS, 1, run);
   if (HasFatalFailure()) return;
   expect_one_refinement(run, 1, 0);
+  EXPECT_EQ(run.summary.refined_beside_keyframe, 0u);  // one lane: refinements do not yield, none goes beside
   ASSERT_TRUE(run.first);
   EXPECT_DOUBLE_EQ(run.first->budget_kb, 200);
   EXPECT_EQ(run.stored.at({0, 0}), 1);
@@ -210,6 +212,7 @@ TEST(KeyframeStream, WithoutACapTheRefinementWaitsForTheFirstAnswer) {
   stream_one_keyframe(0, kAnswerDelayS, 3, run);
   if (HasFatalFailure()) return;
   expect_one_refinement(run, 0, 0);
+  EXPECT_EQ(run.summary.refined_beside_keyframe, 0u);
   EXPECT_EQ(run.stored.at({0, 0}), 1);
   EXPECT_EQ(run.stale, 0);
   EXPECT_GT(revision_started_after_answer_s(run), 0);
