@@ -17,7 +17,11 @@ constexpr size_t kMaxInputBytes = size_t(1) << 30;  // decode_glb's own limit
 
 struct ConvertArgs {
   std::string input, out;
-  GlbWriteOptions glb{.flavor = GlbFlavor::kCompat};
+  GlbWriteOptions glb = [] {
+    GlbWriteOptions o;
+    o.flavor = GlbFlavor::kCompat;
+    return o;
+  }();
 };
 
 [[noreturn]] void fail(const Error& e) { app::fail("convert", e); }

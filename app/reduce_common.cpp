@@ -15,10 +15,7 @@ Result<FrameReductionOptions> frame_options(const ReduceArgs& a) {
   o.atlas = a.atlas;
   o.glb = a.glb;
   if (!a.geometry_codec_chosen) o.glb.geometry_codec = default_geometry_codec(*preset);
-  o.budget_kb = a.budget_kb >= 0 ? a.budget_kb : (*preset == Preset::kRealtime ? kDefaultBudgetKb : 0.0);
-  // The realtime default: min(40 kB, a quarter of the frame's JPEG90+PNG16 payload), each frame its own, estimated
-  // by reduce_and_texture.
-  o.budget_within_payload_share = a.budget_kb < 0 && *preset == Preset::kRealtime;
+  o.use_budget(*preset, a.budget_kb);  // the realtime default: each frame its own, estimated by reduce_and_texture
   o.budget_outline_texture_scale = a.budget_outline_texture_scale;
   o.budget_max_jpeg_quality = a.budget_max_jpeg_quality;
   if (auto st = o.validate(); !st) return st.error();

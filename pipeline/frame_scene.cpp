@@ -196,6 +196,12 @@ Result<AtlasResult> fill_before_collapses(const SampledTexture& s, double simpli
 
 }  // namespace
 
+void FrameReductionOptions::use_budget(Preset preset, double asked_kb) {
+  const bool default_budget = asked_kb < 0 && preset == Preset::kRealtime;
+  budget_kb = asked_kb >= 0 ? asked_kb : (default_budget ? kDefaultBudgetKb : 0.0);
+  budget_within_payload_share = default_budget;
+}
+
 Status FrameReductionOptions::validate() const {
   if (auto st = params.validate(); !st) return st;
   if (atlas.jpeg_quality < 1 || atlas.jpeg_quality > 100)

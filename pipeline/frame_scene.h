@@ -47,6 +47,10 @@ struct FrameReductionOptions {
   // stream's refinements, rgbdcast stream --fine-max-quality) can turn more bytes into a better texture above it.
   int budget_max_jpeg_quality = 92;
 
+  // The budget as reduce, sequence mode and the service set it from what was asked: asked_kb >= 0 is that budget;
+  // otherwise the preset's default: for realtime min(kDefaultBudgetKb, a quarter of the frame's JPEG90+PNG16
+  // payload), estimated by reduce_and_texture (pipeline/frame_defaults.h), for paper none.
+  void use_budget(Preset preset, double asked_kb);
   Status validate() const;
 };
 

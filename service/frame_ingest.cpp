@@ -32,15 +32,8 @@ Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   options.params = reduction_preset(upload.preset);
   options.params.threads = upload.threads;
   options.glb.geometry_codec = default_geometry_codec(upload.preset);
-  options.budget_kb = 0.0;
-  if (upload.preset == Preset::kRealtime) {
-    if (upload.budget_kb >= 0) {
-      options.budget_kb = upload.budget_kb;
-    } else {  // the frame's default, estimated by reduce_and_texture
-      options.budget_kb = kDefaultBudgetKb;
-      options.budget_within_payload_share = true;
-    }
-  }
+  // A budget only for realtime (the paper preset has none, as before); without one asked, the frame's default.
+  options.use_budget(upload.preset, upload.preset == Preset::kRealtime ? upload.budget_kb : 0.0);
   if (auto st = options.validate(); !st) return st.error();  // a budget out of range: kInvalidArgument (400)
   auto textured = reduce_and_texture(*frame, options);
   if (!textured) return textured.error();

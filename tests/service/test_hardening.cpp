@@ -283,7 +283,7 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
   add("colour as depth", post_frame(frame_parts(frame.color, frame.color, frame.intrinsics_json)), 422);
   add("depth 8-bit", post_frame(frame_parts(frame.color, png(640, 480, CV_8UC1), frame.intrinsics_json)), 422);
   add("size mismatch", post_frame(frame_parts(frame.color, png(320, 240, CV_16UC1), frame.intrinsics_json)), 422);
-  for (const std::string k : {std::string(R"({"fx": -517.3, "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480})"),
+  for (const std::string& k : {std::string(R"({"fx": -517.3, "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480})"),
                               std::string(R"({"fx": 517.3, "fy": -1, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480})"),
                               std::string(R"({"fx": 0, "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480})"),
                               std::string(R"({"fx": "wide", "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480})"),
@@ -367,8 +367,12 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
     const int port = c.token_server ? tp : p;
     RawResponse r = raw_request(port, c.raw, 30.0);
     expect_4xx_json(r, c.status, c.name);
-    if (c.status == 405) EXPECT_TRUE(r.headers.count("allow")) << c.name;
-    if (c.status == 401) EXPECT_EQ(r.headers["www-authenticate"], "Bearer") << c.name;
+    if (c.status == 405) {
+      EXPECT_TRUE(r.headers.count("allow")) << c.name;
+    }
+    if (c.status == 401) {
+      EXPECT_EQ(r.headers["www-authenticate"], "Bearer") << c.name;
+    }
     if (r.ms > worst_ms) {
       worst_ms = r.ms;
       worst = c.name;
