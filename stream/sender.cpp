@@ -300,10 +300,8 @@ void Sender::run(Uplink& uplink) {
       std::lock_guard lock(mu_);
       queue_wait_s_ = queue_wait_s_ ? 0.3 * wait + 0.7 * *queue_wait_s_ : wait;
     }
-    if (Status st = outbox_.mark_attempted(seq, post_started, entry->rev); !st) {
-      finish(st.error().message);
-      return;
-    }
+    // The GLB is read before the entry is marked attempted, so that a revision added beside this POST once it is
+    // marked (Outbox::revise_in_flight, which removes the older GLB) cannot take its body's place.
     auto glb = outbox_.read_glb(seq, entry->rev);
     if (!glb) {
       auto now = outbox_.entry(seq);
@@ -312,6 +310,10 @@ void Sender::run(Uplink& uplink) {
         continue;
       }
       finish(glb.error().message);
+      return;
+    }
+    if (Status st = outbox_.mark_attempted(seq, post_started, entry->rev); !st) {
+      finish(st.error().message);
       return;
     }
     // The wait for an answer: 3 s plus 4 x the transfer time at the estimate, but not at an estimate that failures
