@@ -1,6 +1,5 @@
 // rgbdcast serve: the HTTP view service (service/view_service.h). Loopback unless --bind says otherwise; SIGINT or
 // SIGTERM stop it cleanly (in-flight requests finish, the store needs no cleanup: every write is atomic).
-#include <malloc.h>
 #include <pthread.h>
 #include <signal.h>
 
@@ -108,13 +107,6 @@ void register_serve(CLI::App& app) {
     opts->backend = *backend == "vulkan"   ? BackendChoice::kVulkan
                     : *backend == "osmesa" ? BackendChoice::kOsmesa
                                            : BackendChoice::kAuto;
-    // Every keyframe or scene POST allocates and frees the same large buffers (the body, the decoded texture, the
-    // Draco and glTF buffers: 0.1-1 MB each). With glibc's defaults they are mmap'ed and unmapped on every request
-    // (above 128 kB) or trimmed off the heap, and each request faults them in again: 6 of 27 ms of a 133 kB keyframe
-    // POST on loopback (BENCHMARKS.md, stop 23). Buffers up to 16 MB come from the heap, which is trimmed only above
-    // 64 MB free; larger ones (a big upload) are still mapped and returned at once.
-    mallopt(M_MMAP_THRESHOLD, 16 << 20);
-    mallopt(M_TRIM_THRESHOLD, 64 << 20);
     // Signals go to one thread that stops the server; every other thread (created below) inherits the mask.
     sigset_t signals;
     sigemptyset(&signals);

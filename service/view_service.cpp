@@ -469,11 +469,17 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   // idle before, 235 MiB with this and the idle reset, base 221 MiB). MALLOC_ARENA_MAX, when set, wins.
   if (!std::getenv("MALLOC_ARENA_MAX")) ::mallopt(M_ARENA_MAX, 2);
   // glibc raises its mmap threshold to the largest mmapped block freed (up to 32 MiB), after which the view-sized
-  // buffers of every request (render targets and readbacks resized per view, images, JPEGs, GLB bodies: 0.1-3 MB)
-  // come from the arena heaps, between long-lived allocations, and stay resident. A fixed threshold keeps them in
-  // mmap, returned on free (bench/soak.sh 300 8: peak 21 % above the post-warm-up RSS before, 7 % with it).
-  // MALLOC_MMAP_THRESHOLD_, when set, wins.
-  if (!std::getenv("MALLOC_MMAP_THRESHOLD_")) ::mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+  // buffers of every request (render targets and readbacks resized per view, images, JPEGs: up to 64 MB) come from
+  // the arena heaps, between long-lived allocations, and stay resident. A fixed threshold keeps them in mmap,
+  // returned on free (bench/soak.sh 300 8: peak 21 % above the post-warm-up RSS before, 7 % with a 128 kB one).
+  // It is 2 MB, not 128 kB: a keyframe POST allocates and frees the same blocks of 0.1-1.2 MB each time (its body,
+  // the decoded 640x480 texture, the glTF and Draco buffers), and at 128 kB each was mapped, faulted in and unmapped
+  // again, 7-10 of a POST's 11-14 ms on the server (bench/post_roundtrip.py, BENCHMARKS.md stop 24). The trim
+  // threshold keeps them at the heap's top between POSTs; the render pool's malloc_trim still returns the heap after
+  // a burst of views. This is the only place serve sets them; MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_, when
+  // set, win.
+  if (!std::getenv("MALLOC_MMAP_THRESHOLD_")) ::mallopt(M_MMAP_THRESHOLD, 2 << 20);
+  if (!std::getenv("MALLOC_TRIM_THRESHOLD_")) ::mallopt(M_TRIM_THRESHOLD, 16 << 20);
   SceneStore* store_ptr = impl->store.get();
   MissionStore* missions_ptr = impl->missions.get();
   std::string* reason = &impl->backend_reason;
