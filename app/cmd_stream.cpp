@@ -212,7 +212,8 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
             << s.refined_while_tracking << " made while tracking, " << s.refined_ahead
             << " reduced before their keyframe's answer (" << s.refined_ahead_redone
             << " made again for the measured link; " << s.refined_beside_keyframe
-            << " beside the keyframe's own reduction) of " << s.refined << " refinements)";
+            << " beside the keyframe's own reduction; " << s.refined_not_kept << " reduced and not kept, under "
+            << stream::kRefinementKeepRatio << " x the bytes) of " << s.refined << " refinements)";
   if (s.cap_changes > 0) std::cout << ", " << s.cap_changes << " caps read from " << a.link_kbps_file;
   if (s.resumed)
     std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries << " outbox entries and "

@@ -541,7 +541,12 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       took_s.on_sample(std::chrono::duration<double>(steady::now() - t0).count());
     }
     auto& fine = *prefetched;
-    if (!fine || static_cast<double>(fine->glb.size()) < 1.1 * static_cast<double>(best->bytes)) return true;
+    if (!fine) return true;
+    if (static_cast<double>(fine->glb.size()) < kRefinementKeepRatio * static_cast<double>(best->bytes)) {
+      std::lock_guard lock(mu);
+      ++summary.refined_not_kept;
+      return true;
+    }
     // From the cap, with refinements that yield: beside the first revision's POST if it is still out.
     if (made_from_cap && sender.refinements_yield()) {
       auto now = outbox.entry(best->seq);
