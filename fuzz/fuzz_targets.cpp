@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <dlfcn.h>
+#include <filesystem>
 #include <string>
 #include <string_view>
 #include <unistd.h>
@@ -36,13 +37,29 @@ std::uint32_t le32(const std::uint8_t* p) {
   return std::uint32_t(p[0]) | (std::uint32_t(p[1]) << 8) | (std::uint32_t(p[2]) << 16) | (std::uint32_t(p[3]) << 24);
 }
 
-// For readers that take files only (PCL, rosbag): the input bytes as a file of this process.
-bool write_file(const std::string& path, const std::uint8_t* data, size_t size) {
-  FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) return false;
-  const bool ok = std::fwrite(data, 1, size, f) == size;
-  return std::fclose(f) == 0 && ok;
-}
+// For readers that take files only (PCL, rosbag): one file of this process in the temporary folder, rewritten with
+// each input and removed when the fuzzer ends (until stop 25 every run left one in /tmp).
+class ScratchFile {
+ public:
+  explicit ScratchFile(const std::string& tag)
+      : path_((std::filesystem::temp_directory_path() /
+               ("rgbdcast-fuzz-" + tag + "-" + std::to_string(getpid()) + "." + tag))
+                  .string()) {}
+  ~ScratchFile() { std::remove(path_.c_str()); }
+  ScratchFile(const ScratchFile&) = delete;
+  ScratchFile& operator=(const ScratchFile&) = delete;
+  const std::string& path() const { return path_; }
+  // The input bytes as the file's whole content.
+  bool write(const std::uint8_t* data, size_t size) const {
+    FILE* f = std::fopen(path_.c_str(), "wb");
+    if (!f) return false;
+    const bool ok = std::fwrite(data, 1, size, f) == size;
+    return std::fclose(f) == 0 && ok;
+  }
+
+ private:
+  std::string path_;
+};
 
 }  // namespace
 
@@ -228,13 +245,13 @@ void multipart(const std::uint8_t* data, size_t size) {
 // file holding the bytes: PCL reads files only).
 void pcd(const std::uint8_t* data, size_t size) {
   if (!rgbdcast::check_pcd_header(data, size).ok()) return;
-  static const std::string path = "/tmp/rgbdcast-fuzz-pcd-" + std::to_string(getpid()) + ".pcd";
-  if (!write_file(path, data, size)) return;
+  static const ScratchFile file("pcd");
+  if (!file.write(data, size)) return;
   rgbdcast::Intrinsics k;
   k.fx = k.fy = 525.0;
   k.width = 640;
   k.height = 480;
-  auto src = rgbdcast::open_pcd_source(path, k);
+  auto src = rgbdcast::open_pcd_source(file.path(), k);
   if (src.ok()) (void)(*src)->frame(0);
 }
 
@@ -259,10 +276,10 @@ void rosbag(const std::uint8_t* data, size_t size) {
   static void* const plugin = dlopen("/usr/lib/x86_64-linux-gnu/ros/librosbag_default_encryption_plugins.so",
                                      RTLD_NOW | RTLD_NODELETE);
   (void)plugin;
-  static const std::string path = "/tmp/rgbdcast-fuzz-bag-" + std::to_string(getpid()) + ".bag";
-  if (!write_file(path, data, size)) return;
+  static const ScratchFile file("bag");
+  if (!file.write(data, size)) return;
   rgbdcast::SourceOptions options;
-  auto src = rgbdcast::open_frame_source(path, options);
+  auto src = rgbdcast::open_frame_source(file.path(), options);
   if (!src.ok()) return check_error(src.error());
   for (size_t i = 0; i < (*src)->size() && i < 4; ++i) {
     auto frame = (*src)->frame(i);

@@ -1,9 +1,13 @@
 #include "tests/common/test_data.h"
 
-#include <filesystem>
 #include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <mutex>
 #include <random>
 #include <thread>
+#include <vector>
 
 namespace fs = std::filesystem;
 
@@ -33,10 +37,44 @@ void remove_tree_quietly(const std::string& path) {
   }
 }
 
+namespace {
+
+// The directories temp_dir made in this test program, removed once its tests are done (gtest tears global
+// environments down after the last test, before the program ends).
+class TempDirs : public ::testing::Environment {
+ public:
+  void add(std::string path) {
+    std::lock_guard lock(mu_);
+    dirs_.push_back(std::move(path));
+  }
+  void TearDown() override {
+    std::lock_guard lock(mu_);
+    const char* keep = std::getenv("RGBDCAST_KEEP_TEST_DIRS");
+    if (dirs_.empty() || (keep && *keep && std::string(keep) != "0")) return;
+    if (::testing::UnitTest::GetInstance()->Failed()) {
+      std::cerr << "kept for a look (a test failed):";
+      for (const auto& d : dirs_) std::cerr << " " << d;
+      std::cerr << "\n";
+      return;
+    }
+    for (const auto& d : dirs_) remove_tree_quietly(d);
+  }
+
+ private:
+  std::mutex mu_;
+  std::vector<std::string> dirs_;
+};
+
+// Registered when the program starts, as gtest_main's programs register environments; gtest owns it.
+TempDirs* const temp_dirs = static_cast<TempDirs*>(::testing::AddGlobalTestEnvironment(new TempDirs));
+
+}  // namespace
+
 std::string temp_dir(const std::string& tag) {
   std::random_device rd;
   fs::path p = fs::temp_directory_path() / ("rgbdcast-" + tag + "-" + std::to_string(rd()));
   fs::create_directories(p);
+  temp_dirs->add(p.string());
   return p.string();
 }
 

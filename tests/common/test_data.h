@@ -11,7 +11,8 @@ namespace rgbdcast::test {
 std::string data_path(const std::string& relative);
 // True when the path exists; otherwise records the skip or failure (see REQUIRE_DATA).
 bool have_data(const std::string& relative, std::string* message);
-// A fresh empty temporary directory for one test.
+// A fresh empty temporary directory for one test. Every one made in a test program is removed after its last test
+// when none failed; when one failed they are kept for a look and listed (RGBDCAST_KEEP_TEST_DIRS=1 keeps them always).
 std::string temp_dir(const std::string& tag);
 std::string source_path(const std::string& relative);
 // Removes a test's folder, best effort: a browser's helper processes may still be writing into it for a moment after

@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <string_view>
 #include <vector>
 
 #include "tests/common/test_data.h"
@@ -20,6 +21,26 @@ std::string find_chromium() {
   for (const char* p : {"/usr/bin/chromium", "/usr/bin/chromium-headless-shell", "/usr/lib/chromium/chromium"})
     if (std::filesystem::exists(p)) return p;
   return "";
+}
+
+pid_t spawn_chromium(const std::vector<std::string>& args, const std::string& log, const std::string& tmp_dir) {
+  std::vector<std::string> strings(args);
+  const size_t first_env = strings.size();
+  strings.push_back("TMPDIR=" + tmp_dir);
+  for (char** e = environ; *e; ++e)
+    if (std::string_view(*e).substr(0, 7) != "TMPDIR=") strings.emplace_back(*e);
+  std::vector<char*> argv, envp;
+  for (size_t i = 0; i < strings.size(); ++i) (i < first_env ? argv : envp).push_back(strings[i].data());
+  argv.push_back(nullptr);
+  envp.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  pid_t pid = -1;
+  const int spawned = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), envp.data());
+  posix_spawn_file_actions_destroy(&actions);
+  return spawned == 0 ? pid : -1;
 }
 
 PagePost run_tools_page(const std::string& chromium, const std::string& page_and_query,
@@ -40,18 +61,9 @@ PagePost run_tools_page(const std::string& chromium, const std::string& page_and
                                    "--disable-component-update", "--disable-sync", "--hide-scrollbars",
                                    "--user-data-dir=" + profile,
                                    "--window-size=" + std::to_string(width) + "," + std::to_string(height), url};
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, r.log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
   const auto t0 = std::chrono::steady_clock::now();
-  pid_t pid = -1;
-  const int spawned = posix_spawn(&pid, chromium.c_str(), &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (spawned != 0) {
+  const pid_t pid = spawn_chromium(args, r.log, work_dir);
+  if (pid < 0) {
     r.body = "cannot start " + chromium;
     return r;
   }

@@ -1,9 +1,12 @@
 #pragma once
 // Opens a page of tools/ in headless Chromium (SwiftShader WebGL) and waits for the page to POST its result back to
 // /result (or /error), for the browser tests. Served by a loopback StaticHttpServer with the given extra files.
+#include <sys/types.h>
+
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace rgbdcast::test {
 
@@ -17,6 +20,10 @@ struct PagePost {
   double ms = 0.0;        // from launch to the post
   std::string log;        // Chromium's stdout+stderr file
 };
+
+// Starts args[0] (Chromium) with args, its stdout and stderr to `log` and its temporary files under tmp_dir (TMPDIR:
+// the folder of its singleton socket, which an ended Chromium leaves in /tmp otherwise); its pid, or -1.
+pid_t spawn_chromium(const std::vector<std::string>& args, const std::string& log, const std::string& tmp_dir);
 
 // Serves tools/ plus `files` (URL path -> file), opens tools/<page_and_query> at width x height with a fresh profile
 // under work_dir, waits up to timeout_ms for the page's POST, then ends Chromium (by its pid) and removes the profile.

@@ -8,9 +8,7 @@
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
-#include <fcntl.h>
 
 #include <chrono>
 #include <cmath>
@@ -24,7 +22,6 @@
 #include "tests/service/mission_keyframes.h"
 #include "tests/service/server_process.h"
 
-extern char** environ;
 using nlohmann::json;
 
 TEST(MissionPage, HeadlessChromiumFollowsAGrowingMission) {
@@ -57,16 +54,8 @@ TEST(MissionPage, HeadlessChromiumFollowsAGrowingMission) {
   std::vector<std::string> args = {chromium, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
                                    "--disable-background-networking", "--disable-component-update", "--disable-sync",
                                    "--hide-scrollbars", "--user-data-dir=" + profile, "--window-size=1000,600", url};
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
-  pid_t pid = -1;
-  ASSERT_EQ(posix_spawn(&pid, chromium.c_str(), &actions, nullptr, argv.data(), environ), 0);
-  posix_spawn_file_actions_destroy(&actions);
+  const pid_t pid = rgbdcast::test::spawn_chromium(args, log, dir);
+  ASSERT_GT(pid, 0) << "cannot start " << chromium;
 
   // Keyframes arrive while the page watches: one every 2.5 s, so that at least one stream end falls between them.
   for (int seq = 1; seq < 4; ++seq) {

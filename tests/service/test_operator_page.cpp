@@ -23,10 +23,11 @@ namespace {
 constexpr const char* kChromium = "/usr/bin/chromium";
 constexpr const char* kFr1 = "tum/rgbd_dataset_freiburg1_xyz/rgb/1305031102.175304.png";
 
-// Runs chromium headless with a fresh profile; returns its stdout. Never downloads anything.
+// Runs chromium headless with a fresh profile (its temporary files in it too); returns its stdout. Never downloads
+// anything.
 std::string run_chromium(const std::string& profile, const std::string& mode_args, const std::string& url,
                          int* exit_code) {
-  const std::string cmd = std::string(kChromium) +
+  const std::string cmd = "TMPDIR='" + profile + "' " + std::string(kChromium) +
                           " --headless --no-sandbox --disable-gpu --no-first-run --disable-background-networking"
                           " --disable-component-update --disable-sync --disable-dev-shm-usage --hide-scrollbars"
                           " --user-data-dir=" + profile +

@@ -247,8 +247,16 @@ TEST(SenderLanes, TwoPostsInFlightArePacedAtTheCapAndStoredExactlyOnce) {
     ASSERT_EQ(r->stored.size(), 6u);
     for (const auto& [seq, times] : r->stored) EXPECT_EQ(times, 1) << "seq " << seq;  // no re-post was needed
     ASSERT_EQ(r->arrivals.size(), 6u);
-    for (size_t i = 1; i < r->arrivals.size(); ++i)  // paced: never closer than the previous body at the cap
-      EXPECT_GE(r->arrivals[i] - r->arrivals[i - 1], 0.9 * r->sizes[i - 1] * 8.0 / 800e3) << i;
+    // Paced at the cap: over the run, the bodies come no faster than the cap carries them. An arrival is when the
+    // handler ran, so one gap may be a scheduling delay short (a pair 84 ms apart against 90 under ctest -j2); each
+    // gap is held to half its body's time at the cap, which an unpaced sender (two lanes at once) does not meet.
+    double line_s = 0;
+    for (size_t i = 1; i < r->arrivals.size(); ++i) {
+      const double body_s = r->sizes[i - 1] * 8.0 / 800e3;
+      line_s += body_s;
+      EXPECT_GE(r->arrivals[i] - r->arrivals[i - 1], 0.5 * body_s) << i;
+    }
+    EXPECT_GE(r->arrivals.back() - r->arrivals.front(), 0.9 * line_s);
   }
   EXPECT_EQ(one.max_concurrent, 1);
   EXPECT_EQ(two.max_concurrent, 2);
