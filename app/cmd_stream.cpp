@@ -213,7 +213,8 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
             << " reduced before their keyframe's answer (" << s.refined_ahead_redone
             << " made again for the measured link; " << s.refined_beside_keyframe
             << " beside the keyframe's own reduction; " << s.refined_not_kept << " reduced and not kept, under "
-            << stream::kRefinementKeepRatio << " x the bytes) of " << s.refined << " refinements)";
+            << stream::kRefinementKeepRatio << " x the bytes; " << s.refine_saturated
+            << " not tried, their GLB already the finest their settings make) of " << s.refined << " refinements)";
   if (s.cap_changes > 0) std::cout << ", " << s.cap_changes << " caps read from " << a.link_kbps_file;
   if (s.resumed)
     std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries << " outbox entries and "

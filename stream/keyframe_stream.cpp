@@ -33,6 +33,7 @@ double unix_now() {
 struct EncodedKeyframe {
   std::vector<std::uint8_t> glb;
   size_t triangles = 0;
+  bool fits = false;  // the budget's rule "fits": the finest mesh and best quality its settings allow, under budget
 };
 
 // The one frame -> scene call, then the GLB as `rgbdcast reduce` writes it: mesh and capture camera in the
@@ -45,6 +46,7 @@ Result<EncodedKeyframe> encode_keyframe(const RgbdFrame& frame, FrameReductionOp
   if (!textured) return textured.error();
   EncodedKeyframe out;
   out.triangles = textured->node.mesh.triangle_count();
+  out.fits = textured->budget.rule == "fits";
   textured->node.to_world = Eigen::Matrix4d::Identity();
   textured->camera.camera_to_world = Eigen::Matrix4d::Identity();
   const nlohmann::json extras = {{"rgbdcast",
@@ -254,6 +256,32 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   const FrameReductionOptions reduction = options.reduction;
   // The reduction for a budget: above fine.above_kb, the finer settings (FineReduction).
   auto reduction_for = [&](double budget_kb) { return reduction_for_budget(reduction, options.fine, budget_kb); };
+  // Revisions whose reduction "fit" (pipeline/frame_scene.h: the finest mesh and best JPEG quality of its settings,
+  // under its budget): seq -> that revision's bytes and budget. A larger budget at the same settings gives the same
+  // GLB, so such a revision is refined only at a budget whose settings differ (FineReduction). On TUM at 2 Mbit/s
+  // each run reduced 8 refinements and kept none (under kRefinementKeepRatio x the bytes); 5-7 of them were of
+  // revisions that fit, and are no longer made (BENCHMARKS.md stop 25).
+  struct Fit {
+    size_t bytes = 0;
+    double budget_kb = 0;
+  };
+  std::map<int, Fit> fits;
+  std::mutex fits_mu;
+  auto note_fit = [&](int seq, const EncodedKeyframe& k, double budget_kb) {
+    std::lock_guard lock(fits_mu);
+    if (k.fits)
+      fits[seq] = {k.glb.size(), budget_kb};
+    else
+      fits.erase(seq);
+  };
+  // True when refining e at budget_kb can only give its GLB again.
+  auto saturated = [&](const OutboxEntry& e, double budget_kb) {
+    std::lock_guard lock(fits_mu);
+    const auto f = fits.find(e.seq);
+    if (f == fits.end() || f->second.bytes != e.bytes || f->second.budget_kb != e.budget_kb) return false;
+    const double above = options.fine.above_kb;
+    return !(above > 0) || (budget_kb > above) == (f->second.budget_kb > above);
+  };
   SmoothedDuration reduce_s(0.3);  // a keyframe's reduction time: mean + 2 deviations
   SmoothedDuration refine_s(0.5);  // a refinement's (a larger budget takes longer)
 
@@ -437,6 +465,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       summary.errors.push_back(added.error().message);
       return -1;
     }
+    note_fit(added->seq, *encoded, budget_kb);
     {
       std::lock_guard views_lock(views_mu);
       views.push_back({added->seq, {job.frame.intrinsics, job.frame.depth_m, job.pose}});
@@ -467,10 +496,12 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
   // otherwise, once the answer comes, it is added if the measured link carries its bytes in the window, else dropped
   // and the keyframe refined again at the measured budget, as it is without a cap. Returns false when there is no
   // such keyframe (or another thread is refining); true when one was handled (refined, or not kept: the new GLB was
-  // under 1.1 x the old one's bytes, or too large for the measured link, or its first POST was rejected or never
-  // answered before a stop; it is tried again only at a larger budget, or at once when it was too large). Called by
+  // under kRefinementKeepRatio x the old one's bytes, or too large for the measured link, or its first POST was
+  // rejected or never answered before a stop; it is tried again only at a larger budget, or at once when it was too
+  // large). A revision that fits its budget is not refined at settings that would give it again (saturated). Called by
   // the refiner thread and the reduction thread while tracking, then by the drain; one at a time (refine_mu).
   std::map<int, double> refined_at;  // seq -> the largest budget a refinement of it was reduced at (refine_mu)
+  std::set<std::pair<int, int>> saturated_seen;  // (seq, rev) counted in refine_saturated (refine_mu)
   std::mutex refine_mu;
   std::atomic<bool> tracking_done_for_refiner{false};  // the drain's refinements are not counted as while tracking
   // only_seq >= 0: that keyframe or none.
@@ -504,8 +535,15 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
         // refinement is reduced it is: the sender takes a keyframe at once when nothing else waits).
         const bool state =
             answered ? e.acked : (!e.acked && (e.attempted || (from_cap && e.rev == 0)) && e.rejected.empty());
-        if (state && (only_seq < 0 || e.seq == only_seq) && kb >= std::max(1.25 * base, base + 8) &&
-            (!best || e.captured > best->captured || (e.captured == best->captured && e.seq > best->seq))) {
+        if (!state || (only_seq >= 0 && e.seq != only_seq) || kb < std::max(1.25 * base, base + 8)) continue;
+        if (saturated(e, kb)) {
+          if (saturated_seen.insert({e.seq, e.rev}).second) {
+            std::lock_guard lock(mu);
+            ++summary.refine_saturated;
+          }
+          continue;
+        }
+        if (!best || e.captured > best->captured || (e.captured == best->captured && e.seq > best->seq)) {
           best = e;
           budget_kb = kb;
         }
@@ -562,6 +600,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       }
       if (now && now->rev == best->rev && now->attempted && now->pending())
         if (outbox.revise_in_flight(best->seq, fine->glb, budget_kb, fine->triangles)) {
+          note_fit(best->seq, *fine, budget_kb);
           {
             std::lock_guard lock(mu);
             ++summary.refined;
@@ -604,6 +643,7 @@ Result<StreamSummary> run_stream(const FrameSource& source, Outbox& outbox, Send
       return true;
     }
     Status st = outbox.revise(best->seq, fine->glb, budget_kb, fine->triangles);
+    if (st) note_fit(best->seq, *fine, budget_kb);
     {
       std::lock_guard lock(mu);
       if (st) {

@@ -194,6 +194,7 @@ struct StreamSummary {
   size_t refined_ahead_redone = 0;  // sized to the cap before any answer, too large for the measured link: made again
   size_t refined_beside_keyframe = 0;  // of the refinements added, reduced beside their keyframe's own reduction
   size_t refined_not_kept = 0;  // refinements reduced but not added: under kRefinementKeepRatio x the bytes
+  size_t refine_saturated = 0;  // keyframe revisions not refined: they "fit", so a larger budget gives them again
   size_t cap_changes = 0;     // values taken from --link-kbps-file
   size_t failed = 0;          // keyframes whose reduction or outbox write failed (message in errors)
   bool resumed = false;

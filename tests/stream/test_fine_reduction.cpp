@@ -3,6 +3,8 @@
 // at 2 sigma and q92); with the fine settings the same budget buys more of it (75 kB at 1 sigma, 1 px, q95).
 #include <gtest/gtest.h>
 
+#include <optional>
+
 #include "input/frame_source.h"
 #include "keyframes/trajectory_io.h"
 #include "pipeline/frame_defaults.h"
@@ -20,6 +22,36 @@ FrameReductionOptions realtime_stream_options() {  // as rgbdcast stream reduces
   o.params = reduction_preset(Preset::kRealtime);
   o.glb.geometry_codec = default_geometry_codec(Preset::kRealtime);
   return o;
+}
+
+// Frame 13 of the excerpt as a delta keyframe against frame 0 (the stream's keyframes on this excerpt are 13 frames
+// apart on average), at their ground-truth poses: only what frame 0 does not cover is reduced.
+struct DeltaKeyframe {
+  RgbdFrame frame;
+  Eigen::Matrix4d pose;
+  std::vector<CoverageView> earlier;
+
+  BudgetChoice reduce(const FrameReductionOptions& o, double budget_kb) const {
+    FrameReductionOptions with = o;
+    with.budget_kb = budget_kb;
+    auto r = reduce_and_texture(frame, with, pose, earlier);
+    EXPECT_TRUE(r) << r.error().message;
+    return r ? r->budget : BudgetChoice{};
+  }
+};
+
+void load_delta_keyframe(std::optional<DeltaKeyframe>* out) {  // ASSERTs: the caller checks *out
+  auto src = open_frame_source(test::data_path(kExcerpt), {});
+  ASSERT_TRUE(src) << src.error().message;
+  auto gt = read_tum_trajectory(test::data_path(std::string(kExcerpt) + "/groundtruth.txt"));
+  ASSERT_TRUE(gt) << gt.error().message;
+  auto first = (*src)->frame(0);
+  auto delta = (*src)->frame(13);
+  ASSERT_TRUE(first && delta);
+  const StampedPose* p0 = nearest_pose(*gt, first->timestamp, 0.02);
+  const StampedPose* p1 = nearest_pose(*gt, delta->timestamp, 0.02);
+  ASSERT_TRUE(p0 && p1);
+  *out = DeltaKeyframe{*delta, p1->camera_to_world, {{first->intrinsics, first->depth_m, p0->camera_to_world}}};
 }
 
 TEST(FineReduction, OnlyBudgetsAboveTheThresholdGetTheFineSettings) {
@@ -60,26 +92,10 @@ TEST(FineReduction, OnlyBudgetsAboveTheThresholdGetTheFineSettings) {
 
 TEST(FineReduction, ADeltaKeyframeThatSaturatesTurnsALargerBudgetIntoMoreBytes) {
   REQUIRE_DATA(std::string(kExcerpt) + "/groundtruth.txt");
-  auto src = open_frame_source(test::data_path(kExcerpt), {});
-  ASSERT_TRUE(src) << src.error().message;
-  auto gt = read_tum_trajectory(test::data_path(std::string(kExcerpt) + "/groundtruth.txt"));
-  ASSERT_TRUE(gt) << gt.error().message;
-  // Frame 0 is the earlier keyframe; frame 13 the delta keyframe (the stream's keyframes on this excerpt are 13
-  // frames apart on average): only what frame 0 does not cover.
-  auto first = (*src)->frame(0);
-  auto delta = (*src)->frame(13);
-  ASSERT_TRUE(first && delta);
-  const StampedPose* p0 = nearest_pose(*gt, first->timestamp, 0.02);
-  const StampedPose* p1 = nearest_pose(*gt, delta->timestamp, 0.02);
-  ASSERT_TRUE(p0 && p1);
-  const std::vector<CoverageView> earlier = {{first->intrinsics, first->depth_m, p0->camera_to_world}};
-  auto glb_bytes = [&](const FrameReductionOptions& o, double budget_kb) -> BudgetChoice {
-    FrameReductionOptions with = o;
-    with.budget_kb = budget_kb;
-    auto r = reduce_and_texture(*delta, with, p1->camera_to_world, earlier);
-    EXPECT_TRUE(r) << r.error().message;
-    return r ? r->budget : BudgetChoice{};
-  };
+  std::optional<DeltaKeyframe> delta;
+  load_delta_keyframe(&delta);
+  ASSERT_TRUE(delta);
+  auto glb_bytes = [&](const FrameReductionOptions& o, double budget_kb) { return delta->reduce(o, budget_kb); };
   const FrameReductionOptions base = realtime_stream_options();
   const BudgetChoice at40 = glb_bytes(base, 40), at100 = glb_bytes(base, 100);
   const BudgetChoice fine100 = glb_bytes(reduction_for_budget(base, FineReduction{}, 100), 100);
@@ -97,6 +113,33 @@ TEST(FineReduction, ADeltaKeyframeThatSaturatesTurnsALargerBudgetIntoMoreBytes) 
   EXPECT_GT(static_cast<double>(fine100.glb_bytes), 1.3 * static_cast<double>(at100.glb_bytes));
   EXPECT_LE(static_cast<double>(fine100.glb_bytes), 1.1 * 100000);
   EXPECT_GT(fine100.jpeg_quality, 92) << fine100.rule;
+}
+
+// The rule that spares the stream's refiner a reduction (stream/keyframe_stream.cpp, "fits"): a keyframe whose
+// reduction fits its budget at the finest mesh and best quality of its settings comes out the same at any larger
+// budget with those settings, so refining it there could only send its GLB again.
+TEST(FineReduction, AKeyframeThatFitsItsBudgetIsTheSameAtALargerOne) {
+  REQUIRE_DATA(std::string(kExcerpt) + "/groundtruth.txt");
+  std::optional<DeltaKeyframe> delta;
+  load_delta_keyframe(&delta);
+  ASSERT_TRUE(delta);
+  auto reduce_at = [&](double budget_kb) {
+    return delta->reduce(reduction_for_budget(realtime_stream_options(), FineReduction{}, budget_kb), budget_kb);
+  };
+  const BudgetChoice fit = reduce_at(150);
+  ASSERT_EQ(fit.rule, "fits") << "the delta keyframe needs more than 150 kB at the fine settings: " << fit.glb_bytes;
+  for (double larger : {200.0, 400.0}) {
+    const BudgetChoice b = reduce_at(larger);
+    std::printf("fine delta keyframe: 150 kB -> %zu B (%s, %.2f sigma, q%d); %.0f kB -> %zu B (%s, %.2f sigma, q%d)\n",
+                fit.glb_bytes, fit.rule.c_str(), fit.tolerance_factor, fit.jpeg_quality, larger, b.glb_bytes,
+                b.rule.c_str(), b.tolerance_factor, b.jpeg_quality);
+    EXPECT_EQ(b.rule, "fits");
+    EXPECT_EQ(b.glb_bytes, fit.glb_bytes);
+    EXPECT_EQ(b.geometry_bytes, fit.geometry_bytes);
+    EXPECT_EQ(b.texture_bytes, fit.texture_bytes);
+    EXPECT_EQ(b.tolerance_factor, fit.tolerance_factor);
+    EXPECT_EQ(b.jpeg_quality, fit.jpeg_quality);
+  }
 }
 
 }  // namespace
