@@ -521,7 +521,10 @@ TEST(SenderLanes, RefinementBodiesAreWrittenOneAtATime) {
   EXPECT_GE(arrivals[0] - t0, 0.9 * 0.3);
   for (size_t i = 1; i < arrivals.size(); ++i)  // one body after the other at the cap, not two sharing it
     EXPECT_GE(arrivals[i] - arrivals[i - 1], 0.9 * 0.3) << i;
-  EXPECT_GT(stats.overlap_s, 0.1);  // an answer was awaited while the next body was written
+  // The first two answers (0.2 s each) were awaited while the next body was written: 0.38 s in three runs. Before
+  // the lanes were woken when a body's last chunk was written, the next body waited for a 200 ms poll, and this was
+  // 0.05-0.09 s in 3 of 16 runs.
+  EXPECT_GT(stats.overlap_s, 0.3);
 }
 
 }  // namespace rgbdcast::stream
