@@ -251,14 +251,18 @@ void Sender::run(Uplink& uplink) {
     bool preempted = false;
     // Only the refinement being written clears the state: one whose body is done and whose answer comes while the
     // next refinement is being written must not (it would let a third start beside it).
-    auto end_writing = [&] {
-      if (!paced_chunks) return;
-      std::lock_guard lock(mu_);
-      if (refinement_writer_ != seq) return;
+    // (mu_ held) The body is done, or given up on: a lane waiting for a refinement to write may take the next one now
+    // (it polled every 200 ms before, so the next body started up to 200 ms after the line was free).
+    auto writing_done_locked = [&] {
       refinement_writing_ = false;
       refinement_writer_ = -1;
       refinement_left_bytes_ = 0;
       cv_.notify_all();
+    };
+    auto end_writing = [&] {
+      if (!paced_chunks) return;
+      std::lock_guard lock(mu_);
+      if (refinement_writer_ == seq) writing_done_locked();
     };
     const ChunkGate gate = [&](size_t offset, size_t bytes) {
       std::unique_lock lock(mu_);
@@ -275,13 +279,7 @@ void Sender::run(Uplink& uplink) {
       if (estimator_.cap_kbps() > 0) line_free_ = std::max(line_free_, clock::now()) + line_time(bytes);
       own_line_end_ = line_free_;
       refinement_left_bytes_ = offset + bytes >= refinement_bytes_total_ ? 0 : refinement_bytes_total_ - offset - bytes;
-      if (refinement_left_bytes_ == 0) {
-        refinement_writing_ = false;
-        refinement_writer_ = -1;
-        // Its last chunk is on the line: a lane waiting for a refinement to write may take the next one now (it
-        // polled every 200 ms before, so the next body started up to 200 ms after the line was free).
-        cv_.notify_all();
-      }
+      if (refinement_left_bytes_ == 0) writing_done_locked();  // its last chunk is on the line
       return true;
     };
     auto finish = [&](const std::string& fatal) {
@@ -355,10 +353,8 @@ void Sender::run(Uplink& uplink) {
       }
     }
     // The link's sample goes in before the outbox says acknowledged: a thread that sees the answer must see what it
-    // measured (keyframe_stream.cpp checks a refinement made ahead against the measured link once its keyframe is
-    // acknowledged; between the two writes it read the initial guess, 500 kbit/s, and kept a 133 kB revision that the
-    // measured 133 kbit/s could not carry: a CI failure of KeyframeStream.ARefinementMadeAhead..., reproduced with a
-    // 60 ms pause there).
+    // measured (keyframe_stream.cpp checks a refinement made ahead against the measured link then; in between it
+    // read the initial guess and kept a revision the measured link could not carry).
     if (r.outcome == PostOutcome::kStored && !preempted) {
       std::lock_guard lock(mu_);
       estimator_.on_ack(glb->size(), r.seconds);
