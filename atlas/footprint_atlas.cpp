@@ -9,6 +9,7 @@
 #include <cmath>
 #include <unordered_map>
 
+#include "atlas/cell_fill.h"
 #include "atlas/footprint_layout.h"
 #include "atlas/frame_texture.h"
 #include "atlas/texture_encode.h"
@@ -24,67 +25,13 @@ double ms_between(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
 }
 
-// The colour image as plain numbers, so that the texel loop keeps them in registers (stores through uint8_t* may
-// alias anything, which would make the compiler reload cv::Mat's fields for every texel).
-struct Source {
-  const std::uint8_t* data;
-  size_t stride;
-  double max_u, max_v;
-  int cols, rows;
-};
-
-// Bilinear RGB lookup at pixel (u, v) (centres at integers), clamped to the image; 8-bit fixed-point weights (the
-// result is within one level of the exact interpolation), integer arithmetic throughout.
-inline void sample_rgb(const Source& s, double u, double v, std::uint8_t* out) {
-  u = std::min(std::max(u, 0.0), s.max_u);
-  v = std::min(std::max(v, 0.0), s.max_v);
-  const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
-  const int dx = x0 + 1 < s.cols ? 3 : 0;
-  const size_t dy = y0 + 1 < s.rows ? s.stride : 0;
-  const int wx = static_cast<int>((u - x0) * 256.0 + 0.5), wy = static_cast<int>((v - y0) * 256.0 + 0.5);
-  const std::uint8_t* p = s.data + y0 * s.stride + 3 * x0;
-  const std::uint8_t* q = p + dy;
-  int rgb[3];
-  for (int c = 0; c < 3; ++c) {
-    const int top = (p[c] << 8) + wx * (p[c + dx] - p[c]);
-    const int bot = (q[c] << 8) + wx * (q[c + dx] - q[c]);
-    rgb[c] = ((top << 8) + wy * (bot - top) + (1 << 15)) >> 16;
-  }
-  out[0] = static_cast<std::uint8_t>(rgb[0]);
-  out[1] = static_cast<std::uint8_t>(rgb[1]);
-  out[2] = static_cast<std::uint8_t>(rgb[2]);
-}
-
-// Fills the texels of a cell that belong to one triangle (the upper part i + j + 1 < S, or the rest for the lower
-// triangle) from the colour image through M^-1, and marks them sampled. Texels whose continued plane passes behind
-// the camera take the centroid's pixel.
-void fill_cell_part(const FootprintSlot& slot, const TriangleTextureMap& map, const Source& src, Image* atlas,
+// Fills the texels of a cell that belong to one triangle from the colour image through the triangle's map
+// (atlas/cell_fill.h). Texels whose continued plane passes behind the camera take the centroid's pixel.
+void fill_cell_part(const FootprintSlot& slot, const TriangleTextureMap& map, const CellSource& src, Image* atlas,
                     std::uint8_t* sampled) {
-  const int S = slot.cell_px;
-  const Eigen::Matrix3d& M = map.image_from_atlas;
   const Eigen::Vector3d c = map.H * Eigen::Vector3d((map.plane[0].x() + map.plane[1].x() + map.plane[2].x()) / 3,
                                                     (map.plane[0].y() + map.plane[1].y() + map.plane[2].y()) / 3, 1);
-  const double cu = c.x() / c.z(), cv = c.y() / c.z(), min_w = 1e-9 * std::abs(c.z());
-  const double sx = M(0, 0), sy = M(1, 0), sz = M(2, 0);
-  const int width = atlas->width;
-  std::uint8_t* const texels = atlas->data.data();
-  for (int j = 0; j < S; ++j) {
-    const int split = S - 1 - j;  // texels i < split are the upper triangle's
-    const int i0 = slot.lower ? split : 0, i1 = slot.lower ? S : split;
-    const Eigen::Vector3d h0 = M * Eigen::Vector3d(slot.x0 + i0 + 0.5, slot.y0 + j + 0.5, 1.0);
-    double hx = h0.x(), hy = h0.y(), hz = h0.z();
-    const size_t row = static_cast<size_t>(slot.y0 + j) * width + slot.x0;
-    std::uint8_t* px = texels + 3 * (row + i0);
-    std::fill(sampled + row + i0, sampled + row + i1, std::uint8_t{1});
-    for (int i = i0; i < i1; ++i, hx += sx, hy += sy, hz += sz, px += 3) {
-      if (hz > min_w) {
-        const double inv = 1.0 / hz;
-        sample_rgb(src, hx * inv, hy * inv, px);
-      } else {
-        sample_rgb(src, cu, cv, px);
-      }
-    }
-  }
+  fill_cell_triangle(slot, map.image_from_atlas, c, src, atlas, sampled);
 }
 
 // Cheap version of triangle_texture_map's rejection test (same thresholds): in front of the camera, with an area.
@@ -238,8 +185,7 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
                           std::to_string(options.texels_per_px) + " texels per pixel exceed a " +
                           std::to_string(options.max_atlas_side_px) + " texel atlas");
 
-  const Source src{color_rgb.ptr<std::uint8_t>(0), color_rgb.step[0], color_rgb.cols - 1.0, color_rgb.rows - 1.0,
-                   color_rgb.cols, color_rgb.rows};
+  const CellSource src{color_rgb.ptr<std::uint8_t>(0), color_rgb.step[0], color_rgb.cols, color_rgb.rows};
   Image atlas = Image::make(layout.width, layout.height, 3);
   std::vector<std::uint8_t> sampled(static_cast<size_t>(layout.width) * layout.height, 0);
   for (size_t p = 0; p < patch_rect.size(); ++p) {  // patches: the frame's pixels, 1:1

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <fstream>
+#include <regex>
 #include <set>
 
 #include "gltf/gltf_io.h"
@@ -11,6 +13,7 @@
 #include "service/model_flavors.h"
 #include "service/scene_ingest.h"
 #include "service/scene_store.h"  // etag_of
+#include "tiles/tileset_json.h"
 
 namespace rgbdcast::service {
 namespace {
@@ -42,14 +45,33 @@ std::string event_text(const MissionKeyframe& k) {
   return "id: " + k.event_id() + "\nevent: keyframe\ndata: " + k.answer().dump() + "\n\n";
 }
 
+// A "tileset" event has no id: Last-Event-ID keeps naming the last keyframe event, and a stream reports the current
+// tileset version when it starts anyway.
+std::string tileset_event_text(std::uint64_t version, const std::shared_ptr<const tiles::TilesetSnapshot>& s) {
+  nlohmann::json data = {{"version", version}};
+  if (s && s->version == version) {
+    data["tiles"] = s->tiles;
+    data["triangles"] = s->triangles;
+    data["bytes"] = s->bytes;
+  }
+  return "event: tileset\ndata: " + data.dump() + "\n\n";
+}
+
+// A tile file name as TileRecord::file() makes it: "<level>_<x>_<z>.v<version>.glb".
+bool is_tile_file_name(const std::string& f) {
+  static const std::regex kTile(R"(\d{1,2}_-?\d{1,13}_-?\d{1,13}\.v\d{1,19}\.glb)");
+  return f.size() <= 64 && std::regex_match(f, kTile);
+}
+
 }  // namespace
 
 std::string mission_scene_key(const std::string& name) { return "mission/" + name; }
 
-MissionRoutes::MissionRoutes(MissionRouteOptions options, MissionStore& missions, RenderPool& pool, Slots& uploads,
-                             RenderView render_view)
+MissionRoutes::MissionRoutes(MissionRouteOptions options, MissionStore& missions, MissionTiles& tiles,
+                             RenderPool& pool, Slots& uploads, RenderView render_view)
     : options_(options),
       missions_(missions),
+      tiles_(tiles),
       pool_(pool),
       uploads_(uploads),
       render_view_(std::move(render_view)),
@@ -81,6 +103,8 @@ void MissionRoutes::install(httplib::Server& server, const Guard& guard, const G
   server.Get(R"(/v1/missions/([^/]+)/view)", guard([this](Req req, Res res) { get_view(req, res); }));
   server.Post(R"(/v1/missions/([^/]+)/view)", guard([this](Req req, Res res) { get_view(req, res); }));
   server.Get(R"(/v1/missions/([^/]+)/events)", guard([this](Req req, Res res) { get_events(req, res); }));
+  server.Get(R"(/v1/missions/([^/]+)/tileset\.json)", guard([this](Req req, Res res) { get_tileset(req, res); }));
+  server.Get(R"(/v1/missions/([^/]+)/tiles/(.*))", guard([this](Req req, Res res) { get_tile(req, res); }));
 }
 
 void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response& res,
@@ -185,6 +209,7 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   const double available = now_unix_s();
   auto marked = missions_.mark_available(*name, *seq, available);
   if (!marked) return send_error(res, marked.error());
+  tiles_.enqueue(*name);
   k = put->keyframe;
   k.available = available;
   if (k.first_available <= 0) k.first_available = available;  // a first revision (a revision keeps the seq's first)
@@ -356,6 +381,7 @@ void MissionRoutes::get_events(const httplib::Request& req, httplib::Response& r
           return true;
         }
         for (const auto& k : batch.events) out += event_text(k);
+        if (batch.tileset_version) out += tileset_event_text(*batch.tileset_version, tiles_.snapshot(stream->name));
         if (out.empty() && std::chrono::steady_clock::now() < stream->ends && !stopping_) out = ": keep-alive\n\n";
         if (!out.empty() && !sink.write(out.data(), out.size())) return false;
         return true;
@@ -370,7 +396,57 @@ void MissionRoutes::delete_mission(const httplib::Request& req, httplib::Respons
   auto st = missions_.remove(*name);
   if (!st) return send_error(res, st.error());
   pool_.forget(mission_scene_key(*name));
+  tiles_.forget(*name);
   res.status = 204;
+}
+
+void MissionRoutes::get_tileset(const httplib::Request& req, httplib::Response& res) {
+  auto name = name_or_error(req, res);
+  if (!name) return;
+  if (!req.params.empty()) return send_error(res, 400, "tileset.json takes no parameters");
+  if (!missions_.keyframes(*name)) return send_error(res, 404, "no mission " + *name);
+  auto snapshot = tiles_.snapshot(*name);
+  // Before the first update commits, an empty tileset of version 0: a client polls or waits for the "tileset" event.
+  const std::string body = snapshot ? snapshot->tileset_json
+                                    : tiles::make_tileset({}, 1, 0, "tiles/").dump();
+  const std::string etag = "\"tileset-" + std::to_string(snapshot ? snapshot->version : 0) + "\"";
+  res.set_header("ETag", etag);
+  res.set_header("Cache-Control", "no-cache");
+  const std::string inm = req.get_header_value("If-None-Match");
+  if (!inm.empty() && inm.find(etag) != std::string::npos) {
+    res.status = 304;
+    return;
+  }
+  res.status = 200;
+  res.set_content(body, "application/json");
+}
+
+void MissionRoutes::get_tile(const httplib::Request& req, httplib::Response& res) {
+  auto name = name_or_error(req, res);
+  if (!name) return;
+  const std::string file = req.matches.size() > 2 ? req.matches[2].str() : std::string();
+  if (!is_tile_file_name(file))
+    return send_error(res, 400, "malformed tile name (expected <level>_<x>_<z>.v<version>.glb, as tileset.json names it)");
+  if (!req.params.empty()) return send_error(res, 400, "a tile takes no parameters");
+  auto snapshot = tiles_.snapshot(*name);
+  if (!snapshot || !snapshot->files.count(file))
+    return send_error(res, 404, "no tile " + file + " in mission " + *name + " (tiles of older versions are removed)");
+  const std::string etag = "\"" + file + "\"";  // the name changes with the content: a strong validator
+  res.set_header("ETag", etag);
+  res.set_header("Cache-Control", "public, max-age=31536000, immutable");
+  const std::string inm = req.get_header_value("If-None-Match");
+  if (!inm.empty() && (inm == "*" || inm.find(etag) != std::string::npos)) {
+    res.status = 304;
+    return;
+  }
+  auto bytes = std::make_shared<std::string>();
+  {
+    std::ifstream in(tiles_.tile_dir(*name) + "/" + file, std::ios::binary);
+    if (!in) return send_error(res, 404, "no tile " + file + " in mission " + *name + " (removed meanwhile)");
+    bytes->assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  res.status = 200;
+  res.set_content(std::move(*bytes), "model/gltf-binary");
 }
 
 }  // namespace rgbdcast::service

@@ -2,7 +2,8 @@
 // The /v1/missions routes (issue 10; wire contract in service/openapi.yaml):
 //   POST   /v1/missions/{name}/keyframes?seq=N&pose=tx,ty,tz,qx,qy,qz,qw[&captured=T]   (a keyframe GLB)
 //   GET    /v1/missions, /v1/missions/{name}, /v1/missions/{name}/model.glb, /v1/missions/{name}/view?...
-//   GET    /v1/missions/{name}/events    (Server-Sent Events)
+//   GET    /v1/missions/{name}/events    (Server-Sent Events: "keyframe" events, and "tileset" when it changed)
+//   GET    /v1/missions/{name}/tileset.json, /v1/missions/{name}/tiles/{file}   (3D Tiles 1.1, service/mission_tiles.h)
 //   DELETE /v1/missions/{name}
 // Keyframe posts are idempotent on (name, seq) and serialized (one at a time, over every mission): each is decoded
 // (untrusted GLB) on the HTTP thread under the upload slots, stored (service/mission_store.h), appended to the mission
@@ -22,6 +23,7 @@
 
 // Eigen before httplib.h: a macro of the headers httplib pulls in breaks Eigen's product kernels otherwise.
 #include "service/mission_store.h"
+#include "service/mission_tiles.h"
 #include "service/render_pool.h"
 #include "service/view_params.h"
 #include "service/http_reply.h"
@@ -43,8 +45,8 @@ class MissionRoutes {
   // render_view renders and answers a parsed view of a pool scene (the scene view route's own code).
   using RenderView = std::function<void(const httplib::Request&, const std::string& scene_key, const ViewRequest&,
                                         httplib::Response&)>;
-  MissionRoutes(MissionRouteOptions options, MissionStore& missions, RenderPool& pool, Slots& uploads,
-                RenderView render_view);
+  MissionRoutes(MissionRouteOptions options, MissionStore& missions, MissionTiles& tiles, RenderPool& pool,
+                Slots& uploads, RenderView render_view);
   ~MissionRoutes();
   // Registers the routes; every handler runs inside `guard` (which turns anything thrown into a 500).
   using Guard = std::function<httplib::Server::Handler(httplib::Server::Handler)>;
@@ -61,10 +63,13 @@ class MissionRoutes {
   void get_model(const httplib::Request& req, httplib::Response& res);
   void get_view(const httplib::Request& req, httplib::Response& res);
   void get_events(const httplib::Request& req, httplib::Response& res);
+  void get_tileset(const httplib::Request& req, httplib::Response& res);
+  void get_tile(const httplib::Request& req, httplib::Response& res);
   void delete_mission(const httplib::Request& req, httplib::Response& res);
 
   MissionRouteOptions options_;
   MissionStore& missions_;
+  MissionTiles& tiles_;
   RenderPool& pool_;
   Slots& uploads_;
   RenderView render_view_;

@@ -98,17 +98,22 @@ Result<Scene> assemble_mission(const MissionStore& store, const std::string& nam
   }
 }
 
+Result<Scene> load_placed_keyframe(const MissionStore& store, const MissionKeyframe& k) {
+  auto bytes = store.read_glb(k.mission, k.seq, k.rev);
+  if (!bytes) return bytes.error();
+  auto decoded = decode_glb(bytes->data(), bytes->size());
+  if (!decoded)
+    return make_error(ErrorCode::kInternal, "stored keyframe " + std::to_string(k.seq) + " of mission " + k.mission +
+                                                " no longer decodes: " + decoded.error().message);
+  return place_keyframe(std::move(*decoded), k.seq, k.pose);
+}
+
 Result<Scene> assemble_keyframes(const MissionStore& store, const std::string& name,
                                  const std::vector<MissionKeyframe>& keyframes) {
   Scene mission;
-  for (const MissionKeyframe& k : keyframes) {
-    auto bytes = store.read_glb(name, k.seq, k.rev);
-    if (!bytes) return bytes.error();
-    auto decoded = decode_glb(bytes->data(), bytes->size());
-    if (!decoded)
-      return make_error(ErrorCode::kInternal, "stored keyframe " + std::to_string(k.seq) + " of mission " + name +
-                                                  " no longer decodes: " + decoded.error().message);
-    auto placed = place_keyframe(std::move(*decoded), k.seq, k.pose);
+  for (MissionKeyframe k : keyframes) {
+    k.mission = name;
+    auto placed = load_placed_keyframe(store, k);
     if (!placed) return placed.error();
     for (auto& node : placed->nodes) mission.nodes.push_back(std::move(node));
     for (auto& cam : placed->cameras) mission.cameras.push_back(std::move(cam));

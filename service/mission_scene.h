@@ -36,6 +36,10 @@ Result<Scene> place_keyframe(Scene keyframe, std::int64_t seq, const std::array<
 nlohmann::json mission_camera_json(const CaptureCamera& camera);
 Result<ViewCamera> mission_view_camera(const MissionKeyframe& keyframe, int width, int height);
 
+// One stored keyframe (k.mission, k.seq, k.rev) decoded and placed by its pose. kNotFound when that revision is no
+// longer stored, kInternal when it no longer decodes.
+Result<Scene> load_placed_keyframe(const MissionStore& store, const MissionKeyframe& k);
+
 // Every keyframe of a mission decoded and placed, in seq order: what a renderer uploads on a cache miss and what
 // model.glb encodes. kNotFound for an unknown mission, kInternal when a stored keyframe no longer decodes.
 // Each keyframe's current revision; a revision stored meanwhile makes it list the mission again.

@@ -431,7 +431,8 @@ EventBatch MissionStore::wait_events(const std::string& name, EventCursor& curso
   auto ready = [&] {
     auto m = missions_.find(name);
     if (m == missions_.end() || m->second.generation != cursor.generation) return true;
-    return m->second.arrival.size() > cursor.next || stopped_;
+    return m->second.arrival.size() > cursor.next || m->second.tileset_version != cursor.tileset_version ||
+           stopped_;
   };
   changed_.wait_for(lock, timeout, ready);
   auto m = missions_.find(name);
@@ -439,7 +440,21 @@ EventBatch MissionStore::wait_events(const std::string& name, EventCursor& curso
   batch.exists = true;
   for (; cursor.next < m->second.arrival.size(); ++cursor.next)
     batch.events.push_back(m->second.arrival[cursor.next]);
+  if (m->second.tileset_version != cursor.tileset_version) {
+    cursor.tileset_version = m->second.tileset_version;
+    batch.tileset_version = cursor.tileset_version;
+  }
   return batch;
+}
+
+void MissionStore::set_tileset_version(const std::string& name, std::uint64_t version) {
+  {
+    std::lock_guard lock(mutex_);
+    auto m = missions_.find(name);
+    if (m == missions_.end()) return;
+    m->second.tileset_version = version;
+  }
+  changed_.notify_all();
 }
 
 void MissionStore::wake_all() {

@@ -91,11 +91,13 @@ std::optional<MissionEventId> parse_event_id(const std::string& text);
 struct EventCursor {
   std::uint64_t generation = 0;
   size_t next = 0;
+  std::uint64_t tileset_version = 0;  // the mission's tileset version this stream last reported (0: none yet)
 };
 
 struct EventBatch {
   bool exists = false;                   // false: no such mission (or deleted since the cursor was made)
   std::vector<MissionKeyframe> events;   // available keyframes from the cursor on, in arrival order
+  std::optional<std::uint64_t> tileset_version;  // set when the tileset changed since the cursor's
 };
 
 class MissionStore {
@@ -108,6 +110,9 @@ class MissionStore {
   Result<PutResult> put(MissionKeyframe keyframe, const std::vector<std::uint8_t>& glb);
   // Records when views include the keyframe (rewrites its JSON atomically) and wakes the event streams.
   Status mark_available(const std::string& name, std::int64_t seq, double available_unix_s);
+  // The mission's tile hierarchy (service/mission_tiles.h) committed `version`: wakes the event streams, which report
+  // it once. Kept in memory only (the hierarchy holds its own version); ignored for an unknown mission.
+  void set_tileset_version(const std::string& name, std::uint64_t version);
 
   std::vector<MissionSummary> list() const;  // by name
   // Keyframes by seq; nullopt for an unknown mission.
@@ -136,6 +141,7 @@ class MissionStore {
     std::uint64_t generation = 0;
     std::map<std::int64_t, MissionKeyframe> by_seq;
     std::vector<MissionKeyframe> arrival;  // available keyframes (each revision as it became available)
+    std::uint64_t tileset_version = 0;
   };
   explicit MissionStore(std::string data_dir, std::string missions_dir)
       : data_dir_(std::move(data_dir)), dir_(std::move(missions_dir)) {}

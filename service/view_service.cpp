@@ -24,6 +24,7 @@
 #include "service/mission_routes.h"
 #include "service/mission_scene.h"
 #include "service/mission_store.h"
+#include "service/mission_tiles.h"
 #include "service/model_flavors.h"
 #include "service/render_pool.h"
 #include "service/request_guard.h"
@@ -83,6 +84,7 @@ struct ViewService::Impl {
   GuardConfig guard;
   std::unique_ptr<Slots> uploads;
   std::unique_ptr<MissionStore> missions;
+  std::unique_ptr<MissionTiles> tiles;  // after missions: its worker reads the store until it is destroyed
   std::unique_ptr<MissionRoutes> mission_routes;
   std::unique_ptr<GatedServer> server;  // last: destroyed first, its workers may still wait on the pools
   int port = 0;
@@ -521,8 +523,10 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   mission_options.event_stream_max_s = options.event_stream_max_s;
   mission_options.keep_alive_s = options.keep_alive_s;
   Impl* raw = impl.get();
+  impl->tiles = std::make_unique<MissionTiles>(options.data_dir, *impl->missions);
+  impl->tiles->start();
   impl->mission_routes = std::make_unique<MissionRoutes>(
-      mission_options, *impl->missions, *impl->pool, *impl->uploads,
+      mission_options, *impl->missions, *impl->tiles, *impl->pool, *impl->uploads,
       [raw](const httplib::Request& req, const std::string& key, const ViewRequest& request,
             httplib::Response& res) { raw->render_and_send(req, key, request, res); });
 
@@ -582,6 +586,7 @@ Status ViewService::run() {
 
 void ViewService::stop() {
   impl_->mission_routes->stop();
+  impl_->tiles->stop();
   impl_->server->stop();
 }
 

@@ -1,0 +1,71 @@
+#pragma once
+// Keeps each live mission's tile hierarchy (tiles/tile_hierarchy.h) up to date, off the keyframe POST's path: a POST
+// only names its mission to a background worker, which brings the mission's hierarchy to the keyframes the store
+// holds (so several keyframes posted meanwhile make one update) and then tells the event streams the new version
+// (MissionStore::set_tileset_version). Contract:
+// - Hierarchies live in <data_dir>/tiles/<mission>/ and survive restarts: start() names every stored mission to the
+//   worker, which builds only what the committed hierarchy lacks.
+// - The queue holds each mission at most once (a set), so it is bounded by the number of missions; one worker thread.
+// - A keyframe that fails to build leaves the mission's last committed tileset served; the error is counted and kept
+//   (last_error), and the next keyframe of the mission tries again.
+// - forget() (the mission was deleted) drops the hierarchy and its folder.
+// Thread-safe.
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <thread>
+
+#include "scene/result.h"
+#include "service/mission_store.h"
+#include "tiles/tile_hierarchy.h"
+
+namespace rgbdcast::service {
+
+struct MissionTilesStats {
+  std::uint64_t updates = 0, failures = 0, leaves_built = 0, inner_built = 0, bytes_written = 0;
+  double update_seconds = 0.0;  // summed over updates
+  std::string last_error;
+};
+
+class MissionTiles {
+ public:
+  MissionTiles(std::string data_dir, MissionStore& missions, tiles::TilingOptions options = {});
+  ~MissionTiles();  // stops the worker (an update under way finishes first)
+  MissionTiles(const MissionTiles&) = delete;
+  MissionTiles& operator=(const MissionTiles&) = delete;
+
+  void start();  // starts the worker and names every stored mission to it
+  void stop();
+  void enqueue(const std::string& mission);
+  void forget(const std::string& mission);
+  // The mission's committed tileset; nullptr before its hierarchy was opened (no keyframe yet, or still queued).
+  std::shared_ptr<const tiles::TilesetSnapshot> snapshot(const std::string& mission) const;
+  // The folder of the mission's tile files.
+  std::string tile_dir(const std::string& mission) const;
+  // Waits until nothing is queued or being built, or `timeout_s` passed; true when idle (tests, benchmarks).
+  bool wait_idle(double timeout_s) const;
+  MissionTilesStats stats() const;
+
+ private:
+  void run();
+  void update_one(const std::string& mission);
+
+  std::string root_;
+  MissionStore& missions_;
+  tiles::TilingOptions options_;
+  mutable std::mutex mutex_;
+  mutable std::condition_variable cv_;
+  std::set<std::string> queue_;
+  std::string busy_;  // the mission being updated, or empty
+  bool stopping_ = false;
+  std::map<std::string, std::unique_ptr<tiles::TileHierarchy>> hierarchies_;  // used by the worker only
+  std::map<std::string, std::shared_ptr<const tiles::TilesetSnapshot>> snapshots_;
+  MissionTilesStats stats_;
+  std::thread worker_;
+};
+
+}  // namespace rgbdcast::service

@@ -1,0 +1,290 @@
+// The tile hierarchy on real keyframes: TUM fr1/xyz frames reduced by the real CLI, placed by their ground-truth
+// poses, and laid out in laps along x (as a robot exploring a floor), the way the long-mission benchmark does.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <thread>
+
+#include "gltf/atomic_file.h"
+#include "gltf/gltf_io.h"
+#include "service/mission_scene.h"
+#include "tests/common/test_data.h"
+#include "tests/service/mission_keyframes.h"
+#include "tiles/tile_hierarchy.h"
+#include "tiles/tileset_json.h"
+
+namespace rgbdcast::tiles {
+namespace {
+namespace fs = std::filesystem;
+
+constexpr double kLapStepM = 4.0;
+
+// Keyframes of the excerpt, decoded once, and the placed scene of (frame, lap).
+struct Keyframes {
+  std::vector<Scene> decoded;
+  std::vector<std::array<double, 7>> poses;
+  std::string error;
+
+  static const Keyframes& get() {
+    static const Keyframes k = [] {
+      Keyframes out;
+      std::string error;
+      auto files = test::mission_keyframes({0, 30, 60, 90}, &error);
+      if (files.empty()) out.error = error;
+      for (const auto& f : files) {
+        auto scene = decode_glb(reinterpret_cast<const std::uint8_t*>(f.glb.data()), f.glb.size());
+        auto pose = service::parse_mission_pose(f.pose);
+        if (!scene || !pose) {
+          out.error = "keyframe " + std::to_string(f.frame) + " does not decode";
+          break;
+        }
+        out.decoded.push_back(std::move(*scene));
+        out.poses.push_back(*pose);
+      }
+      return out;
+    }();
+    return k;
+  }
+  size_t size() const { return decoded.size(); }
+  // seq = lap * size() + frame index; rev r > 0 uses the next frame's surface at this seq's pose.
+  Result<Scene> placed(const KeyframeId& id) const {
+    const size_t n = size();
+    const size_t i = static_cast<size_t>(id.seq) % n, lap = static_cast<size_t>(id.seq) / n;
+    std::array<double, 7> pose = poses[i];
+    pose[0] += kLapStepM * static_cast<double>(lap);
+    return service::place_keyframe(decoded[(i + static_cast<size_t>(id.rev)) % n], id.seq, pose);
+  }
+};
+
+#define REQUIRE_KEYFRAMES()                                                                    \
+  do {                                                                                         \
+    REQUIRE_DATA(test::kMissionExcerpt);                                                       \
+    ASSERT_TRUE(Keyframes::get().error.empty()) << Keyframes::get().error;                     \
+    ASSERT_EQ(Keyframes::get().size(), 4u);                                                    \
+  } while (0)
+
+std::vector<KeyframeId> first(size_t count) {
+  std::vector<KeyframeId> ids;
+  for (size_t s = 0; s < count; ++s) ids.push_back({static_cast<std::int64_t>(s), 0});
+  return ids;
+}
+
+KeyframeLoader loader() {
+  return [](const KeyframeId& id) { return Keyframes::get().placed(id); };
+}
+
+std::unique_ptr<TileHierarchy> open_ok(const std::string& dir) {
+  auto h = TileHierarchy::open(dir, TilingOptions{});
+  EXPECT_TRUE(h) << (h ? "" : h.error().message);
+  return h ? std::move(*h) : nullptr;
+}
+
+Mesh tile_mesh(const TileHierarchy& h, const TileRecord& r) {
+  auto scene = read_glb_file(h.dir() + "/" + r.file());
+  EXPECT_TRUE(scene) << r.file();
+  if (!scene || scene->nodes.empty()) return {};
+  return scene->nodes.front().mesh;
+}
+
+std::map<TileKey, std::vector<std::uint8_t>> contents(const TileHierarchy& h) {
+  std::map<TileKey, std::vector<std::uint8_t>> out;
+  for (const auto& [key, r] : h.tiles()) {
+    auto bytes = glb::read_file_bytes(h.dir() + "/" + r.file(), size_t(1) << 30);
+    EXPECT_TRUE(bytes) << r.file();
+    if (bytes) out[key] = *bytes;
+  }
+  return out;
+}
+
+TEST(TileKeyTest, ParentsFloorAndNamesRoundTrip) {
+  const TileKey k{0, -3, 5};
+  EXPECT_EQ(k.parent(), (TileKey{1, -2, 2}));
+  EXPECT_EQ((TileKey{0, -1, -2}).parent(), (TileKey{1, -1, -1}));
+  EXPECT_EQ(leaf_key(-0.1, 3.9, 2.0), (TileKey{0, -1, 1}));
+  EXPECT_EQ(parse_tile_key(k.name()), k);
+  for (const char* bad : {"", "0_1", "a_1_2", "0_01_2", "0_1_2_3", "63_0_0", "-1_0_0", "0_-0_1", "0_1_99999999999999"})
+    EXPECT_FALSE(parse_tile_key(bad)) << bad;
+}
+
+TEST(TileHierarchyTest, EveryTriangleIsInExactlyOneLeafAndBoxesHoldTheirContent) {
+  REQUIRE_KEYFRAMES();
+  const auto ids = first(12);  // three laps of four keyframes
+  auto h = open_ok(test::temp_dir("tiles-leaves"));
+  ASSERT_TRUE(h);
+  auto stats = h->update(ids, loader());
+  ASSERT_TRUE(stats) << stats.error().message;
+  size_t posted = 0;
+  for (const auto& id : ids) posted += Keyframes::get().placed(id)->triangle_count();
+  size_t in_leaves = 0, leaves = 0;
+  for (const auto& [key, r] : h->tiles()) {
+    const Mesh mesh = tile_mesh(*h, r);
+    EXPECT_EQ(mesh.triangle_count(), r.triangles) << key.name();
+    for (const auto& p : mesh.positions) ASSERT_TRUE(r.box.contains(p.cast<double>())) << key.name();
+    if (key.level == 0) {
+      in_leaves += r.triangles;
+      ++leaves;
+    }
+  }
+  EXPECT_EQ(in_leaves, posted);
+  EXPECT_GT(leaves, 3u);
+  // A triangle's leaf is the cell of its centroid: the leaves' sets of (keyframe, triangle) are disjoint and cover all.
+  for (const auto& id : ids) {
+    auto scene = Keyframes::get().placed(id);
+    size_t counted = 0;
+    for (const auto& leaf : h->keyframes().at(id.seq).leaves) counted += leaf_triangles(*scene, leaf, 2.0).size();
+    EXPECT_EQ(counted, scene->triangle_count()) << id.seq;
+  }
+}
+
+TEST(TileHierarchyTest, ErrorGrowsFromLeavesToRootAndInnerTilesAreSimplified) {
+  REQUIRE_KEYFRAMES();
+  auto h = open_ok(test::temp_dir("tiles-error"));
+  ASSERT_TRUE(h);
+  ASSERT_TRUE(h->update(first(12), loader()));
+  size_t leaf_triangles_total = 0, top_triangles = 0;
+  for (const auto& [key, r] : h->tiles()) {
+    if (key.level == 0) {
+      EXPECT_EQ(r.geometric_error_m, 0.0);
+      leaf_triangles_total += r.triangles;
+    }
+    if (key.level == h->options().top_level) top_triangles += r.triangles;
+    if (key.level < h->options().top_level) {
+      auto parent = h->tiles().find(key.parent());
+      ASSERT_NE(parent, h->tiles().end()) << key.name() << " has no parent";
+      EXPECT_GE(parent->second.geometric_error_m, r.geometric_error_m) << key.name();
+      EXPECT_TRUE(parent->second.box.contains(r.box)) << key.name();
+    }
+  }
+  EXPECT_GT(top_triangles, 0u);
+  EXPECT_LT(top_triangles * 8, leaf_triangles_total) << "the top tiles are not simplified";
+  // The tileset says the same, in the z-up frame: the root's error covers its children's, every box nests.
+  const auto tileset = make_tileset(h->tiles(), h->options().top_level, h->version(), "tiles/");
+  EXPECT_EQ(tileset["asset"]["version"], "1.1");
+  std::function<void(const nlohmann::json&, double)> walk = [&](const nlohmann::json& t, double parent_error) {
+    EXPECT_LE(t["geometricError"].get<double>(), parent_error);
+    EXPECT_EQ(t["refine"], "REPLACE");
+    for (const auto& c : t.value("children", nlohmann::json::array())) walk(c, t["geometricError"].get<double>());
+  };
+  walk(tileset["root"], tileset["geometricError"].get<double>());
+}
+
+TEST(TileHierarchyTest, IncrementalUpdatesGiveTheSameTilesAsOneBuild) {
+  REQUIRE_KEYFRAMES();
+  auto once = open_ok(test::temp_dir("tiles-once"));
+  auto steps = open_ok(test::temp_dir("tiles-steps"));
+  ASSERT_TRUE(once && steps);
+  ASSERT_TRUE(once->update(first(8), loader()));
+  for (size_t n = 1; n <= 8; ++n) {
+    auto s = steps->update(first(n), loader());
+    ASSERT_TRUE(s) << s.error().message;
+    EXPECT_EQ(s->keyframes_changed, 1u);
+    EXPECT_LT(s->leaves_built, 12u) << "a keyframe rebuilds only the leaves it touches";
+  }
+  EXPECT_EQ(steps->version(), 8u);
+  EXPECT_EQ(contents(*once), contents(*steps));  // byte for byte, so every view of them is the same too
+}
+
+TEST(TileHierarchyTest, ARevisionReplacesItsKeyframesSurface) {
+  REQUIRE_KEYFRAMES();
+  auto revised = open_ok(test::temp_dir("tiles-revised"));
+  auto fresh = open_ok(test::temp_dir("tiles-fresh"));
+  ASSERT_TRUE(revised && fresh);
+  ASSERT_TRUE(revised->update(first(4), loader()));
+  std::vector<KeyframeId> with_revision = first(4);
+  with_revision[1].rev = 1;  // seq 1 now carries another surface
+  auto s = revised->update(with_revision, loader());
+  ASSERT_TRUE(s) << s.error().message;
+  EXPECT_EQ(s->keyframes_changed, 1u);
+  EXPECT_EQ(revised->keyframes().at(1).rev, 1);
+  ASSERT_TRUE(fresh->update(with_revision, loader()));
+  EXPECT_EQ(contents(*revised), contents(*fresh));
+  size_t leaves = 0, expected = 0;
+  for (const auto& [key, r] : revised->tiles())
+    if (key.level == 0) leaves += r.triangles;
+  for (const auto& id : with_revision) expected += Keyframes::get().placed(id)->triangle_count();
+  EXPECT_EQ(leaves, expected);
+  // A keyframe no longer listed leaves the tiles too.
+  auto removed = revised->update(first(3), loader());
+  ASSERT_TRUE(removed);
+  EXPECT_FALSE(revised->keyframes().count(3));
+}
+
+TEST(TileHierarchyTest, ReopeningServesTheCommittedVersionAndBuildsNothingAgain) {
+  REQUIRE_KEYFRAMES();
+  const std::string dir = test::temp_dir("tiles-reopen");
+  std::map<TileKey, std::vector<std::uint8_t>> before;
+  {
+    auto h = open_ok(dir);
+    ASSERT_TRUE(h && h->update(first(4), loader()));
+    ASSERT_TRUE(h->update(first(6), loader()));
+    before = contents(*h);
+  }
+  auto h = open_ok(dir);
+  ASSERT_TRUE(h);
+  EXPECT_EQ(h->version(), 2u);
+  EXPECT_EQ(contents(*h), before);
+  auto again = h->update(first(6), loader());
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->keyframes_changed, 0u);
+  EXPECT_EQ(h->version(), 2u);
+  // Only the committed version's files remain (the previous version's are deleted on open).
+  size_t files = 0;
+  for (const auto& e : fs::directory_iterator(dir)) files += e.path().extension() == ".glb";
+  EXPECT_EQ(files, h->tiles().size());
+}
+
+// kill -9 while an update writes: the hierarchy opened afterwards is a committed one, whole, and nothing else is left.
+TEST(TileHierarchyTest, AKilledUpdateLeavesTheLastCommittedHierarchyWhole) {
+  REQUIRE_KEYFRAMES();
+  // How long a whole update takes here, to kill the next ones at several points inside it.
+  double update_s = 0.0;
+  {
+    auto probe = open_ok(test::temp_dir("tiles-probe"));
+    ASSERT_TRUE(probe && probe->update(first(4), loader()));
+    const auto t0 = std::chrono::steady_clock::now();
+    ASSERT_TRUE(probe->update(first(12), loader()));
+    update_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  for (double fraction : {0.15, 0.5, 0.85}) {
+    const std::string dir = test::temp_dir("tiles-kill");
+    std::map<TileKey, std::vector<std::uint8_t>> committed;
+    {
+      auto h = open_ok(dir);
+      ASSERT_TRUE(h && h->update(first(4), loader()));
+      committed = contents(*h);
+    }
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      auto h = TileHierarchy::open(dir, TilingOptions{});
+      if (h) (void)(*h)->update(first(12), loader());
+      _exit(0);
+    }
+    std::this_thread::sleep_for(std::chrono::duration<double>(fraction * update_s));
+    kill(child, SIGKILL);
+    int status = 0;
+    waitpid(child, &status, 0);
+    auto h = open_ok(dir);
+    ASSERT_TRUE(h);
+    ASSERT_TRUE(h->version() == 1u || h->version() == 2u) << h->version();
+    if (h->version() == 1u) EXPECT_EQ(contents(*h), committed) << "at " << fraction;
+    for (const auto& [key, r] : h->tiles()) EXPECT_FALSE(tile_mesh(*h, r).positions.empty()) << r.file();
+    size_t files = 0;
+    for (const auto& e : fs::directory_iterator(dir)) files += e.path().filename() != "hierarchy.json";
+    EXPECT_EQ(files, h->tiles().size()) << "a cut update's files were left behind (at " << fraction << ")";
+    // And it goes on from there.
+    auto finished = h->update(first(12), loader());
+    ASSERT_TRUE(finished) << finished.error().message;
+    EXPECT_EQ(h->keyframes().size(), 12u);
+  }
+}
+
+}  // namespace
+}  // namespace rgbdcast::tiles

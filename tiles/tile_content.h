@@ -1,0 +1,57 @@
+#pragma once
+// What one tile draws, built from what it covers:
+// - a leaf: the keyframes' own triangles whose centroid falls in its cell, whole (not split at the cell border, so
+//   neighbouring leaves meet without a crack: a triangle is in exactly one leaf, and the leaf's bounding volume grows
+//   to hold it). Its texture is baked into one footprint atlas (atlas/footprint_layout.h: a cell per triangle, about
+//   one texel per source texel along each leg) from the keyframes' own textures, through each triangle's UVs: an
+//   affine copy of what the keyframe GLB shows, whichever keyframes the leaf merges.
+// - an inner tile: the merged surface of its children, welded on a 1 mm grid and simplified with meshoptimizer
+//   (meshopt_simplify, tile borders locked so that it meets its neighbours), coloured per vertex (COLOR_0) from the
+//   children's colours. Its error is the simplifier's, in metres, plus the largest of its children's.
+// Positions are metres in the mission's world frame (scene/camera.h); the tile's one SceneNode has to_world identity.
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "scene/result.h"
+#include "scene/scene.h"
+#include "tiles/tile_key.h"
+
+namespace rgbdcast::tiles {
+
+struct LeafBakeOptions {
+  int max_atlas_side_px = 4096;  // legs are halved until the atlas fits
+  int gutter_px = 1;
+  int jpeg_quality = 85;
+};
+
+// The triangles of a placed keyframe (its nodes' to_world applied) whose centroid lies in the leaf `key`, as pairs
+// (node index, triangle index), in node then triangle order.
+std::vector<std::pair<std::uint32_t, std::uint32_t>> leaf_triangles(const Scene& placed, const TileKey& key,
+                                                                     double leaf_size_m);
+// The leaves (level 0) that some triangle of the placed keyframe falls in, in key order.
+std::vector<TileKey> leaves_touched(const Scene& placed, double leaf_size_m);
+
+// A leaf's content from the given placed keyframes (in the order given; each contributes the triangles leaf_triangles
+// names): one textured mesh in world coordinates, its triangles in input order. kEmpty when no triangle falls in
+// the leaf; kInvalidInput for a mesh whose indices or uvs are inconsistent.
+Result<Mesh> build_leaf(const std::vector<const Scene*>& keyframes, const TileKey& key, double leaf_size_m,
+                        const LeafBakeOptions& options);
+
+struct InnerTile {
+  Mesh mesh;               // vertex-coloured (colors), world coordinates
+  double simplify_error_m = 0.0;  // the simplifier's error on the merged children, metres
+  size_t merged_triangles = 0;    // before simplification
+};
+
+// An inner tile's content from its children's decoded contents (tile GLBs, world coordinates): textured children give
+// their colour at each corner (bilinear), vertex-coloured ones their colours. target_triangles > 0.
+// kEmpty when the children hold no triangle.
+Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, size_t target_triangles);
+
+// The box of a mesh's positions (world), grown by pad_m on every side.
+Eigen::AlignedBox3d mesh_box(const Mesh& mesh, double pad_m);
+
+}  // namespace rgbdcast::tiles

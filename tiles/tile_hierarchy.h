@@ -1,0 +1,121 @@
+#pragma once
+// A mission's live level-of-detail hierarchy: a quadtree of tiles over the floor (tiles/tile_key.h) whose leaves hold
+// the keyframes' surfaces and whose inner tiles hold their children's, simplified (tiles/tile_content.h), served as
+// an OGC 3D Tiles 1.1 tileset (tiles/tileset_json.h) with GLB content and REPLACE refinement.
+//
+// On disk, in its own folder: one GLB per tile version, "<level>_<x>_<z>.v<version>.glb" (immutable: a tile that
+// changes is written under the new version's name), and hierarchy.json, the commit marker: the version, the options,
+// every tile's record and the leaves each keyframe touches. Contract:
+// - update() writes the changed tiles' files first (each atomically: temporary name, fsync, rename, fsync of the
+//   folder), then hierarchy.json atomically. A crash (kill -9) at any point leaves the last committed hierarchy whole:
+//   open() serves it and deletes what a cut update left (files no committed record names).
+// - After a commit, the files of the version before it stay (a client that read the previous tileset can still fetch
+//   its tiles); older ones are deleted.
+// - Incremental: a new keyframe, a revision that replaces one (a higher rev of a seq), or a keyframe gone, rebuilds
+//   only the leaves it touches (before and after) and their ancestors. Every build is a function of its inputs (a
+//   leaf: its keyframes in seq order; an inner tile: its children's stored GLBs), so an incremental hierarchy has the
+//   same tile contents as one built from scratch.
+// - Every tile's geometric error is in metres and at least each of its children's; leaves' is 0.
+// Not thread-safe, except snapshot(), which any thread may call while update() runs.
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "scene/result.h"
+#include "scene/scene.h"
+#include "tiles/tile_content.h"
+#include "tiles/tile_key.h"
+
+namespace rgbdcast::tiles {
+
+struct TilingOptions {
+  double leaf_size_m = 2.0;        // side of a leaf's floor cell
+  int top_level = 6;               // the tree's top tiles: cells of leaf_size_m * 2^top_level (128 m by default)
+  size_t inner_triangles = 20000;  // an inner tile keeps at most this many (and a quarter of its children's)
+  LeafBakeOptions leaf;
+};
+
+struct KeyframeId {
+  std::int64_t seq = 0, rev = 0;
+  auto operator<=>(const KeyframeId&) const = default;
+};
+
+struct TileRecord {
+  TileKey key;
+  std::uint64_t version = 0;      // the hierarchy version that wrote its GLB
+  Eigen::AlignedBox3d box;        // world frame (OpenCV axes): holds its content and its children's boxes
+  double geometric_error_m = 0.0;
+  std::uint64_t triangles = 0, bytes = 0;
+  std::string file() const;       // "<name>.v<version>.glb"
+};
+
+// What clients read, made at each commit.
+struct TilesetSnapshot {
+  std::uint64_t version = 0;
+  std::string tileset_json;                      // 3D Tiles 1.1, tile URIs relative to it ("tiles/<file>")
+  std::map<std::string, std::uint64_t> files;    // tile file name -> bytes, this version's and the previous one's
+  std::uint64_t tiles = 0, triangles = 0, bytes = 0;  // this version's
+};
+
+// The placed keyframe (its nodes in the mission's world frame) of (seq, rev).
+using KeyframeLoader = std::function<Result<Scene>(const KeyframeId&)>;
+
+struct UpdateStats {
+  std::uint64_t version = 0;
+  size_t keyframes_changed = 0;   // added, replaced or removed
+  size_t leaves_built = 0, inner_built = 0, tiles_removed = 0;
+  std::uint64_t bytes_written = 0;
+};
+
+class TileHierarchy {
+ public:
+  // Opens (or creates) the hierarchy in `dir`. A hierarchy.json that does not parse, or one made with other options,
+  // is started again from empty (its files deleted). kIo when the folder cannot be made or read.
+  static Result<std::unique_ptr<TileHierarchy>> open(const std::string& dir, const TilingOptions& options);
+  ~TileHierarchy();
+
+  // Brings the hierarchy to `keyframes` (the mission's current keyframes, one rev per seq) and commits a new version
+  // when anything changed (else returns the current version and changes nothing). A keyframe that fails to load or
+  // build fails the update (kept uncommitted: the previous version stays served), naming the keyframe or tile.
+  Result<UpdateStats> update(const std::vector<KeyframeId>& keyframes, const KeyframeLoader& load);
+
+  std::uint64_t version() const { return version_; }
+  const std::map<TileKey, TileRecord>& tiles() const { return tiles_; }
+  // seq -> (rev, the leaves it touches), as committed.
+  struct KeyframeEntry {
+    std::int64_t rev = 0;
+    std::vector<TileKey> leaves;
+  };
+  const std::map<std::int64_t, KeyframeEntry>& keyframes() const { return keyframes_; }
+  const std::string& dir() const { return dir_; }
+  const TilingOptions& options() const { return options_; }
+  std::shared_ptr<const TilesetSnapshot> snapshot() const;
+
+ private:
+  TileHierarchy(std::string dir, TilingOptions options) : dir_(std::move(dir)), options_(std::move(options)) {}
+  struct Build;
+  class SceneCache;
+  Status load_committed();
+  Status build_leaves(Build& b, SceneCache& scenes);
+  Status build_inner_levels(Build& b);
+  Status commit(Build& b);
+  void publish();
+
+  std::string dir_;
+  TilingOptions options_;
+  std::uint64_t version_ = 0;
+  std::map<TileKey, TileRecord> tiles_;
+  std::map<std::int64_t, KeyframeEntry> keyframes_;
+  std::set<std::string> retired_;  // files of the previous version that the current one no longer names
+  mutable std::mutex snapshot_mutex_;
+  std::shared_ptr<const TilesetSnapshot> snapshot_;
+};
+
+}  // namespace rgbdcast::tiles

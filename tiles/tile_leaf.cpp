@@ -1,0 +1,200 @@
+// A leaf's content: the keyframes' triangles in its cell, textured through one baked footprint atlas.
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include "atlas/cell_fill.h"
+#include "atlas/footprint_layout.h"
+#include "atlas/texture_encode.h"
+#include "atlas/unsampled_fill.h"
+#include "tiles/tile_content.h"
+
+namespace rgbdcast::tiles {
+namespace {
+
+std::array<Eigen::Vector3d, 3> world_triangle(const SceneNode& node, size_t t) {
+  std::array<Eigen::Vector3d, 3> v;
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3d p = node.mesh.positions[node.mesh.indices[3 * t + k]].cast<double>();
+    v[k] = (node.to_world * p.homogeneous()).head<3>();
+  }
+  return v;
+}
+
+TileKey centroid_leaf(const std::array<Eigen::Vector3d, 3>& v, double leaf_size_m) {
+  const Eigen::Vector3d c = (v[0] + v[1] + v[2]) / 3.0;
+  return leaf_key(c.x(), c.z(), leaf_size_m);
+}
+
+bool mesh_consistent(const Mesh& m) {
+  if (m.indices.size() % 3 != 0) return false;
+  if (!m.uvs.empty() && m.uvs.size() != m.positions.size()) return false;
+  if (!m.colors.empty() && m.colors.size() != m.positions.size()) return false;
+  return std::all_of(m.indices.begin(), m.indices.end(), [&](std::uint32_t i) { return i < m.positions.size(); });
+}
+
+// One triangle of the leaf: where it comes from and how its texture cell is laid out.
+struct LeafTriangle {
+  const SceneNode* node = nullptr;
+  std::array<std::uint32_t, 3> corner{};  // source vertex indices, the cell's right-angle corner first
+  std::array<Eigen::Vector3d, 3> world;
+  int leg = 1;
+};
+
+// The affine map from a cell triangle's atlas corners to pixel centres of the source texture.
+Eigen::Matrix3d affine_from_corners(const std::array<Eigen::Vector2d, 3>& atlas,
+                                    const std::array<Eigen::Vector2d, 3>& image) {
+  Eigen::Matrix3d A, B;
+  for (int k = 0; k < 3; ++k) {
+    A.col(k) << atlas[k], 1.0;
+    B.col(k) << image[k], 1.0;
+  }
+  return B * A.inverse();
+}
+
+std::array<Eigen::Vector2d, 3> source_pixels(const LeafTriangle& t) {
+  const Mesh& m = t.node->mesh;
+  std::array<Eigen::Vector2d, 3> px;
+  for (int k = 0; k < 3; ++k)
+    px[k] = m.uvs[t.corner[k]].cast<double>().cwiseProduct(Eigen::Vector2d(m.texture.width, m.texture.height)) -
+            Eigen::Vector2d(0.5, 0.5);
+  return px;
+}
+
+// A cell of one colour: a triangle of a vertex-coloured mesh gets the mean of its corners' colours.
+void fill_cell_flat(const FootprintSlot& slot, const Rgb8& rgb, Image* atlas, std::uint8_t* sampled) {
+  const int S = slot.cell_px;
+  for (int j = 0; j < S; ++j) {
+    const int split = S - 1 - j;
+    const int i0 = slot.lower ? split : 0, i1 = slot.lower ? S : split;
+    for (int i = i0; i < i1; ++i) {
+      std::uint8_t* px = atlas->pixel(slot.x0 + i, slot.y0 + j);
+      px[0] = rgb[0], px[1] = rgb[1], px[2] = rgb[2];
+      sampled[static_cast<size_t>(slot.y0 + j) * atlas->width + slot.x0 + i] = 1;
+    }
+  }
+}
+
+Rgb8 mean_color(const LeafTriangle& t) {
+  const Mesh& m = t.node->mesh;
+  if (m.colors.empty()) return {128, 128, 128};
+  int sum[3] = {0, 0, 0};
+  for (int k = 0; k < 3; ++k)
+    for (int c = 0; c < 3; ++c) sum[c] += m.colors[t.corner[k]][c];
+  return {static_cast<std::uint8_t>(sum[0] / 3), static_cast<std::uint8_t>(sum[1] / 3),
+          static_cast<std::uint8_t>(sum[2] / 3)};
+}
+
+// Lays the cells out, halving every leg until the atlas fits max_side.
+Result<FootprintLayout> layout_cells(const std::vector<LeafTriangle>& tris, const LeafBakeOptions& options) {
+  std::vector<FootprintTriangle> cells(tris.size());
+  for (size_t i = 0; i < tris.size(); ++i) cells[i].leg = tris[i].leg;
+  for (int attempt = 0; attempt < 10; ++attempt) {
+    FootprintLayout layout;
+    if (make_footprint_layout(cells, options.gutter_px, options.max_atlas_side_px, &layout)) return layout;
+    for (auto& c : cells) c.leg = footprint_leg_class(std::max(1, c.leg / 2));
+  }
+  return make_error(ErrorCode::kInvalidArgument, "leaf atlas: " + std::to_string(tris.size()) +
+                                                     " triangles do not fit a " +
+                                                     std::to_string(options.max_atlas_side_px) + " px atlas");
+}
+
+}  // namespace
+
+std::vector<std::pair<std::uint32_t, std::uint32_t>> leaf_triangles(const Scene& placed, const TileKey& key,
+                                                                     double leaf_size_m) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> out;
+  for (size_t n = 0; n < placed.nodes.size(); ++n) {
+    const SceneNode& node = placed.nodes[n];
+    if (!mesh_consistent(node.mesh)) continue;
+    for (size_t t = 0; t < node.mesh.triangle_count(); ++t)
+      if (centroid_leaf(world_triangle(node, t), leaf_size_m) == key)
+        out.emplace_back(static_cast<std::uint32_t>(n), static_cast<std::uint32_t>(t));
+  }
+  return out;
+}
+
+std::vector<TileKey> leaves_touched(const Scene& placed, double leaf_size_m) {
+  std::set<TileKey> keys;
+  for (const SceneNode& node : placed.nodes) {
+    if (!mesh_consistent(node.mesh)) continue;
+    for (size_t t = 0; t < node.mesh.triangle_count(); ++t)
+      keys.insert(centroid_leaf(world_triangle(node, t), leaf_size_m));
+  }
+  return {keys.begin(), keys.end()};
+}
+
+Result<Mesh> build_leaf(const std::vector<const Scene*>& keyframes, const TileKey& key, double leaf_size_m,
+                        const LeafBakeOptions& options) {
+  std::vector<LeafTriangle> tris;
+  for (const Scene* scene : keyframes) {
+    for (const auto& [n, t] : leaf_triangles(*scene, key, leaf_size_m)) {
+      const SceneNode& node = scene->nodes[n];
+      if (!node.mesh.uvs.empty() && node.mesh.uvs.size() != node.mesh.positions.size())
+        return make_error(ErrorCode::kInvalidInput, "leaf " + key.name() + ": uvs do not match positions");
+      LeafTriangle lt;
+      lt.node = &node;
+      const auto world = world_triangle(node, t);
+      int right = 0;
+      if (node.mesh.textured() && !node.mesh.texture.empty()) {
+        std::array<Eigen::Vector2d, 3> px;
+        for (int k = 0; k < 3; ++k)
+          px[k] = node.mesh.uvs[node.mesh.indices[3 * t + k]].cast<double>().cwiseProduct(
+              Eigen::Vector2d(node.mesh.texture.width, node.mesh.texture.height));
+        lt.leg = footprint_leg_class(footprint_leg_px(px, &right));
+      } else {
+        lt.leg = 2;
+      }
+      for (int k = 0; k < 3; ++k) {
+        lt.corner[k] = node.mesh.indices[3 * t + (right + k) % 3];
+        lt.world[k] = world[(right + k) % 3];
+      }
+      tris.push_back(lt);
+    }
+  }
+  if (tris.empty()) return make_error(ErrorCode::kEmpty, "leaf " + key.name() + ": no triangle");
+  auto layout = layout_cells(tris, options);
+  if (!layout) return layout.error();
+  Image atlas = Image::make(layout->width, layout->height, 3);
+  std::vector<std::uint8_t> sampled(static_cast<size_t>(atlas.width) * atlas.height, 0);
+  Mesh out;
+  out.positions.reserve(3 * tris.size());
+  out.uvs.reserve(3 * tris.size());
+  const Eigen::Vector2d inv_size(1.0 / atlas.width, 1.0 / atlas.height);
+  for (size_t i = 0; i < tris.size(); ++i) {
+    const LeafTriangle& t = tris[i];
+    const auto corners = layout->corners(i);
+    const Mesh& m = t.node->mesh;
+    if (m.textured() && !m.texture.empty() && m.texture.channels == 3) {
+      const auto px = source_pixels(t);
+      const Eigen::Vector2d centre = (px[0] + px[1] + px[2]) / 3.0;  // an affine map never needs the fallback
+      fill_cell_triangle(layout->slots[i], affine_from_corners(corners, px), Eigen::Vector3d(centre.x(), centre.y(), 1),
+                         cell_source(m.texture), &atlas, sampled.data());
+    } else {
+      fill_cell_flat(layout->slots[i], mean_color(t), &atlas, sampled.data());
+    }
+    for (int k = 0; k < 3; ++k) {
+      out.positions.push_back(t.world[k].cast<float>());
+      out.uvs.push_back(corners[k].cwiseProduct(inv_size).cast<float>());
+      out.indices.push_back(static_cast<std::uint32_t>(out.indices.size()));
+    }
+  }
+  if (auto st = fill_unsampled_texels(&atlas, sampled); !st) return st.error();
+  out.texture = std::move(atlas);
+  double encode_ms = 0.0;
+  if (auto st = attach_jpeg(out, options.jpeg_quality, &encode_ms); !st) return st.error();
+  return out;
+}
+
+Eigen::AlignedBox3d mesh_box(const Mesh& mesh, double pad_m) {
+  Eigen::AlignedBox3d box;
+  for (const auto& p : mesh.positions) box.extend(p.cast<double>());
+  if (!box.isEmpty()) {
+    box.min().array() -= pad_m;
+    box.max().array() += pad_m;
+  }
+  return box;
+}
+
+}  // namespace rgbdcast::tiles
