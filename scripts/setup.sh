@@ -13,6 +13,8 @@ DEB_PACKAGES=(
   librosbag-storage-dev libsensor-msgs-dev python3-rosbag python3-sensor-msgs
   clang-16 libfuzzer-16-dev libclang-rt-16-dev
   chromium wrk curl jq
+  # promtool, which checks the service's /metrics (tests/service/test_missions.cpp)
+  prometheus
   # External glTF viewers for tests/gltf/test_gltf_viewers (Blender's glTF importer needs numpy). Measured on a
   # machine with the rest installed: 53 packages, 112 MB of archives, 423 MiB installed, 36 s of apt-get install
   # (with 35 of the archives already in apt's cache).

@@ -263,7 +263,7 @@ void ViewService::Impl::render_and_send(const httplib::Request& req, const std::
   auto encoded = encode_image(out->color, request->format, request->quality);
   if (!encoded) return send_error(res, encoded.error());
   const double encode_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-  metrics.observe_render(to_string(request->mode), out->backend, out->render_ms);
+  metrics.observe_render(to_string(request->mode), out->backend, out->render_ms / 1000.0);
   res.set_header("X-Render-Ms", fmt_ms(out->render_ms));
   res.set_header("X-Readback-Ms", fmt_ms(out->readback_ms));
   res.set_header("X-Encode-Ms", fmt_ms(encode_ms));
