@@ -143,7 +143,8 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
 
   if (auto st = uplink->check_reachable(); !st) fail_stream(st.error());
   // The POST model's first fixed cost: a bodiless request's round trip on the connection just opened (so the first
-  // keyframe's answer already gives a line rate; BENCHMARKS.md stop 20). Not fatal: 0 without it.
+  // keyframe's answer already gives a line rate; BENCHMARKS.md, "Live missions over an emulated link"). Not fatal: 0
+  // without it.
   if (auto rtt = uplink->round_trip_s()) link.initial_fixed_s = *rtt;
   const std::string outbox_dir = a.outbox.empty() ? "rgbdcast-outbox-" + a.mission : a.outbox;
   auto outbox = stream::Outbox::open(outbox_dir, a.mission);

@@ -474,7 +474,8 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   // returned on free (bench/soak.sh 300 8: peak 21 % above the post-warm-up RSS before, 7 % with a 128 kB one).
   // It is 2 MB, not 128 kB: a keyframe POST allocates and frees the same blocks of 0.1-1.2 MB each time (its body,
   // the decoded 640x480 texture, the glTF and Draco buffers), and at 128 kB each was mapped, faulted in and unmapped
-  // again, 7-10 of a POST's 11-14 ms on the server (bench/post_roundtrip.py, BENCHMARKS.md stop 24). The trim
+  // again, 7-10 of a POST's 11-14 ms on the server (bench/post_roundtrip.py; BENCHMARKS.md, "Keyframe POST round
+  // trip"). The trim
   // threshold keeps them at the heap's top between POSTs; the render pool's malloc_trim still returns the heap after
   // a burst of views. This is the only place serve sets them; MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_, when
   // set, win.

@@ -426,7 +426,7 @@ TEST(Missions, EventsReachARealClientWithReplayAndKeepAlive) {
   std::string error;
   // Streams live 20 s: on a loaded 2-core machine the steps below (three posts, a replay) took more than 6 s, the
   // first stream ended early and the third was not refused; at 12 s the test failed once more under the sanitizers
-  // beside other work (stop 19). A failure of the refusal now says how long the first stream had been open.
+  // beside other work. A failure of the refusal says how long the first stream had been open.
   constexpr double kStreamMaxS = 20;
   ASSERT_TRUE(server.start(dir, {"--keep-alive-s", "0.5", "--max-event-streams", "2", "--event-stream-max-s",
                                  std::to_string(kStreamMaxS)},
