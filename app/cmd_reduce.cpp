@@ -105,14 +105,10 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
 
 void run_reduce(const ReduceArgs& a, const RosbagTopics& topics) {
   keep_freed_frame_memory();
-  SourceOptions so;
-  so.rosbag = topics;
-  so.intrinsics = a.intrinsics;
-  so.depth_path = a.depth;
-  so.associations_path = a.associations;
-  if (a.depth_scale != 0) so.depth_scale = a.depth_scale;
+  auto so = source_options(a, topics);
+  if (!so) fail(so.error());
   if (auto o = frame_options(a); !o) fail(o.error());
-  auto source = open_frame_source(a.input, so);
+  auto source = open_frame_source(a.input, *so);
   if (!source) fail(source.error());
   if (a.sequence) {
     if (auto st = run_sequence(a, **source); !st) fail(st.error());
@@ -138,8 +134,12 @@ void register_reduce(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--frame", args->frame, "Frame index (N-th associated rgb/depth pair)");
   cmd->add_option("--depth", args->depth, "Depth PNG for a single colour image");
-  cmd->add_option("--intrinsics", args->intrinsics, "fr1|fr2|fr3|kinect|icl or a JSON file (default: guessed)");
+  cmd->add_option("--intrinsics", args->intrinsics,
+                  "fr1|fr2|fr3|kinect|icl, a JSON file or a 3x3 matrix .txt file (default: guessed)");
   cmd->add_option("--depth-scale", args->depth_scale, "Raw depth units per metre (TUM 5000, mm sensors 1000)");
+  cmd->add_option("--depth-encoding", args->depth_encoding,
+                  "png16 (raw units), nyu (NYU Depth v2 Kinect disparity PGM) or sun (SUN3D/SUN RGB-D bit-rotated mm)")
+      ->capture_default_str();
   cmd->add_option("--associations", args->associations, "TUM associations file (t_rgb rgb t_depth depth)");
   cmd->add_option("--preset", args->preset,
                   "realtime (the default: the depth image meshed adaptively, in milliseconds, under a byte budget) or "

@@ -136,17 +136,15 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   auto sequence = sequence_params(r);
   if (!sequence) fail_stream(sequence.error());
 
-  SourceOptions so;
-  so.rosbag = topics;
-  so.intrinsics = r.intrinsics;
-  so.associations_path = r.associations;
-  if (r.depth_scale != 0) so.depth_scale = r.depth_scale;
-  auto source = open_frame_source(r.input, so);
+  auto so = source_options(r, topics);
+  if (!so) fail_stream(so.error());
+  auto source = open_frame_source(r.input, *so);
   if (!source) fail_stream(source.error());
 
   if (auto st = uplink->check_reachable(); !st) fail_stream(st.error());
   // The POST model's first fixed cost: a bodiless request's round trip on the connection just opened (so the first
-  // keyframe's answer already gives a line rate; BENCHMARKS.md stop 20). Not fatal: 0 without it.
+  // keyframe's answer already gives a line rate; BENCHMARKS.md, "Live missions over an emulated link"). Not fatal: 0
+  // without it.
   if (auto rtt = uplink->round_trip_s()) link.initial_fixed_s = *rtt;
   const std::string outbox_dir = a.outbox.empty() ? "rgbdcast-outbox-" + a.mission : a.outbox;
   auto outbox = stream::Outbox::open(outbox_dir, a.mission);
@@ -323,9 +321,12 @@ void register_stream(CLI::App& app) {
   cmd->add_option("--reduce-nice", args->reduce_nice,
                   "Niceness added to the keyframe reduction thread (0-19), so that tracking keeps up with the camera")
       ->capture_default_str();
-  cmd->add_option("--intrinsics", r.intrinsics, "fr1|fr2|fr3|kinect|icl or a JSON file (default: guessed)");
+  cmd->add_option("--intrinsics", r.intrinsics,
+                  "fr1|fr2|fr3|kinect|icl, a JSON file or a 3x3 matrix .txt file (default: guessed)");
   cmd->add_option("--depth-scale", r.depth_scale, "Raw depth units per metre");
   cmd->add_option("--associations", r.associations, "TUM associations file");
+  cmd->add_option("--depth-encoding", r.depth_encoding, "png16, nyu (Kinect disparity PGM) or sun (bit-rotated mm)")
+      ->capture_default_str();
   cmd->add_option("--color-topic", topics->color, "ROS bag: colour topic")->capture_default_str();
   cmd->add_option("--depth-topic", topics->depth, "ROS bag: depth topic")->capture_default_str();
   cmd->add_option("--camera-info-topic", topics->camera_info, "ROS bag: camera info topic")->capture_default_str();

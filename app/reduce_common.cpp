@@ -42,6 +42,19 @@ Result<SequenceParams> sequence_params(const ReduceArgs& a) {
   return params;
 }
 
+Result<SourceOptions> source_options(const ReduceArgs& a, const RosbagTopics& topics) {
+  SourceOptions so;
+  so.rosbag = topics;
+  so.intrinsics = a.intrinsics;
+  so.depth_path = a.depth;
+  so.associations_path = a.associations;
+  if (a.depth_scale != 0) so.depth_scale = a.depth_scale;
+  auto encoding = parse_depth_encoding(a.depth_encoding);
+  if (!encoding) return make_error(ErrorCode::kInvalidArgument, "--depth-encoding must be png16, nyu or sun");
+  so.depth_encoding = *encoding;
+  return so;
+}
+
 nlohmann::json intrinsics_json(const Intrinsics& k) {
   return {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"width", k.width}, {"height", k.height}};
 }

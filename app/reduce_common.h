@@ -8,6 +8,7 @@
 #include "atlas/atlas.h"
 #include "gltf/gltf_io.h"
 #include "input/frame.h"
+#include "input/frame_source.h"
 #include "keyframes/sequence.h"
 #include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
@@ -19,6 +20,7 @@ struct ReduceArgs {
   std::string input, depth, intrinsics, associations, out, report;
   int frame = 0;
   double depth_scale = 0;
+  std::string depth_encoding = "png16";  // png16 | nyu | sun (input/depth_encoding.h)
   std::string preset = to_string(kDefaultPreset);  // realtime (pipeline/frame_defaults.h)
   // < 0: the preset's default (realtime: min(40 kB, a quarter of the frame's JPEG90+PNG16 payload), set per frame
   // by reduce_and_texture for each frame: budget_within_payload_share; paper: none).
@@ -51,6 +53,10 @@ Result<FrameReductionOptions> frame_options(const ReduceArgs& args);
 // The sequence options the arguments ask for (features, keyframe rule, range); errors name the bad option. Shared
 // by reduce --sequence and stream.
 Result<SequenceParams> sequence_params(const ReduceArgs& args);
+
+// The frame source options the arguments ask for (intrinsics, depth unit and encoding, pairing); errors name the bad
+// option. Shared by reduce and stream.
+Result<SourceOptions> source_options(const ReduceArgs& args, const RosbagTopics& topics);
 
 nlohmann::json intrinsics_json(const Intrinsics& k);
 nlohmann::json params_json(const ReduceArgs& args);

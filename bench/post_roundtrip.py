@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""What a keyframe POST costs a client on a direct connection, beyond the server's own work (issue 10, stop 23).
+"""What a keyframe POST costs a client on a direct connection, beyond the server's own work (issue 10).
 
 For each rgbdcast binary given, starts `rgbdcast serve` on loopback, posts the GLBs given (in order, as seq 1, 2, ...
 of one mission, over one keep-alive connection, Python's http.client as the client), ROUNDS times each into a fresh

@@ -2,8 +2,8 @@
 // (JPEG + 16-bit PNG depth), in one run, on the shared real captures.
 //  A. Speed and size: per frame, the wall time from the decoded images in memory (undistortion included) to the GLB
 //     bytes, through the one frame -> scene function (pipeline/frame_scene.h) and encode_glb; medians over frames
-//     and runs (a set's frames back to back, as a live stream, --runs times over; before stop 21 each frame's runs
-//     were made in a row, between the previous frame's renders and paper preset). The paper preset is timed on the
+//     and runs (a set's frames back to back, as a live stream, --runs times over, so that caches hold what a
+//     stream's would, not one frame's repeated runs). The paper preset is timed on the
 //     first --paper-frames frames of each set in the same run, after the realtime frames. Fidelity
 //     of the DECODED GLB at the capture pose: coverage of the valid pixels, PSNR over the pixels drawn, PSNR over all
 //     valid pixels with holes black (evaluation/image_metrics.h).

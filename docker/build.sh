@@ -5,14 +5,41 @@
 # There is no registry for base images here, so the base image debian:bookworm is made from Debian's archive:
 # debootstrap bookworm into a folder, then `docker import` (skipped when the image already exists).
 #
-# Environment: DOCKER (default: docker), DOCKER_HOST (to use a daemon on another socket), MIRROR (default
-# http://deb.debian.org/debian), IMAGE (default rgbdcast:verify), PORT (default 18080), SCENE (a GLB to upload;
-# default: reduce TUM fr1/xyz frame 0 from ../shared/data with the image's own binary).
+# Environment: DOCKER (default: docker), DOCKER_HOST (to use a daemon on another socket), MIRROR and
+# SECURITY_MIRROR (default: the archives this machine's own apt sources name for bookworm and bookworm-security),
+# IMAGE (default rgbdcast:verify), PORT (default 18080), SCENE (a GLB to upload; default: reduce TUM fr1/xyz frame 0
+# from ../shared/data with the image's own binary).
 # Prints one line per step with its time; exits non-zero at the first failing step, saying which.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DOCKER="${DOCKER:-docker}"
-MIRROR="${MIRROR:-http://deb.debian.org/debian}"
+
+# The URI that this machine's apt sources give for a suite: one-line entries ("deb [options] URI suite components"
+# in sources.list and *.list) and deb822 stanzas (Types/URIs/Suites in *.sources). Prints nothing when none does.
+apt_source_uri() {
+  local suite="$1" f
+  for f in /etc/apt/sources.list /etc/apt/sources.list.d/*.list; do
+    [ -f "$f" ] || continue
+    awk -v s="$suite" '$1 == "deb" {
+      i = 2; if ($i ~ /^\[/) { while (i < NF && $i !~ /\]$/) i++; i++ }
+      if ($(i + 1) == s) { print $i; exit } }' "$f"
+  done
+  for f in /etc/apt/sources.list.d/*.sources; do
+    [ -f "$f" ] || continue
+    awk -v s="$suite" 'BEGIN { RS = "" } {
+      types = uris = suites = ""
+      n = split($0, lines, "\n")
+      for (j = 1; j <= n; j++) {
+        if (lines[j] ~ /^Types:/) types = " " substr(lines[j], 7) " "
+        else if (lines[j] ~ /^URIs:/) uris = substr(lines[j], 6)
+        else if (lines[j] ~ /^Suites:/) suites = " " substr(lines[j], 8) " "
+      }
+      split(uris, u, " ")
+      if (types ~ / deb / && suites ~ (" " s " ") && u[1] != "") { print u[1]; exit } }' "$f"
+  done
+}
+MIRROR="${MIRROR:-$(apt_source_uri bookworm | head -1)}"
+SECURITY_MIRROR="${SECURITY_MIRROR:-$(apt_source_uri bookworm-security | head -1)}"
 IMAGE="${IMAGE:-rgbdcast:verify}"
 PORT="${PORT:-18080}"
 work="$(mktemp -d /tmp/rgbdcast-docker.XXXXXX)"
@@ -28,6 +55,7 @@ step() { step_start=$(date +%s); echo "docker/build.sh: $*"; }
 done_step() { echo "docker/build.sh:   ok ($(( $(date +%s) - step_start )) s)"; }
 die() { echo "docker/build.sh: FAILED: $*" >&2; exit 1; }
 
+[ -n "$MIRROR" ] || die "no apt source of this machine names bookworm (/etc/apt/sources.list*): set MIRROR"
 "$DOCKER" version >/dev/null 2>&1 || die "no container engine answers: $("$DOCKER" version 2>&1 | tail -1)"
 
 if ! "$DOCKER" image inspect debian:bookworm >/dev/null 2>&1; then
@@ -35,12 +63,12 @@ if ! "$DOCKER" image inspect debian:bookworm >/dev/null 2>&1; then
   command -v debootstrap >/dev/null || die "debootstrap is not installed (apt-get install debootstrap)"
   debootstrap --variant=minbase bookworm "$work/rootfs" "$MIRROR" > "$work/debootstrap.log" 2>&1 ||
     die "debootstrap: $(tail -3 "$work/debootstrap.log")"
-  # The same suites as a stock Debian image: updates and security too.
-  cat > "$work/rootfs/etc/apt/sources.list" <<EOF
-deb $MIRROR bookworm main
-deb $MIRROR bookworm-updates main
-deb http://deb.debian.org/debian-security bookworm-security main
-EOF
+  # The same suites as a stock Debian image: updates and security too (when this machine has a security source).
+  {
+    echo "deb $MIRROR bookworm main"
+    echo "deb $MIRROR bookworm-updates main"
+    [ -z "$SECURITY_MIRROR" ] || echo "deb $SECURITY_MIRROR bookworm-security main"
+  } > "$work/rootfs/etc/apt/sources.list"
   rm -rf "$work/rootfs/var/cache/apt/archives/"*.deb "$work/rootfs/var/lib/apt/lists/"*
   tar -C "$work/rootfs" -c . | "$DOCKER" import - debian:bookworm >/dev/null
   done_step

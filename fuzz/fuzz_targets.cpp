@@ -38,7 +38,7 @@ std::uint32_t le32(const std::uint8_t* p) {
 }
 
 // For readers that take files only (PCL, rosbag): one file of this process in the temporary folder, rewritten with
-// each input and removed when the fuzzer ends (until stop 25 every run left one in /tmp).
+// each input and removed when the fuzzer ends (a file per run would pile up in /tmp).
 class ScratchFile {
  public:
   explicit ScratchFile(const std::string& tag)

@@ -169,17 +169,24 @@ Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw,
   return f;
 }
 
-static Result<RgbdFrame> load_pair(const FrameEntry& e, const Intrinsics& intrinsics, Undistorter* undistorter) {
+static Result<RgbdFrame> load_pair(const FrameEntry& e, const Intrinsics& intrinsics, DepthEncoding encoding,
+                                   Undistorter* undistorter) {
   auto cbytes = read_file(e.color_path);
   if (!cbytes) return cbytes.error();
   auto dbytes = read_file(e.depth_path);
   if (!dbytes) return dbytes.error();
   auto color = decode_color(*cbytes, e.color_path, FrameLimits::local_files());
   if (!color) return color.error();
-  auto depth = decode_depth16(*dbytes, e.depth_path, FrameLimits::local_files());
+  auto raw = decode_depth16(*dbytes, e.depth_path, FrameLimits::local_files());
+  if (!raw) return raw.error();
+  auto depth = decode_depth_encoding(*raw, encoding, intrinsics.depth_scale, e.depth_path);
   if (!depth) return depth.error();
-  auto frame = make_frame(*color, *depth, intrinsics, undistorter);
+  // nyu decodes to metres (scale 1); the frame still reports the source's scale.
+  Intrinsics k = intrinsics;
+  if (depth->type() == CV_32FC1) k.depth_scale = 1.0;
+  auto frame = make_frame(*color, *depth, k, undistorter);
   if (!frame) return make_error(frame.error().code, e.depth_path + ": " + frame.error().message);
+  frame->intrinsics.depth_scale = intrinsics.depth_scale;
   frame->timestamp = e.color_timestamp;
   frame->color_path = e.color_path;
   frame->depth_path = e.depth_path;
@@ -249,8 +256,9 @@ namespace {
 
 class ListSource : public FrameSource {
  public:
-  ListSource(std::string kind, std::string root, std::vector<FrameEntry> entries, Intrinsics k)
-      : kind_(std::move(kind)), root_(std::move(root)), entries_(std::move(entries)), k_(std::move(k)) {}
+  ListSource(std::string kind, std::string root, std::vector<FrameEntry> entries, Intrinsics k, DepthEncoding encoding)
+      : kind_(std::move(kind)), root_(std::move(root)), entries_(std::move(entries)), k_(std::move(k)),
+        encoding_(encoding) {}
   std::string kind() const override { return kind_; }
   size_t size() const override { return entries_.size(); }
   const Intrinsics& intrinsics() const override { return k_; }
@@ -260,7 +268,7 @@ class ListSource : public FrameSource {
     if (i >= entries_.size())
       return make_error(ErrorCode::kNotFound, "frame " + std::to_string(i) + " is past the end (" + root_ + " has " +
                                                   std::to_string(entries_.size()) + " frames)");
-    auto f = load_pair(entries_[i], k_, &undistorter_);
+    auto f = load_pair(entries_[i], k_, encoding_, &undistorter_);
     if (f) f->index = static_cast<int>(i);
     return f;
   }
@@ -269,6 +277,7 @@ class ListSource : public FrameSource {
   std::string kind_, root_;
   std::vector<FrameEntry> entries_;
   Intrinsics k_;
+  DepthEncoding encoding_;
   mutable Undistorter undistorter_;  // the camera's tables, made on the first frame
 };
 
@@ -284,8 +293,26 @@ Result<Intrinsics> pick_intrinsics(const SourceOptions& o, const std::string& gu
     if (!(*o.depth_scale > 0) || !std::isfinite(*o.depth_scale))
       return make_error(ErrorCode::kInvalidArgument, "--depth-scale must be positive");
     k->depth_scale = *o.depth_scale;
+  } else if (o.depth_encoding == DepthEncoding::kSun) {
+    k->depth_scale = 1000.0;  // sun stores millimetres, whatever the camera preset's own unit
   }
   return k;
+}
+
+// A list source over `entries`. Intrinsics without a size (a 3x3 matrix file) take it from the first colour image.
+Result<std::unique_ptr<FrameSource>> make_list_source(std::string kind, std::string root,
+                                                      std::vector<FrameEntry> entries, Intrinsics k,
+                                                      const SourceOptions& o) {
+  if (k.width == 0 && !entries.empty()) {
+    auto bytes = read_file(entries[0].color_path);
+    if (!bytes) return bytes.error();
+    auto color = decode_color(*bytes, entries[0].color_path, FrameLimits::local_files());
+    if (!color) return color.error();
+    k.width = color->cols;
+    k.height = color->rows;
+  }
+  return std::unique_ptr<FrameSource>(
+      new ListSource(std::move(kind), std::move(root), std::move(entries), std::move(k), o.depth_encoding));
 }
 
 // Numbered images in a folder, sorted by their number (1.png, 2.png, ... or 00000.jpg, ...).
@@ -340,7 +367,7 @@ Result<std::unique_ptr<FrameSource>> open_tum(const fs::path& dir, const SourceO
   else if (name.find("freiburg3") != std::string::npos) guess = "fr3";
   auto k = pick_intrinsics(o, guess);
   if (!k) return k.error();
-  return std::unique_ptr<FrameSource>(new ListSource("tum", dir.string(), std::move(entries), *k));
+  return make_list_source("tum", dir.string(), std::move(entries), *k, o);
 }
 
 Result<std::unique_ptr<FrameSource>> open_numbered(const fs::path& dir, const SourceOptions& o) {
@@ -366,8 +393,9 @@ Result<std::unique_ptr<FrameSource>> open_numbered(const fs::path& dir, const So
   }
   auto k = pick_intrinsics(o, guess);
   if (!k) return k.error();
-  if (!o.depth_scale) k->depth_scale = scale;  // the layout decides the unit unless --depth-scale says otherwise
-  return std::unique_ptr<FrameSource>(new ListSource("redwood", dir.string(), std::move(entries), *k));
+  // The layout decides the unit unless --depth-scale (or sun's millimetres) says otherwise.
+  if (!o.depth_scale && o.depth_encoding != DepthEncoding::kSun) k->depth_scale = scale;
+  return make_list_source("redwood", dir.string(), std::move(entries), *k, o);
 }
 
 }  // namespace
@@ -382,7 +410,10 @@ Result<std::unique_ptr<FrameSource>> open_frame_source(const std::string& path, 
     return make_error(ErrorCode::kInvalidInput,
                       path + ": not a TUM folder (rgb.txt, depth.txt) nor a color/ + depth/ folder");
   }
-  if (lower(p.extension().string()) == ".bag") {
+  const std::string ext = lower(p.extension().string());
+  if ((ext == ".bag" || ext == ".pcd") && options.depth_encoding != DepthEncoding::kPng16)
+    return make_error(ErrorCode::kInvalidArgument, path + ": --depth-encoding applies to depth image files, not to a " + ext);
+  if (ext == ".bag") {
 #ifdef RGBDCAST_HAVE_ROSBAG
     return open_rosbag_source(path, options);
 #else
@@ -390,7 +421,7 @@ Result<std::unique_ptr<FrameSource>> open_frame_source(const std::string& path, 
                                                "librosbag-storage-dev and libsensor-msgs-dev, scripts/setup.sh)");
 #endif
   }
-  if (lower(p.extension().string()) == ".pcd") {
+  if (ext == ".pcd") {
     auto k = pick_intrinsics(options, "kinect");
     if (!k) return k.error();
     return open_pcd_source(path, *k);
@@ -401,7 +432,7 @@ Result<std::unique_ptr<FrameSource>> open_frame_source(const std::string& path, 
   auto k = pick_intrinsics(options, "kinect");
   if (!k) return k.error();
   std::vector<FrameEntry> entries{{fs::absolute(p).string(), fs::absolute(options.depth_path).string(), 0.0, 0.0}};
-  return std::unique_ptr<FrameSource>(new ListSource("pair", path, std::move(entries), *k));
+  return make_list_source("pair", path, std::move(entries), *k, options);
 }
 
 }  // namespace rgbdcast

@@ -4,6 +4,8 @@
 #include <cstdint>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
+#include <vector>
 
 #include "scene/json_nesting.h"
 
@@ -104,23 +106,67 @@ Result<Intrinsics> parse_intrinsics_json(std::string_view text, const std::strin
   }
 }
 
-Result<Intrinsics> load_intrinsics_json(const std::string& path) {
+Result<Intrinsics> parse_intrinsics_matrix_text(std::string_view text, const std::string& what) {
+  if (text.size() > kMaxIntrinsicsTextBytes)
+    return make_error(ErrorCode::kInvalidInput,
+                      what + ": a 3x3 matrix file is at most " + std::to_string(kMaxIntrinsicsTextBytes) + " bytes");
+  std::istringstream in{std::string(text)};
+  std::vector<double> m;
+  std::string token;
+  while (in >> token) {
+    char* end = nullptr;
+    const double v = std::strtod(token.c_str(), &end);
+    if (end != token.c_str() + token.size() || !std::isfinite(v))
+      return make_error(ErrorCode::kInvalidInput, what + ": \"" + token.substr(0, 32) + "\" is not a finite number");
+    m.push_back(v);
+  }
+  if (m.size() != 9)
+    return make_error(ErrorCode::kInvalidInput,
+                      what + ": a 3x3 camera matrix has 9 numbers, this has " + std::to_string(m.size()));
+  if (m[1] != 0 || m[3] != 0 || m[6] != 0 || m[7] != 0 || m[8] != 1)
+    return make_error(ErrorCode::kInvalidInput, what + ": not a pinhole camera matrix \"fx 0 cx / 0 fy cy / 0 0 1\"");
+  if (!(m[0] > 0) || !(m[4] > 0))
+    return make_error(ErrorCode::kInvalidInput, what + ": focal lengths must be finite and positive");
+  Intrinsics k;
+  k.name = what;
+  k.fx = m[0];
+  k.cx = m[2];
+  k.fy = m[4];
+  k.cy = m[5];
+  k.width = k.height = 0;  // from the images
+  k.depth_scale = 1000.0;
+  return k;
+}
+
+// The text of an intrinsics file, read up to one byte past `limit` (the parse names the limit).
+static Result<std::string> read_intrinsics_file(const std::string& path, size_t limit) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return make_error(ErrorCode::kNotFound, "cannot open intrinsics file " + path);
   std::string text;
   char buf[4096];
   while (in.read(buf, sizeof buf) || in.gcount() > 0) {
     text.append(buf, static_cast<size_t>(in.gcount()));
-    if (text.size() > kMaxIntrinsicsJsonBytes) break;  // the parse below names the limit
+    if (text.size() > limit) break;
   }
-  return parse_intrinsics_json(text, path);
+  return text;
+}
+
+Result<Intrinsics> load_intrinsics_json(const std::string& path) {
+  auto text = read_intrinsics_file(path, kMaxIntrinsicsJsonBytes);
+  if (!text) return text.error();
+  return parse_intrinsics_json(*text, path);
 }
 
 Result<Intrinsics> resolve_intrinsics(const std::string& spec) {
   if (auto preset = intrinsics_preset(spec)) return *preset;
   if (spec.size() > 5 && spec.substr(spec.size() - 5) == ".json") return load_intrinsics_json(spec);
-  return make_error(ErrorCode::kInvalidArgument,
-                    "unknown intrinsics \"" + spec + "\" (use fr1, fr2, fr3, kinect or a .json file)");
+  if (spec.size() > 4 && spec.substr(spec.size() - 4) == ".txt") {
+    auto text = read_intrinsics_file(spec, kMaxIntrinsicsTextBytes);
+    if (!text) return text.error();
+    return parse_intrinsics_matrix_text(*text, spec);
+  }
+  return make_error(ErrorCode::kInvalidArgument, "unknown intrinsics \"" + spec +
+                                                     "\" (use fr1, fr2, fr3, kinect, icl, a .json or a 3x3 matrix .txt file)");
 }
 
 }  // namespace rgbdcast

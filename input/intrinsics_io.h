@@ -20,7 +20,14 @@ inline constexpr size_t kMaxIntrinsicsJsonBytes = size_t(1) << 20;
 Result<Intrinsics> parse_intrinsics_json(std::string_view text, const std::string& what = "intrinsics");
 // The same from a file; errors name the path (kNotFound when it cannot be opened).
 Result<Intrinsics> load_intrinsics_json(const std::string& path);
-// A preset name or a JSON file path.
+// A 3x3 camera matrix in plain text, as SUN3D and 3DMatch's camera-intrinsics.txt: nine numbers separated by white
+// space, row by row "fx 0 cx / 0 fy cy / 0 0 1" (no skew; fx, fy > 0, all finite), at most kMaxIntrinsicsTextBytes.
+// The text gives no image size: width and height are 0, and the frame source takes them from the first colour image.
+// depth_scale is 1000 (millimetres, as those datasets store depth). Errors are kInvalidInput, one line, prefixed with
+// `what`.
+inline constexpr size_t kMaxIntrinsicsTextBytes = 4096;
+Result<Intrinsics> parse_intrinsics_matrix_text(std::string_view text, const std::string& what = "intrinsics");
+// A preset name, a JSON file path, or a .txt path (a 3x3 matrix, above).
 Result<Intrinsics> resolve_intrinsics(const std::string& spec);
 
 }  // namespace rgbdcast

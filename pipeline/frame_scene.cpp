@@ -37,7 +37,7 @@ constexpr double kMaxSimplifyPx = 8;
 constexpr double kMinTextureScale = 0.25;
 // Geometry bytes per triangle of the compact GLB before one is measured, by codec: the medians of the realtime
 // preset's meshes on the shared frames, with its collapses at 2 px, are 4.81 with meshopt and 3.17 with Draco
-// (bench/geometry_codec_bench, stop 19; 4.4 and 2.6 at 1 px). Only the first guess depends on them.
+// (BENCHMARKS.md, "Geometry codecs"; 4.4 and 2.6 at 1 px). Only the first guess depends on them.
 double prior_bytes_per_triangle(const GlbWriteOptions& o) {
   if (o.flavor != GlbFlavor::kCompact) return 24.0;  // float positions and UVs
   return o.geometry_codec == GeometryCodec::kDraco ? 3.2 : 4.8;
@@ -121,7 +121,8 @@ Image scaled_texture(const Image& full, double scale) {
 
 // The budget's JPEGs use libjpeg's standard Huffman tables, not the image's own: a search encodes the texture 4-8
 // times and keeps one of them, and the image's own tables cost each encode a second pass (encode_jpeg has the
-// figures). The same bytes then buy a lower quality: 0.1-0.3 dB drawn at the capture pose (BENCHMARKS.md, stop 18).
+// figures). The same bytes then buy a lower quality: 0.1-0.3 dB drawn at the capture pose
+// (BENCHMARKS.md, "Realtime preset against the paper preset").
 constexpr bool kBudgetOptimizesHuffman = false;
 
 // JPEG encodes of one image at several qualities, on up to `threads` threads (plain threads, joined here).
@@ -255,7 +256,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   double budget_kb = options.budget_kb;
   if (options.params.preset == Preset::kRealtime) {
     // The payload's share, before the depth's preparation: made beside it on a second thread, it took as long
-    // (its two encodes compete with the preparation's two threads; BENCHMARKS.md, stop 22).
+    // (its two encodes compete with the preparation's two threads; BENCHMARKS.md, "Realtime preset against the paper preset").
     if (options.budget_within_payload_share && budget_kb > 0) {
       auto payload_kb = payload_share_kb(frame);
       if (!payload_kb) return payload_kb.error();
@@ -613,7 +614,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   // pixels uncovered, so the geometry keeps more than its share before it comes to this); the texture gets what is
   // left, as below. This holds at the largest tolerance whether or not the geometry is over its share: a mesh within
   // its share can still leave the texture under its floor (TUM fr1/xyz frame 0 at 40 kB: q24 at 2 px, 29.69 dB drawn
-  // at the capture pose; with this rule 4 px q42, 30.56 dB; BENCHMARKS.md, stop 19), but only up to kFloorSimplifyPx: further
+  // at the capture pose; with this rule 4 px q42, 30.56 dB; BENCHMARKS.md, "Realtime preset against the paper preset"), but only up to kFloorSimplifyPx: further
   // straightening costs more coverage than a better texture gains (TUM fr1/xyz 200-319 frame 0 at 20 kB went to 8 px:
   // coverage 0.9968 -> 0.9889, all-valid PSNR 26.69 -> 23.35 dB). Whether the floor fits is read off the encodes tried
   // when they decide it (one at or above the floor that fits, or one at or below it that does not), so a frame whose

@@ -73,7 +73,7 @@ struct DepthMeshParams {
   // RTIN follows a discontinuity or a hole's edge in one-pixel steps, 2-4 triangles a pixel of outline; the
   // collapses turn each straight run into a few long edges. Away from the outline, vertices move only where the
   // surface is close enough to fronto-parallel that affine texturing stays near texture_deviation_px on triangles
-  // of up to 48 pixels (reduction/simplify.cpp). 2 px rather than 1 (BENCHMARKS.md, stop 19): at the 40 kB budget
+  // of up to 48 pixels (reduction/simplify.cpp). 2 px rather than 1 (BENCHMARKS.md, "Realtime preset against the paper preset"): at the 40 kB budget
   // the frames whose outline the budget straightens take one collapse run instead of two (realtime_bench speed,
   // median ms: fr2 pair 35.4 -> 27.9, augmented ICL 34.8 -> 28.5, fr3 39.0 -> 33.4, TUM fr1/xyz 200-319 26.0 ->
   // 24.6), with capture-pose coverage and PSNR within 0.1 dB or better except ICL-NUIM's all-valid PSNR (38.80 ->

@@ -7,8 +7,9 @@
 // the next frame instead.
 //
 // It is a process-wide setting, so only program entry points that reduce frames in a loop call it (`rgbdcast
-// reduce`, `rgbdcast stream`, the benches), never a library. `rgbdcast serve` does not: it returns memory after
-// bursts with malloc_trim (issue 11). MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_ in the environment win.
+// reduce`, `rgbdcast stream`, the benches), never a library. `rgbdcast serve` does not call it: ViewService::create
+// (service/view_service.cpp) owns the server's malloc settings (two arenas, 2 MB mmap and 16 MB trim thresholds,
+// with malloc_trim after bursts of views). MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_ in the environment win.
 #include <malloc.h>
 
 #include <cstdlib>

@@ -1,41 +1,59 @@
 #!/usr/bin/env bash
-# Installs everything rgbdcast needs on Debian 12 (run as root). Idempotent: safe to run again.
+# Installs what rgbdcast needs on Debian 12 (run as root), in two layers. Idempotent: safe to run again.
+#   scripts/setup.sh demo  what building and running rgbdcast needs (scripts/demo.sh runs this)
+#   scripts/setup.sh test  the demo layer, then what only the tests, fuzzing, external viewers and benchmarks need
+#                          (scripts/test.sh runs this)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+layer="${1:-test}"
 
-DEB_PACKAGES=(
-  build-essential cmake pkg-config git ca-certificates
+# Build and runtime: the compiler and CMake, the libraries the build links, the renderers' drivers (lavapipe for
+# Vulkan, OSMesa) and glslangValidator, which compiles the shaders at build time.
+DEMO_PACKAGES=(
+  build-essential cmake pkg-config
   libpcl-dev libopencv-dev libeigen3-dev libglm-dev
-  libosmesa6-dev mesa-vulkan-drivers libvulkan-dev vulkan-tools vulkan-validationlayers
-  glslang-tools glslang-dev
-  libtinygltf-dev nlohmann-json3-dev libstb-dev libcpp-httplib-dev libgtest-dev libcli11-dev
+  libosmesa6-dev mesa-vulkan-drivers libvulkan-dev glslang-tools
+  libtinygltf-dev nlohmann-json3-dev libstb-dev libcpp-httplib-dev libcli11-dev
   libmeshoptimizer-dev libdraco-dev libturbojpeg0-dev
+)
+# Tests only: GoogleTest, the Vulkan validation layers, ROS 1 bag reading and writing, clang-16 with libFuzzer and
+# the sanitizers' runtime, headless Chromium (the page tests), wrk (load benchmarks), curl and jq (scripts),
+# promtool (the /metrics check), git (tests that read the tree), and the external glTF viewers (Blender, whose glTF
+# importer needs numpy, and Assimp).
+TEST_PACKAGES=(
+  git ca-certificates libgtest-dev vulkan-tools vulkan-validationlayers glslang-dev
   librosbag-storage-dev libsensor-msgs-dev python3-rosbag python3-sensor-msgs
   clang-16 libfuzzer-16-dev libclang-rt-16-dev
-  chromium wrk curl jq
-  # External glTF viewers for tests/gltf/test_gltf_viewers (Blender's glTF importer needs numpy). Measured on a
-  # machine with the rest installed: 53 packages, 112 MB of archives, 423 MiB installed, 36 s of apt-get install
-  # (with 35 of the archives already in apt's cache).
+  chromium wrk curl jq prometheus
   blender python3-numpy assimp-utils
 )
-# Node.js with npm: the machine image ships Node 20 (with npm); a bare Debian 12 gets Debian's.
-command -v npm >/dev/null 2>&1 || DEB_PACKAGES+=(nodejs npm)
+
+case "$layer" in
+  demo) packages=("${DEMO_PACKAGES[@]}") ;;
+  test)
+    packages=("${DEMO_PACKAGES[@]}" "${TEST_PACKAGES[@]}")
+    # Node.js with npm runs the test tools of tools/package.json: the machine image ships Node 20 (with npm); a
+    # bare Debian 12 gets Debian's.
+    command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
+    ;;
+  *) echo "usage: scripts/setup.sh demo|test" >&2; exit 2 ;;
+esac
 
 missing=()
-for p in "${DEB_PACKAGES[@]}"; do
+for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 if [ ${#missing[@]} -gt 0 ]; then
-  echo "setup: installing ${#missing[@]} Debian packages: ${missing[*]}"
+  echo "setup ($layer): installing ${#missing[@]} Debian packages: ${missing[*]}"
   export DEBIAN_FRONTEND=noninteractive
   apt-get update -qq
   apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 else
-  echo "setup: Debian packages already installed"
+  echo "setup ($layer): Debian packages already installed"
 fi
 
 # npm packages used by tests (glTF validator, three.js for the external-viewer test), pinned in tools/package.json.
-if [ -f tools/package.json ]; then
+if [ "$layer" = test ] && [ -f tools/package.json ]; then
   if [ ! -d tools/node_modules ] || [ tools/package.json -nt tools/node_modules ]; then
     echo "setup: installing npm packages in tools/"
     (cd tools && npm install --no-audit --no-fund --loglevel=error)

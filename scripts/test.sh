@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# The whole test suite: install what is needed, build everything, run every test under ctest.
+# The whole test suite: install what is needed (scripts/setup.sh test: the demo's packages and the test tools),
+# build everything, run every test under ctest.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/setup.sh
+bash scripts/setup.sh test
 bash scripts/build.sh
 cd build
 ctest --output-on-failure --timeout 900 "$@"

@@ -400,7 +400,7 @@ bool GatedServer::process_and_close_socket(socket_t sock) {
   ::fcntl(sock, F_SETFL, ::fcntl(sock, F_GETFL) | O_NONBLOCK);
   // No Nagle: httplib writes an answer's headers and its body in two writes, and Nagle holds the body back until the
   // client acknowledges the headers, which a client that waits for the body delays (Linux: 40 ms). That was 40 ms on
-  // every keyframe POST and every view (BENCHMARKS.md, stop 23).
+  // every keyframe POST and every view (BENCHMARKS.md, "Keyframe POST round trip").
   int yes = 1;
   ::setsockopt(sock, IPPROTO_TCP, TCP_NODELAY, &yes, sizeof yes);
   auto c = std::make_unique<Connection>();

@@ -7,7 +7,7 @@ namespace {
 
 const std::vector<double> kLatencyBounds_s = {0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1,
                                               0.25,  0.5,    1.0,   2.5,  5.0,   10.0};
-const std::vector<double> kRenderBounds_ms = {1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000};
+const std::vector<double> kRenderBounds_s = {0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1, 2, 5};
 
 std::string number(double v) {
   char buf[64];
@@ -57,12 +57,12 @@ void Metrics::observe_request(const std::string& method, const std::string& rout
   it->second.observe(seconds);
 }
 
-void Metrics::observe_render(const std::string& mode, const std::string& backend, double render_ms) {
+void Metrics::observe_render(const std::string& mode, const std::string& backend, double render_seconds) {
   std::lock_guard lock(mutex_);
   auto key = std::make_pair(mode, backend);
   auto it = render_.find(key);
-  if (it == render_.end()) it = render_.emplace(key, Histogram(kRenderBounds_ms)).first;
-  it->second.observe(render_ms);
+  if (it == render_.end()) it = render_.emplace(key, Histogram(kRenderBounds_s)).first;
+  it->second.observe(render_seconds);
 }
 
 std::string Metrics::prometheus_text(const MetricsGauges& g) const {
@@ -79,10 +79,11 @@ std::string Metrics::prometheus_text(const MetricsGauges& g) const {
   out += "# TYPE rgbdcast_http_request_duration_seconds histogram\n";
   for (const auto& [route, h] : latency_)
     h.write(out, "rgbdcast_http_request_duration_seconds", "route=\"" + escape_label(route) + "\"");
-  out += "# HELP rgbdcast_render_ms Renderer time per view (submission to idle, without readback), by mode and backend.\n";
-  out += "# TYPE rgbdcast_render_ms histogram\n";
+  out += "# HELP rgbdcast_render_duration_seconds Renderer time per view (submission to idle, without readback), by "
+         "mode and backend.\n";
+  out += "# TYPE rgbdcast_render_duration_seconds histogram\n";
   for (const auto& [key, h] : render_)
-    h.write(out, "rgbdcast_render_ms",
+    h.write(out, "rgbdcast_render_duration_seconds",
             "mode=\"" + escape_label(key.first) + "\",backend=\"" + escape_label(key.second) + "\"");
   out += "# HELP rgbdcast_render_rejected_total Views refused with 503 because the render queue was full.\n";
   out += "# TYPE rgbdcast_render_rejected_total counter\n";
@@ -92,7 +93,7 @@ std::string Metrics::prometheus_text(const MetricsGauges& g) const {
   };
   gauge("rgbdcast_render_queue_depth", "Views waiting for a renderer.", std::to_string(g.render_queue_depth));
   gauge("rgbdcast_scenes_stored", "Scenes in the store.", std::to_string(g.scenes_stored));
-  gauge("rgbdcast_scene_bytes_stored", "Bytes of GLB in the store.", std::to_string(g.bytes_stored));
+  gauge("rgbdcast_scenes_stored_bytes", "Bytes of GLB in the store.", std::to_string(g.bytes_stored));
   gauge("rgbdcast_missions_stored", "Live missions in the store.", std::to_string(g.missions_stored));
   gauge("rgbdcast_event_streams_open", "Mission event streams open (each holds an HTTP thread).",
         std::to_string(g.event_streams_open));

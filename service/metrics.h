@@ -1,8 +1,10 @@
 #pragma once
 // Prometheus text exposition (format 0.0.4) of the service's counters: requests by method, route and status,
 // request latency histogram by route, render time histogram by mode and backend, rejected renders, and gauges read
-// at scrape time (scenes stored, bytes stored, render queue depth, missions stored, event streams open). Routes are the API's patterns, never raw paths,
-// so a client cannot grow the label set. Thread-safe.
+// at scrape time (scenes stored, bytes stored, render queue depth, missions stored, event streams open). Routes are
+// the API's patterns, never raw paths, so a client cannot grow the label set. Names follow Prometheus' conventions
+// (base units: seconds and bytes as the suffix; counters end in _total; latencies are histograms), which
+// `promtool check metrics` enforces in tests/service/test_missions.cpp. Thread-safe.
 #include <array>
 #include <cstdint>
 #include <map>
@@ -39,7 +41,7 @@ class Histogram {
 class Metrics {
  public:
   void observe_request(const std::string& method, const std::string& route, int status, double seconds);
-  void observe_render(const std::string& mode, const std::string& backend, double render_ms);
+  void observe_render(const std::string& mode, const std::string& backend, double render_seconds);
   std::string prometheus_text(const MetricsGauges& gauges) const;
 
  private:

@@ -265,7 +265,7 @@ void ViewService::Impl::render_and_send(const httplib::Request& req, const std::
   auto encoded = encode_image(out->color, request->format, request->quality);
   if (!encoded) return send_error(res, encoded.error());
   const double encode_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-  metrics.observe_render(to_string(request->mode), out->backend, out->render_ms);
+  metrics.observe_render(to_string(request->mode), out->backend, out->render_ms / 1000.0);
   res.set_header("X-Render-Ms", fmt_ms(out->render_ms));
   res.set_header("X-Readback-Ms", fmt_ms(out->readback_ms));
   res.set_header("X-Encode-Ms", fmt_ms(encode_ms));
@@ -476,7 +476,8 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   // returned on free (bench/soak.sh 300 8: peak 21 % above the post-warm-up RSS before, 7 % with a 128 kB one).
   // It is 2 MB, not 128 kB: a keyframe POST allocates and frees the same blocks of 0.1-1.2 MB each time (its body,
   // the decoded 640x480 texture, the glTF and Draco buffers), and at 128 kB each was mapped, faulted in and unmapped
-  // again, 7-10 of a POST's 11-14 ms on the server (bench/post_roundtrip.py, BENCHMARKS.md stop 24). The trim
+  // again, 7-10 of a POST's 11-14 ms on the server (bench/post_roundtrip.py; BENCHMARKS.md, "Keyframe POST round
+  // trip"). The trim
   // threshold keeps them at the heap's top between POSTs; the render pool's malloc_trim still returns the heap after
   // a burst of views. This is the only place serve sets them; MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_, when
   // set, win.

@@ -2,8 +2,11 @@
 // The HTTP view service behind `rgbdcast serve`: scenes in (GLB or an RGB-D frame), operator views and GLBs out.
 // Routes and their errors are documented in service/openapi.yaml. Contract: every error is a JSON body
 // {"error", "detail"}; no exception leaves a handler; a body over max_body_bytes is 413 before it is processed;
-// renders beyond the queue are 503 with Retry-After. httplib.h is included only by view_service.cpp (it must be
-// compiled with the flags the library was built with, see ../shared/STACK.md).
+// renders beyond the queue are 503 with Retry-After. This header does not include httplib.h: the route files do
+// (connection_gate.h, http_reply.h, upload_body.h and model_flavors.cpp, and the .cpp files that include those
+// headers), and only targets that link PkgConfig::HTTPLIB may compile them, because that target carries the
+// CPPHTTPLIB_*_SUPPORT definitions the library was built with; without them the classes' layout differs from the
+// library's and the server crashes.
 #include <cstddef>
 #include <memory>
 #include <string>

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "gltf/gltf_io.h"
 #include "tests/common/run_command.h"
 #include "tests/common/test_data.h"
 
@@ -141,6 +142,47 @@ TEST_F(ReduceCliBadInput, FramePastTheEnd) {
   expect_fails("--input " + q(test::data_path("tum/rgbd_dataset_freiburg1_xyz")) + " --frame 7", "past the end");
 }
 TEST_F(ReduceCliBadInput, UnknownIntrinsics) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d.png --intrinsics fr9", "unknown intrinsics"); }
+TEST_F(ReduceCliBadInput, UnknownDepthEncoding) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d.png --depth-encoding png8", "--depth-encoding must be"); }
+// SUN's bit-rotated millimetres (3 m stored as 24000) read as plain millimetres: 24 m, refused with a hint.
+TEST_F(ReduceCliBadInput, SunDepthReadAsPlainMillimetres) {
+  cv::imwrite(dir_ + "/sun.png", cv::Mat(480, 640, CV_16UC1, cv::Scalar((3000 << 3) | (3000 >> 13))));
+  expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/sun.png --depth-scale 1000", "--depth-encoding sun");
+}
+
+// A SUN3D-style frame made here: camera-intrinsics.txt (a 3x3 matrix; the size comes from the image) and a depth PNG
+// of bit-rotated millimetres, a wall at 2.5 m, reduced with --depth-encoding sun.
+TEST(ReduceCli, ReadsASun3dFrameWithItsMatrixFile) {
+  const std::string dir = test::temp_dir("reduce-sun3d");
+  cv::Mat color(360, 480, CV_8UC3);
+  for (int y = 0; y < color.rows; ++y)
+    for (int x = 0; x < color.cols; ++x) color.at<cv::Vec3b>(y, x) = cv::Vec3b(x % 256, y % 256, (x + y) % 256);
+  cv::imwrite(dir + "/color.png", color);
+  cv::imwrite(dir + "/depth.png", cv::Mat(360, 480, CV_16UC1, cv::Scalar((2500 << 3) | (2500 >> 13))));
+  std::ofstream(dir + "/camera-intrinsics.txt") << "400 0 239.5\n0 400 179.5\n0 0 1\n";
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --input " + dir + "/color.png --depth " + dir +
+                             "/depth.png --intrinsics " + dir + "/camera-intrinsics.txt --depth-encoding sun --out " +
+                             dir + "/out.glb --report " + dir + "/report.json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream in(dir + "/report.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  EXPECT_EQ(report["intrinsics"]["width"], 480);
+  EXPECT_EQ(report["intrinsics"]["height"], 360);
+  EXPECT_DOUBLE_EQ(report["intrinsics"]["fx"].get<double>(), 400.0);
+  // Every vertex lies on the wall, z = 2.5 m in the camera's frame (a single frame's world), and the mesh spans the
+  // image: x reaches +-2.5 * 239.5 / 400 = +-1.50 m at its left and right edges.
+  auto scene = read_glb_file(dir + "/out.glb");
+  ASSERT_TRUE(scene) << scene.error().message;
+  ASSERT_GE(scene->vertex_count(), 3u);
+  double x_min = 1e9, x_max = -1e9;
+  for (const auto& node : scene->nodes)
+    for (const auto& p : node.mesh.positions) {
+      const Eigen::Vector3d w = (node.to_world * p.cast<double>().homogeneous()).head<3>();
+      EXPECT_NEAR(w.z(), 2.5, 0.005);
+      x_min = std::min(x_min, w.x()), x_max = std::max(x_max, w.x());
+    }
+  EXPECT_NEAR(x_min, -1.50, 0.03);
+  EXPECT_NEAR(x_max, 1.50, 0.03);
+}
 
 }  // namespace
 }  // namespace rgbdcast

@@ -157,8 +157,18 @@ TEST(FrameScene, ImplausibleDepthNamesTheDepthScale) {
   o.depth_scale = 5;  // 5 raw units a metre instead of 5000: a median of about a kilometre
   auto src = open_frame_source(test::data_path("tum/rgbd_dataset_freiburg1_xyz"), o);
   ASSERT_TRUE(src);
+  // The file source refuses such depth itself (input/depth_encoding.h) ...
+  auto refused = (*src)->frame(0);
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message.find("--depth-scale 5"), std::string::npos) << refused.error().message;
+  // ... and a frame made another way (an upload) meets the reduction's median check.
+  o.depth_scale = 5000;
+  src = open_frame_source(test::data_path("tum/rgbd_dataset_freiburg1_xyz"), o);
+  ASSERT_TRUE(src);
   auto frame = (*src)->frame(0);
   ASSERT_TRUE(frame);
+  frame->depth_m *= 1000.0;
+  frame->intrinsics.depth_scale = 5;
   for (Preset p : {Preset::kRealtime, Preset::kPaper}) {
     FrameReductionOptions opt;
     opt.params = reduction_preset(p);

@@ -473,8 +473,8 @@ TEST_F(ServiceHttp, HealthAndMetrics) {
         "rgbdcast_http_requests_total{method=\"GET\",route=\"/v1/scenes/{id}/view\",status=\"400\"} ",
         "rgbdcast_http_requests_total{method=\"POST\",route=\"/v1/scenes\",status=\"201\"} ",
         "rgbdcast_http_request_duration_seconds_bucket{route=\"/v1/scenes/{id}/view\",le=\"+Inf\"} ",
-        "rgbdcast_render_ms_count{mode=\"mesh\",backend=\"" + hj["backend"].get<std::string>() + "\"} ",
-        "rgbdcast_scenes_stored ", "rgbdcast_scene_bytes_stored "})
+        "rgbdcast_render_duration_seconds_count{mode=\"mesh\",backend=\"" + hj["backend"].get<std::string>() + "\"} ",
+        "rgbdcast_scenes_stored ", "rgbdcast_scenes_stored_bytes "})
     EXPECT_NE(t.find(needle), std::string::npos) << needle << "\n" << t;
   // Gauges agree with the store.
   const size_t pos = t.find("\nrgbdcast_scenes_stored ");

@@ -16,8 +16,8 @@ TEST(ServiceMetrics, CountersHistogramsGauges) {
   m.observe_request("GET", "/v1/scenes/{id}/view", 200, 0.004);
   m.observe_request("GET", "/v1/scenes/{id}/view", 200, 0.030);
   m.observe_request("GET", "/v1/scenes/{id}/view", 400, 0.0001);
-  m.observe_render("mesh", "vulkan", 12.5);
-  m.observe_render("mesh", "vulkan", 150.0);
+  m.observe_render("mesh", "vulkan", 0.0125);
+  m.observe_render("mesh", "vulkan", 0.150);
   MetricsGauges g;
   g.scenes_stored = 3;
   g.bytes_stored = 123456;
@@ -29,12 +29,12 @@ TEST(ServiceMetrics, CountersHistogramsGauges) {
       << t;
   EXPECT_TRUE(has_line(t, R"(rgbdcast_http_request_duration_seconds_bucket{route="/v1/scenes/{id}/view",le="+Inf"} 3)"));
   EXPECT_TRUE(has_line(t, R"(rgbdcast_http_request_duration_seconds_count{route="/v1/scenes/{id}/view"} 3)"));
-  EXPECT_TRUE(has_line(t, R"(rgbdcast_render_ms_bucket{mode="mesh",backend="vulkan",le="20"} 1)"));
-  EXPECT_TRUE(has_line(t, R"(rgbdcast_render_ms_bucket{mode="mesh",backend="vulkan",le="200"} 2)"));
-  EXPECT_TRUE(has_line(t, R"(rgbdcast_render_ms_sum{mode="mesh",backend="vulkan"} 162.5)"));
+  EXPECT_TRUE(has_line(t, R"(rgbdcast_render_duration_seconds_bucket{mode="mesh",backend="vulkan",le="0.02"} 1)"));
+  EXPECT_TRUE(has_line(t, R"(rgbdcast_render_duration_seconds_bucket{mode="mesh",backend="vulkan",le="0.2"} 2)"));
+  EXPECT_TRUE(has_line(t, R"(rgbdcast_render_duration_seconds_sum{mode="mesh",backend="vulkan"} 0.1625)"));
   EXPECT_TRUE(has_line(t, "rgbdcast_scenes_stored 3"));
-  EXPECT_TRUE(has_line(t, "rgbdcast_scene_bytes_stored 123456"));
-  EXPECT_TRUE(has_line(t, "# TYPE rgbdcast_render_ms histogram"));
+  EXPECT_TRUE(has_line(t, "rgbdcast_scenes_stored_bytes 123456"));
+  EXPECT_TRUE(has_line(t, "# TYPE rgbdcast_render_duration_seconds histogram"));
 }
 
 TEST(ServiceMetrics, LabelValuesAreEscaped) { EXPECT_EQ(escape_label("a\"b\\c\nd"), "a\\\"b\\\\c\\nd"); }

@@ -426,7 +426,7 @@ TEST(Missions, EventsReachARealClientWithReplayAndKeepAlive) {
   std::string error;
   // Streams live 20 s: on a loaded 2-core machine the steps below (three posts, a replay) took more than 6 s, the
   // first stream ended early and the third was not refused; at 12 s the test failed once more under the sanitizers
-  // beside other work (stop 19). A failure of the refusal now says how long the first stream had been open.
+  // beside other work. A failure of the refusal says how long the first stream had been open.
   constexpr double kStreamMaxS = 20;
   ASSERT_TRUE(server.start(dir, {"--keep-alive-s", "0.5", "--max-event-streams", "2", "--event-stream-max-s",
                                  std::to_string(kStreamMaxS)},
@@ -664,4 +664,48 @@ TEST(Missions, ARevisionReplacesTheKeyframeIdempotentlyAndSurvivesARestart) {
   auto scene = rgbdcast::decode_glb(reinterpret_cast<const std::uint8_t*>(glb->body.data()), glb->body.size());
   ASSERT_TRUE(scene);
   EXPECT_EQ(scene->nodes.size(), 2u);
+}
+
+// /metrics of a live server that has served views (of a scene and of a mission), stored an upload, refused bad
+// requests and taken a mission's keyframes passes Prometheus' own linter, `promtool check metrics` (Debian package
+// prometheus): base units, _total counters, histograms for latencies.
+TEST(Missions, MetricsPassPromtool) {
+  REQUIRE_KEYFRAMES();
+  if (rgbdcast::test::run_command("command -v promtool").exit_code != 0)
+    RGBDCAST_MISSING_PREREQUISITE("promtool not found (Debian package prometheus; scripts/test.sh installs it)");
+  const auto& k = keyframes();
+  const TestDir test_dir("missions-promtool");
+  ServerProcess server;
+  std::string error;
+  ASSERT_TRUE(server.start(test_dir.path, {}, &error)) << error;
+  auto c = client(server.port());
+  auto upload = c->Post("/v1/scenes", k[0].glb, "model/gltf-binary");
+  ASSERT_TRUE(upload);
+  ASSERT_EQ(upload->status, 201) << upload->body;
+  const std::string id = json::parse(upload->body)["id"];
+  for (int seq = 0; seq < 2; ++seq) {
+    auto r = post_keyframe(*c, "promtool", seq, k[seq]);
+    ASSERT_TRUE(r);
+    ASSERT_LT(r->status, 300) << r->body;
+  }
+  for (const std::string path : {"/v1/scenes/" + id + "/view?pose=capture&width=64&height=48",
+                                 std::string("/v1/missions/promtool/view?pose=capture&width=64&height=48")}) {
+    auto v = c->Get(path.c_str());
+    ASSERT_TRUE(v);
+    EXPECT_EQ(v->status, 200) << path << ": " << v->body;
+  }
+  expect_json_error(c->Get(("/v1/scenes/" + id + "/view?width=0").c_str()), 400, "bad width");
+  expect_json_error(c->Get("/v1/missions/nope/view"), 404, "unknown mission");
+  auto m = c->Get("/metrics");
+  ASSERT_TRUE(m);
+  ASSERT_EQ(m->status, 200);
+  for (const char* family : {"rgbdcast_http_requests_total{", "rgbdcast_http_request_duration_seconds_bucket{",
+                             "rgbdcast_render_duration_seconds_bucket{", "rgbdcast_missions_stored 1\n",
+                             "rgbdcast_scenes_stored_bytes "})
+    EXPECT_NE(m->body.find(family), std::string::npos) << family << "\n" << m->body;
+  const std::string file = test_dir.path + "/metrics.txt";
+  std::ofstream(file, std::ios::binary) << m->body;
+  const auto check = rgbdcast::test::run_command("promtool check metrics < " + file);
+  EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
+  EXPECT_EQ(check.out + check.err, "") << "promtool's findings on\n" << m->body;
 }
