@@ -46,6 +46,18 @@ void Sender::stop() {
 
 void Sender::notify() { cv_.notify_all(); }
 
+std::optional<OutboxEntry> Sender::wait_entry(int seq,
+                                              const std::function<bool(const std::optional<OutboxEntry>&)>& done,
+                                              std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mu_);
+  std::optional<OutboxEntry> e;
+  cv_.wait_for(lock, timeout, [&] {
+    e = outbox_.entry(seq);
+    return stopping_ || done(e);
+  });
+  return e;
+}
+
 bool Sender::claim(int seq) {
   std::lock_guard lock(mu_);
   auto e = outbox_.entry(seq);
@@ -318,6 +330,10 @@ void Sender::run(Uplink& uplink) {
       finish(st.error().message);
       return;
     }
+    {
+      std::lock_guard lock(mu_);  // (a waiter checks the entry under mu_: this notify cannot fall between)
+    }
+    cv_.notify_all();  // the producer may wait for this entry to be attempted (wait_entry)
     // The wait for an answer: 3 s plus 4 x the transfer time at the estimate, but not at an estimate that failures
     // pushed below 64 kbit/s: after an outage a blackholed request must be given up on within seconds.
     const double estimate = std::max(estimate_kbps(), 64.0);

@@ -118,6 +118,11 @@ class Sender {
   double cap_kbps() const;  // the cap now; 0: none
   SenderStats stats() const;
   std::vector<PostRecord> post_log() const;  // every POST of this run, in the order they ended
+  // Waits at most `timeout` until `done` holds for seq's outbox entry (nullopt: there is none) or the sender stops,
+  // and returns the entry as last read. The lanes wake it when they mark an entry attempted or answered, so the
+  // producer need not poll the outbox for that.
+  std::optional<OutboxEntry> wait_entry(int seq, const std::function<bool(const std::optional<OutboxEntry>&)>& done,
+                                        std::chrono::milliseconds timeout);  // every POST of this run, in the order they ended
 
  private:
   void run(Uplink& uplink);
