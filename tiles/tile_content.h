@@ -6,8 +6,11 @@
 //   one texel per source texel along each leg) from the keyframes' own textures, through each triangle's UVs: an
 //   affine copy of what the keyframe GLB shows, whichever keyframes the leaf merges.
 // - an inner tile: the merged surface of its children, welded on a 1 mm grid and simplified with meshoptimizer
-//   (meshopt_simplify, tile borders locked so that it meets its neighbours), coloured per vertex (COLOR_0) from the
-//   children's colours. Its error is the simplifier's, in metres, plus the largest of its children's.
+//   (meshopt_simplify), coloured per vertex (COLOR_0) from the children's colours. Its error is the simplifier's, in
+//   metres, plus the largest of its children's. At level 1 open borders are locked, so the finest inner tiles meet
+//   their neighbours exactly; above it they are not (a depth mesh is mostly border: locked, a level-2 tile kept 4x
+//   what it should), and a gap between two coarse tiles is within their geometric error, which is what a client's
+//   screen-space error bounds.
 // Positions are metres in the mission's world frame (scene/camera.h); the tile's one SceneNode has to_world identity.
 #include <cstdint>
 #include <functional>
@@ -49,7 +52,7 @@ struct InnerTile {
 // An inner tile's content from its children's decoded contents (tile GLBs, world coordinates): textured children give
 // their colour at each corner (bilinear), vertex-coloured ones their colours. target_triangles > 0.
 // kEmpty when the children hold no triangle.
-Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, size_t target_triangles);
+Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, size_t target_triangles, bool lock_border);
 
 // The box of a mesh's positions (world), grown by pad_m on every side.
 Eigen::AlignedBox3d mesh_box(const Mesh& mesh, double pad_m);

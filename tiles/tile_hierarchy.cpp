@@ -258,7 +258,7 @@ Status TileHierarchy::build_inner_levels(Build& b) {
       std::vector<const Mesh*> inputs;
       for (const auto& m : children) inputs.push_back(&m);
       auto inner = inputs.empty() ? Result<InnerTile>(make_error(ErrorCode::kEmpty, "no child"))
-                                  : build_inner(inputs, options_.inner_triangles);
+                                  : build_inner(inputs, options_.inner_triangles, level == 1);
       if (!inner && inner.error().code != ErrorCode::kEmpty)
         return make_error(inner.error().code, "tile " + key.name() + ": " + inner.error().message);
       if (!inner) {

@@ -79,7 +79,7 @@ Status gather(const Mesh& m, Welded* w) {
 
 }  // namespace
 
-Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, size_t target_triangles) {
+Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, size_t target_triangles, bool lock_border) {
   Welded w;
   for (const Mesh* m : children)
     if (auto st = gather(*m, &w); !st) return st.error();
@@ -92,7 +92,7 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, size_t t
   float relative_error = 0.0f;
   const size_t kept = meshopt_simplify(simplified.data(), w.indices.data(), w.indices.size(),
                                        &w.positions[0].x(), w.positions.size(), sizeof(Eigen::Vector3f), 3 * target,
-                                       1.0f, meshopt_SimplifyLockBorder, &relative_error);
+                                       1.0f, lock_border ? unsigned(meshopt_SimplifyLockBorder) : 0u, &relative_error);
   simplified.resize(kept);
   const float scale = meshopt_simplifyScale(&w.positions[0].x(), w.positions.size(), sizeof(Eigen::Vector3f));
   out.simplify_error_m = static_cast<double>(relative_error) * scale;

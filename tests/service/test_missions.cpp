@@ -709,3 +709,85 @@ TEST(Missions, MetricsPassPromtool) {
   EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
   EXPECT_EQ(check.out + check.err, "") << "promtool's findings on\n" << m->body;
 }
+
+// The mission as a live 3D Tiles 1.1 tileset: built in the background after the POSTs, announced by a "tileset" event,
+// its tiles immutable files with strong ETags; hostile tile names are refused with a JSON 4xx.
+TEST(Missions, TheTilesetFollowsTheKeyframesAndItsTilesAreImmutable) {
+  REQUIRE_KEYFRAMES();
+  const auto& k = keyframes();
+  const TestDir test_dir("missions-tiles");
+  ServerProcess server;
+  std::string error;
+  ASSERT_TRUE(server.start(test_dir.path, {}, &error)) << error;
+  auto c = client(server.port());
+  for (int i = 0; i < 3; ++i) ASSERT_EQ(post_keyframe(*c, "floor", i, k[static_cast<size_t>(i)])->status, 201);
+  size_t posted = 0;
+  for (const auto& e : json::parse(c->Get("/v1/missions/floor")->body)["keyframes"]) posted += e["triangles"].get<size_t>();
+  std::function<void(const json&, std::vector<std::string>*)> walk = [&](const json& t, std::vector<std::string>* u) {
+    if (t.contains("content")) u->push_back(t["content"]["uri"]);
+    for (const auto& ch : t.value("children", json::array())) walk(ch, u);
+  };
+  auto leaf_triangles = [&](const json& ts) {
+    std::vector<std::string> u;
+    walk(ts["root"], &u);
+    size_t n = 0;
+    for (const auto& uri : u) {
+      if (uri.rfind("tiles/0_", 0) != 0) continue;
+      auto r = c->Get(("/v1/missions/floor/" + uri).c_str());
+      if (!r || r->status != 200) return size_t(0);  // replaced meanwhile: look again
+      auto scene = rgbdcast::decode_glb(reinterpret_cast<const std::uint8_t*>(r->body.data()), r->body.size());
+      if (scene) n += scene->triangle_count();
+    }
+    return n;
+  };
+  // Within 60 s the tileset holds every posted triangle, each in exactly one leaf.
+  json tileset;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  size_t in_leaves = 0;
+  while (std::chrono::steady_clock::now() < deadline) {
+    auto r = c->Get("/v1/missions/floor/tileset.json");
+    ASSERT_TRUE(r && r->status == 200);
+    tileset = json::parse(r->body);
+    if ((in_leaves = leaf_triangles(tileset)) == posted) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  EXPECT_EQ(in_leaves, posted);
+  // The event stream reports the tileset (without an id, so Last-Event-ID keeps naming keyframes).
+  SseClient sse(server.port(), "/v1/missions/floor/events");
+  ASSERT_TRUE(sse.read_until([](const std::string& t) { return t.find("event: tileset") != std::string::npos; }, 10))
+      << sse.text();
+  ASSERT_TRUE(sse.read_until([](const std::string& t) { return t.find("id: 2\n") != std::string::npos; }, 10));
+  EXPECT_EQ(ids_of(sse.events()), (std::vector<std::string>{"0", "1", "2"})) << sse.text();
+  EXPECT_EQ(tileset["asset"]["version"], "1.1");
+  EXPECT_EQ(tileset["root"]["refine"], "REPLACE");
+  // Every content URI is fetchable, a GLB that decodes, cacheable for good; If-None-Match answers 304.
+  std::vector<std::string> uris;
+  walk(tileset["root"], &uris);
+  ASSERT_GT(uris.size(), 1u);
+  for (const auto& uri : uris) {
+    auto r = c->Get(("/v1/missions/floor/" + uri).c_str());
+    ASSERT_TRUE(r && r->status == 200) << uri;
+    EXPECT_EQ(r->get_header_value("Content-Type"), "model/gltf-binary");
+    EXPECT_NE(r->get_header_value("Cache-Control").find("immutable"), std::string::npos);
+    auto scene = rgbdcast::decode_glb(reinterpret_cast<const std::uint8_t*>(r->body.data()), r->body.size());
+    ASSERT_TRUE(scene) << uri;
+    auto again = c->Get(("/v1/missions/floor/" + uri).c_str(), {{"If-None-Match", r->get_header_value("ETag")}});
+    ASSERT_TRUE(again);
+    EXPECT_EQ(again->status, 304) << uri;
+  }
+  {
+    auto r = c->Get(("/v1/missions/floor/" + uris.front()).c_str());
+    const std::string path = test_dir.path + "/tile.glb";
+    std::ofstream(path, std::ios::binary) << r->body;
+    EXPECT_GLTF_VALID(path);
+  }
+  for (const char* bad : {"/v1/missions/floor/tiles/..%2F..%2Fmissions%2Ffloor%2F0.json",
+                          "/v1/missions/floor/tiles/../missions/floor/0.glb", "/v1/missions/floor/tiles/hierarchy.json",
+                          "/v1/missions/floor/tiles/0_0_0.v1.glb.tmp", "/v1/missions/floor/tiles/"})
+    expect_json_error(c->Get(bad), 400, bad);
+  expect_json_error(c->Get("/v1/missions/floor/tiles/0_0_0.v999999.glb"), 404, "an unknown tile");
+  expect_json_error(c->Get("/v1/missions/floor/tileset.json?max-error=1e308"), 400, "a parameter");
+  expect_json_error(c->Get("/v1/missions/nope/tileset.json"), 404, "an unknown mission");
+  ASSERT_EQ(c->Delete("/v1/missions/floor")->status, 204);
+  EXPECT_FALSE(fs::exists(test_dir.path + "/tiles/floor"));
+}
