@@ -722,7 +722,9 @@ TEST(Missions, TheTilesetFollowsTheKeyframesAndItsTilesAreImmutable) {
   auto c = client(server.port());
   for (int i = 0; i < 3; ++i) ASSERT_EQ(post_keyframe(*c, "floor", i, k[static_cast<size_t>(i)])->status, 201);
   size_t posted = 0;
-  for (const auto& e : json::parse(c->Get("/v1/missions/floor")->body)["keyframes"]) posted += e["triangles"].get<size_t>();
+  const json mission = json::parse(c->Get("/v1/missions/floor")->body);
+  for (const auto& e : mission["keyframes"]) posted += e["triangles"].get<size_t>();
+  ASSERT_GT(posted, 0u);
   std::function<void(const json&, std::vector<std::string>*)> walk = [&](const json& t, std::vector<std::string>* u) {
     if (t.contains("content")) u->push_back(t["content"]["uri"]);
     for (const auto& ch : t.value("children", json::array())) walk(ch, u);
