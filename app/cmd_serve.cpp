@@ -73,6 +73,11 @@ void register_serve(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(1, 900));
 
+  cmd->add_option("--resident-mb", opts->resident_mb,
+                  "MiB of mission tiles and keyframes kept on the renderers, all together (least recently used go)")
+      ->capture_default_str()
+      ->check(CLI::Range(16, 1 << 20));
+
   cmd->add_option("--max-event-streams", opts->max_event_streams,
                   "Mission event streams (SSE) open at once before 503; each holds an HTTP thread while open")
       ->capture_default_str()

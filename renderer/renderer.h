@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -57,10 +58,17 @@ class Renderer {
     return make_error(ErrorCode::kUnavailable, backend() + ": appending to a resident scene is not supported");
   }
   virtual void release(ResidentSceneId id) = 0;
-  // Renders a resident scene. Mesh mode draws each node's triangles, and the points of nodes without triangles.
-  // Points mode draws each node's points, or the mesh vertices when a node has no points.
-  // Fails on an unknown id, a camera with non-finite values or a size outside 1..kMaxImageSize.
-  virtual Result<RenderResult> render(ResidentSceneId id, const ViewCamera& camera, const RenderOptions& options) = 0;
+  // Renders resident scenes together, in one image with one depth buffer (a tiled mission draws the tiles a view
+  // selected, each resident on its own). Mesh mode draws each node's triangles, and the points of nodes without
+  // triangles. Points mode draws each node's points, or the mesh vertices when a node has no points.
+  // Fails on an unknown id (nothing is drawn), a camera with non-finite values or a size outside 1..kMaxImageSize.
+  // An empty list draws the background.
+  virtual Result<RenderResult> render_scenes(std::span<const ResidentSceneId> ids, const ViewCamera& camera,
+                                             const RenderOptions& options) = 0;
+  // One resident scene.
+  Result<RenderResult> render(ResidentSceneId id, const ViewCamera& camera, const RenderOptions& options) {
+    return render_scenes(std::span<const ResidentSceneId>(&id, 1), camera, options);
+  }
   // Vulkan with validation on (RendererConfig::vulkan_validation): validation errors reported so far. 0 otherwise.
   virtual int validation_errors() const { return 0; }
 };

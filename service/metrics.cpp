@@ -97,6 +97,11 @@ std::string Metrics::prometheus_text(const MetricsGauges& g) const {
   gauge("rgbdcast_missions_stored", "Live missions in the store.", std::to_string(g.missions_stored));
   gauge("rgbdcast_event_streams_open", "Mission event streams open (each holds an HTTP thread).",
         std::to_string(g.event_streams_open));
+  gauge("rgbdcast_resident_part_bytes",
+        "Estimated device bytes of the mission tiles and keyframes resident on the renderers (capped by --resident-mb).",
+        std::to_string(g.resident_part_bytes));
+  gauge("rgbdcast_resident_parts", "Mission tiles and keyframes resident on the renderers.",
+        std::to_string(g.resident_parts));
   return out;
 }
 

@@ -22,6 +22,7 @@ struct MetricsGauges {
   size_t render_rejected = 0;
   size_t missions_stored = 0;
   size_t event_streams_open = 0;
+  size_t resident_part_bytes = 0, resident_parts = 0;  // missions' parts on the renderers (service/render_pool.h)
 };
 
 class Histogram {

@@ -10,6 +10,7 @@
 #include "gltf/gltf_io.h"
 #include "service/connection_gate.h"
 #include "service/mission_scene.h"
+#include "service/mission_view.h"
 #include "service/model_flavors.h"
 #include "service/scene_ingest.h"
 #include "service/scene_store.h"  // etag_of
@@ -189,23 +190,10 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   }
   res.set_header("Location", "/v1/missions/" + *name);
   if (put->outcome == PutOutcome::kSame) return send_json(res, 200, put->keyframe.answer());
-  // Stored: now every renderer holding the mission uploads this keyframe alone. A failure there only costs the next
-  // view a whole upload (the renderer dropped the mission); the keyframe is stored either way. A revision replaces
-  // nodes a resident mission already has, which Renderer::append cannot do: the renderers drop the mission and the
-  // next view on each uploads it whole (revisions come when the link is idle, and are few).
-  auto part = std::make_shared<Scene>(std::move(*placed));
-  const auto t_append = std::chrono::steady_clock::now();
-  Status appended = ok_status();
-  if (put->outcome == PutOutcome::kReplaced)
-    pool_.forget(mission_scene_key(*name));
-  else
-    appended = pool_.append(mission_scene_key(*name), part);
+  // Stored: views draw it at once (a keyframe the tileset does not hold yet is drawn whole, service/mission_view.h),
+  // and the tile worker takes it into the tileset off this request's path.
   const auto t_done = std::chrono::steady_clock::now();
-  auto ms = [](auto a, auto b) { return std::to_string(std::chrono::duration<double, std::milli>(b - a).count()); };
-  res.set_header("X-Store-Ms", ms(t_store, t_append));    // both files written and synced
-  res.set_header("X-Append-Ms", ms(t_append, t_done));    // every renderer holding the mission took the keyframe
-  if (!appended && appended.error().code == ErrorCode::kUnavailable)
-    return send_error(res, appended.error());  // stopping
+  res.set_header("X-Store-Ms", std::to_string(std::chrono::duration<double, std::milli>(t_done - t_store).count()));
   const double available = now_unix_s();
   auto marked = missions_.mark_available(*name, *seq, available);
   if (!marked) return send_error(res, marked.error());
@@ -292,6 +280,17 @@ void MissionRoutes::get_view(const httplib::Request& req, httplib::Response& res
     }
     capture = it->second == "capture";
   }
+  // max-error=PX: the screen-space error the tiles may show (service/mission_view.h); the rest is the scene view's.
+  double max_error_px = kDefaultMaxErrorPx;
+  if (auto it = params.find("max-error"); it != params.end()) {
+    if (params.count("max-error") > 1) return send_error(res, 400, "max-error: given more than once");
+    auto v = parse_finite_double("max-error", it->second);
+    if (!v) return send_error(res, v.error());
+    if (*v < 0.0 || *v > kMaxMaxErrorPx)
+      return send_error(res, 400, "max-error: pixels of screen-space error, 0 (full detail) .. 1000");
+    max_error_px = *v;
+    params.erase(it);
+  }
   auto request = parse_view_request(params);
   if (!request) return send_error(res, request.error());
   if (capture) {
@@ -313,7 +312,27 @@ void MissionRoutes::get_view(const httplib::Request& req, httplib::Response& res
     request->capture_pose = false;
     request->camera = *camera;
   }
-  render_view_(req, mission_scene_key(*name), *request, res);
+  // The default pose is the first keyframe's camera, as for a scene's first capture camera.
+  if (!request->full_camera && request->capture_pose) {
+    if (keyframes->empty()) return send_error(res, 404, "mission " + *name + " has no keyframe");
+    auto first = std::min_element(keyframes->begin(), keyframes->end(),
+                                  [](const auto& a, const auto& b) { return a.seq < b.seq; });
+    auto camera = mission_view_camera(*first, request->width, request->height);
+    if (!camera) return send_error(res, camera.error());
+    request->full_camera = true;
+    request->camera = *camera;
+  }
+  auto camera = make_view_camera(*request, {});
+  if (!camera) return send_error(res, camera.error());
+  auto plan = std::make_shared<MissionViewPlan>(
+      plan_mission_view(missions_, tiles_, *name, *keyframes, *camera, max_error_px));
+  res.set_header("X-Tileset-Version", std::to_string(plan->tileset_version));
+  res.set_header("X-Tiles", std::to_string(plan->tiles));
+  res.set_header("X-Pending-Keyframes", std::to_string(plan->pending));
+  if (plan->pending_left_out > 0) res.set_header("X-Pending-Left-Out", std::to_string(plan->pending_left_out));
+  render_view_(req, *request, [this, plan, request = *request] {
+    return pool_.render_parts(std::move(plan->parts), plan->camera, request);
+  }, res);
 }
 
 void MissionRoutes::get_events(const httplib::Request& req, httplib::Response& res) {

@@ -42,9 +42,9 @@ std::string mission_scene_key(const std::string& name);
 
 class MissionRoutes {
  public:
-  // render_view renders and answers a parsed view of a pool scene (the scene view route's own code).
-  using RenderView = std::function<void(const httplib::Request&, const std::string& scene_key, const ViewRequest&,
-                                        httplib::Response&)>;
+  // render_view runs `render` and answers its image as the request asks (the scene view route's own code).
+  using RenderView = std::function<void(const httplib::Request&, const ViewRequest&,
+                                        const std::function<Result<RenderOutput>()>& render, httplib::Response&)>;
   MissionRoutes(MissionRouteOptions options, MissionStore& missions, MissionTiles& tiles, RenderPool& pool,
                 Slots& uploads, RenderView render_view);
   ~MissionRoutes();

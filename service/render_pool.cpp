@@ -2,14 +2,35 @@
 
 #include <malloc.h>
 
+#include <atomic>
 #include <chrono>
 #include <list>
+#include <unordered_map>
 #include <utility>
+
+#include "service/image_header.h"
 
 namespace rgbdcast::service {
 namespace {
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// What uploading `scene` costs a renderer, as renderer/render_scene.h prepares it: 24-byte vertices, 4-byte indices,
+// RGBA8 textures (an encoded texture's size read from its header).
+size_t device_bytes(const Scene& scene) {
+  size_t bytes = 0;
+  for (const SceneNode& node : scene.nodes) {
+    bytes += (node.mesh.positions.size() + node.points.positions.size()) * 24 + node.mesh.indices.size() * 4;
+    const Image& t = node.mesh.texture;
+    if (!t.empty()) {
+      bytes += static_cast<size_t>(t.width) * t.height * 4;
+    } else if (!node.mesh.texture_encoded.empty()) {
+      auto size = peek_image_size(node.mesh.texture_encoded.data(), node.mesh.texture_encoded.size());
+      if (size) bytes += static_cast<size_t>(size->width) * size->height * 4;
+    }
+  }
+  return bytes;
 }
 }  // namespace
 
@@ -23,6 +44,14 @@ struct RenderPool::Worker {
   std::thread thread;
   std::unique_ptr<Renderer> renderer;
   std::list<Resident> resident;       // most recently used first
+  struct Part {
+    std::string key;
+    ResidentSceneId device_id;
+    size_t bytes;
+  };
+  std::list<Part> parts;               // most recently used first
+  std::unordered_map<std::string, std::list<Part>::iterator> part_index;
+  std::atomic<size_t> part_bytes{0}, part_count{0};  // written by the worker, read by stats
   std::vector<std::string> forgotten;  // guarded by the pool's mutex
   std::vector<std::shared_ptr<Append>> appends;  // guarded by the pool's mutex
   bool rendered_large = false;         // since the renderer was made
@@ -70,6 +99,19 @@ Result<RenderOutput> RenderPool::render(const std::string& scene_id, const ViewR
   auto job = std::make_unique<Job>();
   job->scene_id = scene_id;
   job->request = request;
+  return submit(std::move(job));
+}
+
+Result<RenderOutput> RenderPool::render_parts(std::vector<ViewPart> parts, const ViewCamera& camera,
+                                              const ViewRequest& request) {
+  auto job = std::make_unique<Job>();
+  job->parts = std::move(parts);
+  job->camera = camera;
+  job->request = request;
+  return submit(std::move(job));
+}
+
+Result<RenderOutput> RenderPool::submit(std::unique_ptr<Job> job) {
   job->queued_at = std::chrono::steady_clock::now();
   auto future = job->promise.get_future();
   {
@@ -88,8 +130,11 @@ Result<RenderOutput> RenderPool::render(const std::string& scene_id, const ViewR
 }
 
 void RenderPool::forget(const std::string& scene_id) {
-  std::lock_guard lock(mutex_);
-  for (auto& w : workers_) w->forgotten.push_back(scene_id);
+  {
+    std::lock_guard lock(mutex_);
+    for (auto& w : workers_) w->forgotten.push_back(scene_id);
+  }
+  cv_.notify_all();  // idle workers release at once (a deleted mission's parts leave the device)
 }
 
 Status RenderPool::append(const std::string& scene_id, std::shared_ptr<const Scene> part) {
@@ -151,6 +196,49 @@ size_t RenderPool::renderer_resets() const {
   return resets_;
 }
 
+size_t RenderPool::resident_part_bytes() const {
+  size_t bytes = 0;
+  for (const auto& w : workers_) bytes += w->part_bytes.load();
+  return bytes;
+}
+
+size_t RenderPool::resident_parts() const {
+  size_t n = 0;
+  for (const auto& w : workers_) n += w->part_count.load();
+  return n;
+}
+
+void RenderPool::drop_parts(Worker* w, const std::string& prefix) {
+  for (auto it = w->parts.begin(); it != w->parts.end();) {
+    if (it->key.rfind(prefix, 0) == 0) {
+      w->renderer->release(it->device_id);
+      w->part_bytes -= it->bytes;
+      w->part_index.erase(it->key);
+      it = w->parts.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  w->part_count = w->parts.size();
+}
+
+void RenderPool::evict_parts(Worker* w, size_t cap, size_t keep) {
+  while (w->part_bytes > cap && w->parts.size() > keep) {
+    const Worker::Part& old = w->parts.back();
+    w->renderer->release(old.device_id);
+    w->part_bytes -= old.bytes;
+    w->part_index.erase(old.key);
+    w->parts.pop_back();
+  }
+  w->part_count = w->parts.size();
+}
+
+void RenderPool::release_all(Worker* w) {
+  for (auto& r : w->resident) w->renderer->release(r.device_id);
+  w->resident.clear();
+  drop_parts(w, "");
+}
+
 void RenderPool::release_when_idle(Worker* w, const RendererFactory& factory) {
   if (w->rendered_large) {
     Result<std::unique_ptr<Renderer>> fresh = make_error(ErrorCode::kInternal, "renderer factory threw");
@@ -159,8 +247,7 @@ void RenderPool::release_when_idle(Worker* w, const RendererFactory& factory) {
     } catch (const std::exception&) {
     }
     if (fresh) {  // else the old renderer stays: a view is better served with extra memory than not at all
-      for (auto& r : w->resident) w->renderer->release(r.device_id);
-      w->resident.clear();
+      release_all(w);
       w->renderer = std::move(*fresh);
       w->rendered_large = false;
       std::lock_guard lock(mutex_);
@@ -195,7 +282,9 @@ void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> st
     {
       std::unique_lock lock(mutex_);
       const auto idle = std::chrono::duration<double>(options_.idle_release_s);
-      if (!cv_.wait_for(lock, idle, [&] { return stopping_ || !queue_.empty() || !w->appends.empty(); })) {
+      if (!cv_.wait_for(lock, idle, [&] {
+            return stopping_ || !queue_.empty() || !w->appends.empty() || !w->forgotten.empty();
+          })) {
         lock.unlock();
         release_when_idle(w, factory);
         continue;
@@ -218,6 +307,7 @@ void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> st
           ++it;
         }
       }
+      drop_parts(w, id + "/");
     }
     if (!appends.empty()) {
       for (const auto& task : appends) apply_append(w, *task);
@@ -231,45 +321,9 @@ void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> st
     RenderOutput out;
     out.queue_ms = ms_since(job->queued_at);
     out.backend = w->renderer->backend();
-    auto work = [&]() -> Result<RenderOutput> {
-      auto it = w->resident.begin();
-      while (it != w->resident.end() && it->scene_id != job->scene_id) ++it;
-      if (it == w->resident.end()) {
-        const auto t0 = std::chrono::steady_clock::now();
-        auto scene = loader_(job->scene_id);
-        if (!scene) return scene.error();
-        out.load_ms = ms_since(t0);
-        auto id = w->renderer->upload(**scene, &out.upload_ms);
-        if (!id) return id.error();
-        std::set<std::string> names;
-        for (const SceneNode& node : (*scene)->nodes) names.insert(node.name);
-        w->resident.push_front({job->scene_id, *id, (*scene)->cameras, std::move(names)});
-        while (w->resident.size() > static_cast<size_t>(options_.resident_scenes)) {
-          w->renderer->release(w->resident.back().device_id);
-          w->resident.pop_back();
-        }
-      } else {
-        w->resident.splice(w->resident.begin(), w->resident, it);
-      }
-      const Worker::Resident& r = w->resident.front();
-      auto camera = make_view_camera(job->request, r.cameras);
-      if (!camera) return camera.error();
-      RenderOptions options;
-      options.mode = job->request.mode;
-      options.point_size_px = job->request.point_size_px;
-      auto rendered = w->renderer->render(r.device_id, *camera, options);
-      if (!rendered) return rendered.error();
-      w->heap_dirty = true;
-      if (static_cast<long long>(job->request.width) * job->request.height > options_.large_view_px)
-        w->rendered_large = true;
-      out.color = std::move(rendered->color);
-      out.render_ms = rendered->timings.render_ms;
-      out.readback_ms = rendered->timings.readback_ms;
-      return std::move(out);
-    };
     Result<RenderOutput> result = make_error(ErrorCode::kInternal, "render failed");
     try {
-      result = work();
+      result = job->parts ? render_parts_job(w, *job, std::move(out)) : render_scene_job(w, *job, std::move(out));
     } catch (const std::exception& e) {
       result = make_error(ErrorCode::kInternal, std::string("render threw: ") + e.what());
     }
@@ -279,9 +333,92 @@ void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> st
     }
     job->promise.set_value(std::move(result));
   }
-  for (auto& r : w->resident) w->renderer->release(r.device_id);
-  w->resident.clear();
+  release_all(w);
   w->renderer.reset();
+}
+
+Result<RenderOutput> RenderPool::render_scene_job(Worker* w, Job& job, RenderOutput out) {
+  auto it = w->resident.begin();
+  while (it != w->resident.end() && it->scene_id != job.scene_id) ++it;
+  if (it == w->resident.end()) {
+    const auto t0 = std::chrono::steady_clock::now();
+    auto scene = loader_(job.scene_id);
+    if (!scene) return scene.error();
+    out.load_ms = ms_since(t0);
+    auto id = w->renderer->upload(**scene, &out.upload_ms);
+    if (!id) return id.error();
+    std::set<std::string> names;
+    for (const SceneNode& node : (*scene)->nodes) names.insert(node.name);
+    w->resident.push_front({job.scene_id, *id, (*scene)->cameras, std::move(names)});
+    while (w->resident.size() > static_cast<size_t>(options_.resident_scenes)) {
+      w->renderer->release(w->resident.back().device_id);
+      w->resident.pop_back();
+    }
+  } else {
+    w->resident.splice(w->resident.begin(), w->resident, it);
+  }
+  const Worker::Resident& r = w->resident.front();
+  auto camera = make_view_camera(job.request, r.cameras);
+  if (!camera) return camera.error();
+  RenderOptions options;
+  options.mode = job.request.mode;
+  options.point_size_px = job.request.point_size_px;
+  auto rendered = w->renderer->render(r.device_id, *camera, options);
+  if (!rendered) return rendered.error();
+  w->heap_dirty = true;
+  if (static_cast<long long>(job.request.width) * job.request.height > options_.large_view_px)
+    w->rendered_large = true;
+  out.color = std::move(rendered->color);
+  out.render_ms = rendered->timings.render_ms;
+  out.readback_ms = rendered->timings.readback_ms;
+  return out;
+}
+
+Result<RenderOutput> RenderPool::render_parts_job(Worker* w, Job& job, RenderOutput out) {
+  const size_t cap = options_.resident_part_bytes / workers_.size();
+  std::vector<ResidentSceneId> ids;
+  size_t touched = 0;  // this view's parts, at the front of w->parts
+  for (const ViewPart& part : *job.parts) {
+    auto found = w->part_index.find(part.key);
+    if (found != w->part_index.end()) {
+      w->parts.splice(w->parts.begin(), w->parts, found->second);
+    } else {
+      const auto t0 = std::chrono::steady_clock::now();
+      auto scene = part.load();
+      out.load_ms += ms_since(t0);
+      if (!scene && scene.error().code == ErrorCode::kNotFound) {
+        ++out.parts_missing;
+        continue;
+      }
+      if (!scene) return scene.error();
+      double upload_ms = 0.0;
+      auto id = w->renderer->upload(**scene, &upload_ms);
+      if (!id && id.error().code == ErrorCode::kEmpty) continue;
+      if (!id) return id.error();
+      out.upload_ms += upload_ms;
+      ++out.parts_loaded;
+      const size_t bytes = device_bytes(**scene);
+      w->parts.push_front({part.key, *id, bytes});
+      w->part_index[part.key] = w->parts.begin();
+      w->part_bytes += bytes;
+    }
+    ++touched;
+    ids.push_back(w->parts.front().device_id);
+    evict_parts(w, cap, touched);  // this view's parts stay until it is drawn
+  }
+  RenderOptions options;
+  options.mode = job.request.mode;
+  options.point_size_px = job.request.point_size_px;
+  auto rendered = w->renderer->render_scenes(ids, job.camera, options);
+  evict_parts(w, cap, 0);  // a view whose own parts exceed the cap keeps none of them beyond it
+  if (!rendered) return rendered.error();
+  w->heap_dirty = true;
+  if (static_cast<long long>(job.camera.width) * job.camera.height > options_.large_view_px) w->rendered_large = true;
+  out.parts_drawn = ids.size();
+  out.color = std::move(rendered->color);
+  out.render_ms = rendered->timings.render_ms;
+  out.readback_ms = rendered->timings.readback_ms;
+  return out;
 }
 
 }  // namespace rgbdcast::service

@@ -5,8 +5,16 @@
 //   worker is busy and `queue_capacity` jobs are already waiting (the HTTP layer answers 503 with Retry-After): load sheds instead of
 //   piling up.
 // - Each worker keeps up to `resident_scenes` scenes uploaded (least recently used goes first); forget() drops a
-//   deleted scene from every worker before its next job.
+//   deleted scene from every worker at once (a busy worker after its current job).
 // - Scenes are loaded through the SceneLoader (decoded GLB) on a cache miss; a loader error is returned as is.
+// - render_parts() draws a view from parts that are resident one by one: a tiled mission's selected tiles and the
+//   keyframes its tileset does not hold yet. A part's key names its content for ever (an immutable tile file, a
+//   keyframe revision), so a resident part is never stale. Each worker keeps its parts in a least-recently-used set
+//   capped at resident_part_bytes / workers (estimated device bytes: vertices, indices, RGBA8 textures), checked
+//   as each part loads and again after each view: a view whose own parts exceed the cap still draws them all, then
+//   the set shrinks back under the cap (such views load their parts again each time: the cap is too small for them).
+//   Renderers do not share device memory (each backend instance has its own device), so the cap is the total over
+//   the workers, not per worker. forget(key) drops the parts whose key starts with key + "/".
 // - append() grows a resident scene in place (a live mission gains a keyframe): each worker that holds the scene
 //   uploads only the new nodes (Renderer::append); a worker that does not hold it loads it whole on its next view.
 #include <condition_variable>
@@ -37,6 +45,13 @@ struct RenderPoolOptions {
   // freed heap to the system (malloc_trim): after a burst of large views RSS goes back near its base.
   double idle_release_s = 5.0;
   int large_view_px = 1920 * 1080;
+  size_t resident_part_bytes = size_t(512) << 20;  // render_parts(): all workers' resident parts together
+};
+
+// A part of a view: its key (unique and immutable, see above) and how to load it on a miss.
+struct ViewPart {
+  std::string key;
+  std::function<Result<std::shared_ptr<const Scene>>()> load;
 };
 
 struct RenderOutput {
@@ -47,6 +62,9 @@ struct RenderOutput {
   double load_ms = 0.0;      // GLB decode on a cache miss
   double queue_ms = 0.0;     // waiting for a worker
   std::string backend;
+  // render_parts(): parts drawn, loaded by this view (misses), and left out because they no longer load (kNotFound:
+  // a tile file retired meanwhile).
+  size_t parts_drawn = 0, parts_loaded = 0, parts_missing = 0;
 };
 
 using RendererFactory = std::function<Result<std::unique_ptr<Renderer>>()>;
@@ -62,6 +80,10 @@ class RenderPool {
   RenderPool& operator=(const RenderPool&) = delete;
 
   Result<RenderOutput> render(const std::string& scene_id, const ViewRequest& request);
+  // The parts drawn together from `camera` (request gives the mode, point size and image format). Queued and shed
+  // like render().
+  Result<RenderOutput> render_parts(std::vector<ViewPart> parts, const ViewCamera& camera,
+                                    const ViewRequest& request);
   void forget(const std::string& scene_id);
   // Adds `part`'s nodes and cameras to `scene_id` on every worker that has it resident, and returns once every worker
   // has done so (a worker busy with a view finishes that view first; nothing waits in the render queue). Nodes whose
@@ -75,11 +97,15 @@ class RenderPool {
   size_t queue_depth() const;
   size_t rejected() const;
   size_t renderer_resets() const;  // renderers replaced after idle (see idle_release_s)
+  size_t resident_part_bytes() const;  // over all workers, as the cap counts them
+  size_t resident_parts() const;
 
  private:
   struct Job {
     std::string scene_id;
     ViewRequest request;
+    std::optional<std::vector<ViewPart>> parts;  // render_parts()
+    ViewCamera camera;                           // render_parts()
     std::chrono::steady_clock::time_point queued_at;
     std::promise<Result<RenderOutput>> promise;
   };
@@ -91,6 +117,13 @@ class RenderPool {
     std::optional<Error> error;
   };
   void apply_append(Worker* worker, Append& append);
+  Result<RenderOutput> submit(std::unique_ptr<Job> job);
+  Result<RenderOutput> render_scene_job(Worker* worker, Job& job, RenderOutput out);
+  Result<RenderOutput> render_parts_job(Worker* worker, Job& job, RenderOutput out);
+  void drop_parts(Worker* worker, const std::string& prefix);
+  // Releases least recently used parts until the worker's are within `cap` bytes, keeping the `keep` most recent.
+  void evict_parts(Worker* worker, size_t cap, size_t keep);
+  void release_all(Worker* worker);
 
   explicit RenderPool(const RenderPoolOptions& options, SceneLoader loader);
   void run(Worker* worker, RendererFactory factory, std::promise<Status> started);

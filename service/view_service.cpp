@@ -128,9 +128,9 @@ struct ViewService::Impl {
   void post_scene(const httplib::Request& req, httplib::Response& res, const httplib::ContentReader& reader);
   Result<IngestedScene> reduce_frame_upload(FrameUpload upload, httplib::Response& res, bool* busy);
   void get_view(const httplib::Request& req, httplib::Response& res);
-  // Renders a parsed view of a pool scene (a stored scene's id or a mission's key) and answers it.
-  void render_and_send(const httplib::Request& req, const std::string& scene_key, const ViewRequest& request,
-                       httplib::Response& res);
+  // Runs `render` (a pool render of the parsed view) and answers its image.
+  void render_and_send(const httplib::Request& req, const ViewRequest& request,
+                       const std::function<Result<RenderOutput>()>& render, httplib::Response& res);
   void get_glb(const httplib::Request& req, httplib::Response& res);
 };
 
@@ -247,11 +247,11 @@ void ViewService::Impl::get_view(const httplib::Request& req, httplib::Response&
   if (req.method == "POST") params.emplace("camera", req.body);  // the camera JSON as the body (camera_json.h)
   auto request = parse_view_request(params);
   if (!request) return send_error(res, request.error());
-  render_and_send(req, scene->id, *request, res);
+  render_and_send(req, *request, [&] { return pool->render(scene->id, *request); }, res);
 }
 
-void ViewService::Impl::render_and_send(const httplib::Request& req, const std::string& scene_key,
-                                        const ViewRequest& view, httplib::Response& res) {
+void ViewService::Impl::render_and_send(const httplib::Request& req, const ViewRequest& view,
+                                        const std::function<Result<RenderOutput>()>& render, httplib::Response& res) {
   const ViewRequest* request = &view;
   if (req.method == "HEAD") {  // what a GET would answer, without rendering
     res.status = 200;
@@ -259,7 +259,7 @@ void ViewService::Impl::render_and_send(const httplib::Request& req, const std::
     res.set_header("Content-Type", mime_type(request->format));
     return;
   }
-  auto out = pool->render(scene_key, *request);
+  auto out = render();
   if (!out) return send_error(res, out.error());
   const auto t0 = Clock::now();
   auto encoded = encode_image(out->color, request->format, request->quality);
@@ -272,6 +272,11 @@ void ViewService::Impl::render_and_send(const httplib::Request& req, const std::
   res.set_header("X-Queue-Ms", fmt_ms(out->queue_ms));
   if (out->upload_ms > 0 || out->load_ms > 0) res.set_header("X-Upload-Ms", fmt_ms(out->load_ms + out->upload_ms));
   res.set_header("X-Backend", out->backend);
+  if (out->parts_drawn + out->parts_loaded + out->parts_missing > 0) {  // a tiled view (service/mission_view.h)
+    res.set_header("X-Parts-Drawn", std::to_string(out->parts_drawn));
+    res.set_header("X-Parts-Loaded", std::to_string(out->parts_loaded));
+    if (out->parts_missing > 0) res.set_header("X-Parts-Missing", std::to_string(out->parts_missing));
+  }
   res.set_header("Cache-Control", "no-store");
   res.status = 200;
   res.body.assign(encoded->begin(), encoded->end());
@@ -368,6 +373,8 @@ void ViewService::Impl::routes() {
     g.render_rejected = pool->rejected();
     g.missions_stored = missions->count();
     g.event_streams_open = static_cast<size_t>(mission_routes->open_streams());
+    g.resident_part_bytes = pool->resident_part_bytes();
+    g.resident_parts = pool->resident_parts();
     res.set_content(metrics.prometheus_text(g), "text/plain; version=0.0.4; charset=utf-8");
   }));
   server->Post("/v1/scenes", guarded_reader([this](Req req, Res res, const httplib::ContentReader& reader) {
@@ -484,13 +491,13 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   if (!std::getenv("MALLOC_MMAP_THRESHOLD_")) ::mallopt(M_MMAP_THRESHOLD, 2 << 20);
   if (!std::getenv("MALLOC_TRIM_THRESHOLD_")) ::mallopt(M_TRIM_THRESHOLD, 16 << 20);
   SceneStore* store_ptr = impl->store.get();
-  MissionStore* missions_ptr = impl->missions.get();
   std::string* reason = &impl->backend_reason;
   std::mutex* reason_mutex = &impl->reason_mutex;
   const BackendChoice choice = options.backend;
   RenderPoolOptions pool_options;
   pool_options.workers = options.renderers;
   pool_options.queue_capacity = options.render_queue;
+  pool_options.resident_part_bytes = options.resident_mb << 20;
   auto pool = RenderPool::start(
       pool_options,
       [choice, reason, reason_mutex]() -> Result<std::unique_ptr<Renderer>> {
@@ -500,13 +507,8 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
         *reason = sel->reason;
         return std::move(sel->renderer);
       },
-      [store_ptr, missions_ptr](const std::string& id) -> Result<std::shared_ptr<const Scene>> {
-        const std::string mission_prefix = mission_scene_key("");
-        if (id.rfind(mission_prefix, 0) == 0) {  // a live mission: every keyframe placed, in one scene
-          auto mission = assemble_mission(*missions_ptr, id.substr(mission_prefix.size()));
-          if (!mission) return mission.error();
-          return std::shared_ptr<const Scene>(std::make_shared<Scene>(std::move(*mission)));
-        }
+      // Stored scenes; missions are drawn from parts (render_parts, service/mission_view.h), never whole.
+      [store_ptr](const std::string& id) -> Result<std::shared_ptr<const Scene>> {
         auto bytes = store_ptr->read_glb(id);
         if (!bytes) return bytes.error();
         auto scene = decode_glb(bytes->data(), bytes->size());
@@ -528,8 +530,9 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   impl->tiles->start();
   impl->mission_routes = std::make_unique<MissionRoutes>(
       mission_options, *impl->missions, *impl->tiles, *impl->pool, *impl->uploads,
-      [raw](const httplib::Request& req, const std::string& key, const ViewRequest& request,
-            httplib::Response& res) { raw->render_and_send(req, key, request, res); });
+      [raw](const httplib::Request& req, const ViewRequest& request,
+            const std::function<Result<RenderOutput>()>& render,
+            httplib::Response& res) { raw->render_and_send(req, request, render, res); });
 
   GateOptions gate;
   gate.workers = options.threads;

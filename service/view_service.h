@@ -31,6 +31,8 @@ struct ServeOptions {
   int renderers = 2;               // renderer instances: two overlap one view's render with another's readback and
                                    // encoding (bench/load.sh on 2 cores: 64 -> 80 views/s on lavapipe)
   int render_queue = 16;           // views waiting beyond those rendering; more get 503
+  size_t resident_mb = 512;        // missions' tiles and keyframes resident on the renderers, all together (MiB;
+                                   // least recently used evicted: service/render_pool.h)
   int reducers = 1;                // frame reductions at once
   int reduce_threads = 0;          // OpenMP threads per reduction (ReductionParams::threads); 0 = max(1, cores /
                                    // reducers), so reductions at once never ask for more threads than cores

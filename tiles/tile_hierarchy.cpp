@@ -323,6 +323,9 @@ void TileHierarchy::publish() {
   auto s = std::make_shared<TilesetSnapshot>();
   s->version = version_;
   s->tileset_json = make_tileset(tiles_, options_.top_level, version_, "tiles/").dump();
+  s->records = tiles_;
+  for (const auto& [seq, k] : keyframes_) s->keyframes.emplace(seq, k.rev);
+  s->top_level = options_.top_level;
   for (const auto& [key, r] : tiles_) {
     s->files[r.file()] = r.bytes;
     ++s->tiles;

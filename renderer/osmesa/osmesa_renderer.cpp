@@ -42,7 +42,8 @@ class OsmesaRenderer final : public Renderer {
   Result<ResidentSceneId> upload(const Scene& scene, double* upload_ms) override;
   Status append(ResidentSceneId id, const Scene& scene, double* upload_ms) override;
   void release(ResidentSceneId id) override;
-  Result<RenderResult> render(ResidentSceneId id, const ViewCamera& camera, const RenderOptions& options) override;
+  Result<RenderResult> render_scenes(std::span<const ResidentSceneId> ids, const ViewCamera& camera,
+                                     const RenderOptions& options) override;
 
  private:
   bool make_current() { return OSMesaMakeCurrent(ctx_, dummy_, GL_UNSIGNED_BYTE, 1, 1) == GL_TRUE; }
@@ -259,11 +260,15 @@ Status OsmesaRenderer::ensure_target(int width, int height) {
   return ok_status();
 }
 
-Result<RenderResult> OsmesaRenderer::render(ResidentSceneId id, const ViewCamera& camera,
-                                            const RenderOptions& options) {
-  auto it = scenes_.find(id);
-  if (it == scenes_.end())
-    return make_error(ErrorCode::kNotFound, "no resident scene with id " + std::to_string(id));
+Result<RenderResult> OsmesaRenderer::render_scenes(std::span<const ResidentSceneId> ids, const ViewCamera& camera,
+                                                   const RenderOptions& options) {
+  std::vector<const std::vector<GlNode>*> scenes;
+  for (ResidentSceneId id : ids) {
+    auto it = scenes_.find(id);
+    if (it == scenes_.end())
+      return make_error(ErrorCode::kNotFound, "no resident scene with id " + std::to_string(id));
+    scenes.push_back(&it->second);
+  }
   if (Status s = check_camera(camera); !s) return s.error();
   if (Status s = check_options(options); !s) return s.error();
   if (!make_current()) return make_error(ErrorCode::kInternal, "OSMesa: cannot make the context current");
@@ -292,19 +297,20 @@ Result<RenderResult> OsmesaRenderer::render(ResidentSceneId id, const ViewCamera
     glBindTexture(GL_TEXTURE_2D, node.texture ? node.texture : white_);
   };
   glBindBuffer(GL_UNIFORM_BUFFER, ubo_);
-  for (const GlNode& node : it->second) {
-    if (options.mode == RenderMode::kMesh && node.index_count > 0) {
-      set_params(node, node.mesh_colors);
-      glBindVertexArray(node.mesh_vao);
-      glDrawElements(GL_TRIANGLES, node.index_count, GL_UNSIGNED_INT, nullptr);
-      continue;
+  for (const std::vector<GlNode>* nodes : scenes)
+    for (const GlNode& node : *nodes) {
+      if (options.mode == RenderMode::kMesh && node.index_count > 0) {
+        set_params(node, node.mesh_colors);
+        glBindVertexArray(node.mesh_vao);
+        glDrawElements(GL_TRIANGLES, node.index_count, GL_UNSIGNED_INT, nullptr);
+        continue;
+      }
+      const bool own_points = node.point_count > 0;
+      if (!own_points && node.mesh_vertex_count == 0) continue;
+      set_params(node, own_points ? ColorSource::kVertex : node.point_colors);
+      glBindVertexArray(own_points ? node.point_vao : node.mesh_vao);
+      glDrawArrays(GL_POINTS, 0, own_points ? node.point_count : node.mesh_vertex_count);
     }
-    const bool own_points = node.point_count > 0;
-    if (!own_points && node.mesh_vertex_count == 0) continue;
-    set_params(node, own_points ? ColorSource::kVertex : node.point_colors);
-    glBindVertexArray(own_points ? node.point_vao : node.mesh_vao);
-    glDrawArrays(GL_POINTS, 0, own_points ? node.point_count : node.mesh_vertex_count);
-  }
   glBindVertexArray(0);
   glFinish();
   result.timings.render_ms = ms_since(t_draw);

@@ -64,14 +64,15 @@ class VulkanRenderer final : public Renderer {
   Result<ResidentSceneId> upload(const Scene& scene, double* upload_ms) override;
   Status append(ResidentSceneId id, const Scene& scene, double* upload_ms) override;
   void release(ResidentSceneId id) override { scenes_.erase(id); }
-  Result<RenderResult> render(ResidentSceneId id, const ViewCamera& camera, const RenderOptions& options) override;
+  Result<RenderResult> render_scenes(std::span<const ResidentSceneId> ids, const ViewCamera& camera,
+                                     const RenderOptions& options) override;
 
  private:
   Result<VkPipeline> make_pipeline(VkPrimitiveTopology topology);
   // Uploads the nodes of `scene` into `into` (a fresh ResidentScene: on failure the caller drops it whole).
   Status upload_nodes(const Scene& scene, ResidentScene& into);
   Status ensure_target(int width, int height);
-  void record_draws(VkCommandBuffer cmd, const ResidentScene& scene, const ViewCamera& camera,
+  void record_draws(VkCommandBuffer cmd, const std::vector<const ResidentScene*>& scenes, const ViewCamera& camera,
                     const RenderOptions& options);
 
   std::unique_ptr<vk::Context> ctx_;
@@ -331,8 +332,8 @@ Status VulkanRenderer::ensure_target(int width, int height) {
   return ok_status();
 }
 
-void VulkanRenderer::record_draws(VkCommandBuffer cmd, const ResidentScene& scene, const ViewCamera& camera,
-                                  const RenderOptions& options) {
+void VulkanRenderer::record_draws(VkCommandBuffer cmd, const std::vector<const ResidentScene*>& scenes,
+                                  const ViewCamera& camera, const RenderOptions& options) {
   const Eigen::Matrix4d clip_from_world = clip_from_camera(camera) * camera.world_to_camera();
   auto draw_params = [&](const ResidentNode& node, ColorSource source) {
     DrawParams p{};
@@ -346,29 +347,36 @@ void VulkanRenderer::record_draws(VkCommandBuffer cmd, const ResidentScene& scen
   const VkDeviceSize zero = 0;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, triangles_);
   if (options.mode == RenderMode::kMesh)
-    for (const ResidentNode& node : scene.nodes) {
-      if (node.index_count == 0) continue;
-      draw_params(node, node.mesh_colors);
-      vkCmdBindVertexBuffers(cmd, 0, 1, &node.mesh_vertices.buffer, &zero);
-      vkCmdBindIndexBuffer(cmd, node.indices.buffer, 0, VK_INDEX_TYPE_UINT32);
-      vkCmdDrawIndexed(cmd, node.index_count, 1, 0, 0, 0);
-    }
+    for (const ResidentScene* scene : scenes)
+      for (const ResidentNode& node : scene->nodes) {
+        if (node.index_count == 0) continue;
+        draw_params(node, node.mesh_colors);
+        vkCmdBindVertexBuffers(cmd, 0, 1, &node.mesh_vertices.buffer, &zero);
+        vkCmdBindIndexBuffer(cmd, node.indices.buffer, 0, VK_INDEX_TYPE_UINT32);
+        vkCmdDrawIndexed(cmd, node.index_count, 1, 0, 0, 0);
+      }
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, points_);
-  for (const ResidentNode& node : scene.nodes) {
-    if (options.mode == RenderMode::kMesh && node.index_count > 0) continue;
-    const bool own_points = node.point_count > 0;
-    if (!own_points && node.mesh_vertex_count == 0) continue;
-    draw_params(node, own_points ? ColorSource::kVertex : node.point_colors);
-    vkCmdBindVertexBuffers(cmd, 0, 1, own_points ? &node.point_vertices.buffer : &node.mesh_vertices.buffer, &zero);
-    vkCmdDraw(cmd, own_points ? node.point_count : node.mesh_vertex_count, 1, 0, 0);
-  }
+  for (const ResidentScene* scene : scenes)
+    for (const ResidentNode& node : scene->nodes) {
+      if (options.mode == RenderMode::kMesh && node.index_count > 0) continue;
+      const bool own_points = node.point_count > 0;
+      if (!own_points && node.mesh_vertex_count == 0) continue;
+      draw_params(node, own_points ? ColorSource::kVertex : node.point_colors);
+      vkCmdBindVertexBuffers(cmd, 0, 1, own_points ? &node.point_vertices.buffer : &node.mesh_vertices.buffer,
+                             &zero);
+      vkCmdDraw(cmd, own_points ? node.point_count : node.mesh_vertex_count, 1, 0, 0);
+    }
 }
 
-Result<RenderResult> VulkanRenderer::render(ResidentSceneId id, const ViewCamera& camera,
-                                            const RenderOptions& options) {
-  auto it = scenes_.find(id);
-  if (it == scenes_.end())
-    return make_error(ErrorCode::kNotFound, "no resident scene with id " + std::to_string(id));
+Result<RenderResult> VulkanRenderer::render_scenes(std::span<const ResidentSceneId> ids, const ViewCamera& camera,
+                                                   const RenderOptions& options) {
+  std::vector<const ResidentScene*> scenes;
+  for (ResidentSceneId id : ids) {
+    auto it = scenes_.find(id);
+    if (it == scenes_.end())
+      return make_error(ErrorCode::kNotFound, "no resident scene with id " + std::to_string(id));
+    scenes.push_back(it->second.get());
+  }
   if (Status s = check_camera(camera); !s) return s.error();
   if (Status s = check_options(options); !s) return s.error();
   if (Status s = ensure_target(camera.width, camera.height); !s) return s.error();
@@ -409,7 +417,7 @@ Result<RenderResult> VulkanRenderer::render(ResidentSceneId id, const ViewCamera
         VkRect2D sc{{0, 0}, extent};
         vkCmdSetViewport(cmd, 0, 1, &vp);
         vkCmdSetScissor(cmd, 0, 1, &sc);
-        record_draws(cmd, *it->second, camera, options);
+        record_draws(cmd, scenes, camera, options);
         vkCmdEndRendering(cmd);
       },
       &result.timings.render_ms);

@@ -14,6 +14,8 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
+#include <iostream>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -82,6 +84,36 @@ size_t files_under(const std::string& dir) {
   for (const auto& e : fs::recursive_directory_iterator(dir))
     if (e.is_regular_file()) ++n;
   return n;
+}
+
+// Waits until the mission's views draw its tileset alone (X-Pending-Keyframes: 0), at most timeout_s.
+bool wait_for_tileset(httplib::Client& c, const std::string& mission, double timeout_s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  const std::string path = "/v1/missions/" + mission + "/view?pose=capture&width=32&height=24";
+  while (std::chrono::steady_clock::now() < deadline) {
+    auto r = c.Get(path.c_str());
+    if (r && r->status == 200 && r->get_header_value("X-Pending-Keyframes") == "0" &&
+        r->get_header_value("X-Tileset-Version") != "0")
+      return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return false;
+}
+
+// An integer response header, 0 when absent.
+int header_int(const httplib::Result& r, const char* name) {
+  return r->has_header(name) ? std::stoi(r->get_header_value(name)) : 0;
+}
+
+// PSNR in dB of two encoded images of the same size (RGB, peak 255; 99 when identical).
+double psnr_db(const std::string& a, const std::string& b) {
+  auto decode = [](const std::string& s) {
+    return cv::imdecode(cv::Mat(1, static_cast<int>(s.size()), CV_8U, const_cast<char*>(s.data())), cv::IMREAD_COLOR);
+  };
+  const cv::Mat x = decode(a), y = decode(b);
+  if (x.empty() || x.size() != y.size()) return -1;
+  const double mse = cv::norm(x, y, cv::NORM_L2SQR) / static_cast<double>(x.total() * 3);
+  return mse == 0 ? 99.0 : 10.0 * std::log10(255.0 * 255.0 / mse);
 }
 
 // Fraction of pixels of a decoded JPEG view that are not background.
@@ -267,8 +299,8 @@ TEST(Missions, ViewsGrowIncrementallyAndModelIsOneValidGlb) {
   const std::string dir = test_dir.path;
   ServerProcess server;
   std::string error;
-  // One renderer: every view after the first is served by the worker that holds the mission, so a missing
-  // X-Upload-Ms header proves the keyframes were appended, not the mission uploaded again.
+  // One renderer: every view is served by the worker that holds the mission's parts, so X-Parts-Loaded counts
+  // what a view had to load (service/mission_view.h): never the mission again, only what changed.
   ASSERT_TRUE(server.start(dir, {"--renderers", "1"}, &error)) << error;
   auto c = client(server.port());
   // A fixed wide view from behind and above the start, looking into the room.
@@ -281,11 +313,19 @@ TEST(Missions, ViewsGrowIncrementallyAndModelIsOneValidGlb) {
     auto v = c->Get(fixed.c_str());
     ASSERT_TRUE(v);
     ASSERT_EQ(v->status, 200) << v->body;
-    if (i > 0) {
-      EXPECT_FALSE(v->has_header("X-Upload-Ms")) << "view after keyframe " << i << " uploaded the mission";
+    const int drawn = header_int(v, "X-Parts-Drawn");
+    const int loaded = header_int(v, "X-Parts-Loaded");
+    EXPECT_GE(drawn, 1) << i;
+    EXPECT_LE(loaded, drawn) << i;
+    auto same = c->Get(fixed.c_str());  // nothing new: nothing loaded, unless the tileset moved on meanwhile
+    ASSERT_TRUE(same && same->status == 200);
+    if (same->get_header_value("X-Tileset-Version") == v->get_header_value("X-Tileset-Version")) {
+      EXPECT_EQ(same->get_header_value("X-Parts-Loaded"), "0") << i;
     }
     coverage.push_back(covered(v->body));
   }
+  // The tile worker catches up: the views then draw the tileset alone, and stay the same.
+  ASSERT_TRUE(wait_for_tileset(*c, "lab", 60.0));
   for (size_t i = 1; i < coverage.size(); ++i) EXPECT_GE(coverage[i], coverage[i - 1] - 1e-3) << i;
   EXPECT_GT(coverage.back(), coverage.front() + 0.01) << coverage.front() << " -> " << coverage.back();
 
@@ -688,7 +728,7 @@ TEST(Missions, MetricsPassPromtool) {
     ASSERT_TRUE(r);
     ASSERT_LT(r->status, 300) << r->body;
   }
-  for (const std::string path : {"/v1/scenes/" + id + "/view?pose=capture&width=64&height=48",
+  for (const std::string& path : {"/v1/scenes/" + id + "/view?pose=capture&width=64&height=48",
                                  std::string("/v1/missions/promtool/view?pose=capture&width=64&height=48")}) {
     auto v = c->Get(path.c_str());
     ASSERT_TRUE(v);
@@ -792,4 +832,70 @@ TEST(Missions, TheTilesetFollowsTheKeyframesAndItsTilesAreImmutable) {
   expect_json_error(c->Get("/v1/missions/nope/tileset.json"), 404, "an unknown mission");
   ASSERT_EQ(c->Delete("/v1/missions/floor")->status, 204);
   EXPECT_FALSE(fs::exists(test_dir.path + "/tiles/floor"));
+}
+
+// A mission's views are drawn from its tileset (tiles chosen by screen-space error) plus the keyframes the tileset
+// does not hold yet; max-error=0 is full detail; the renderers keep what they load under --resident-mb.
+TEST(Missions, ViewsDrawTheTilesetByScreenSpaceErrorUnderTheResidentCap) {
+  REQUIRE_KEYFRAMES();
+  const auto& k = keyframes();
+  const TestDir test_dir("missions-tiled-views");
+  ServerProcess server;
+  std::string error;
+  ASSERT_TRUE(server.start(test_dir.path, {"--renderers", "1", "--resident-mb", "16"}, &error)) << error;
+  auto c = client(server.port());
+  for (int i = 0; i < 4; ++i) ASSERT_EQ(post_keyframe(*c, "hall", i, k[static_cast<size_t>(i)])->status, 201);
+  // At once, before the tile worker: the keyframes are drawn whole.
+  auto early = c->Get("/v1/missions/hall/view?pose=capture&format=png");
+  ASSERT_TRUE(early && early->status == 200) << (early ? early->body : "no answer");
+  ASSERT_TRUE(wait_for_tileset(*c, "hall", 60.0));
+
+  // The robot's view and an overview from high above, at the default error and at full detail.
+  const std::string robot = "/v1/missions/hall/view?pose=capture&format=png";
+  const std::string overview = "/v1/missions/hall/view?eye=0.5,-5,-2&target=0.5,0,1.5&fov=60&format=png";
+  for (const std::string& view : {robot, overview}) {
+    auto fine = c->Get((view + "&max-error=0").c_str());
+    auto normal = c->Get(view.c_str());
+    auto coarse = c->Get((view + "&max-error=64").c_str());
+    ASSERT_TRUE(fine && normal && coarse);
+    ASSERT_EQ(fine->status, 200) << fine->body;
+    ASSERT_EQ(normal->status, 200) << normal->body;
+    ASSERT_EQ(coarse->status, 200) << coarse->body;
+    const int fine_tiles = std::stoi(fine->get_header_value("X-Tiles"));
+    const int coarse_tiles = std::stoi(coarse->get_header_value("X-Tiles"));
+    EXPECT_GE(fine_tiles, 1) << view;
+    EXPECT_GE(fine_tiles, coarse_tiles) << view;
+    EXPECT_EQ(fine->get_header_value("X-Pending-Keyframes"), "0");
+    EXPECT_GT(covered(fine->body), 0.05) << view;
+    const double db = psnr_db(normal->body, fine->body);
+    std::cout << view << ": tiles " << fine_tiles << " (max-error=0), " << normal->get_header_value("X-Tiles")
+              << " (default), " << coarse_tiles << " (64 px); default vs full detail " << db << " dB\n";
+    EXPECT_GE(db, 32.0) << view;
+  }
+  // The cap holds after every view, and the renderer keeps something resident.
+  for (const char* eye : {"0,-0.3,-1.2", "2,-1,-2", "-1,-3,0", "0.5,-12,-3", "4,-0.5,6"}) {
+    auto v = c->Get(("/v1/missions/hall/view?eye=" + std::string(eye) + "&target=0.5,0,1.5&fov=70&max-error=0").c_str());
+    ASSERT_TRUE(v && v->status == 200) << eye;
+    auto metrics = c->Get("/metrics");
+    ASSERT_TRUE(metrics && metrics->status == 200);
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(metrics->body, m, std::regex("\nrgbdcast_resident_part_bytes ([0-9]+)")));
+    const double bytes = std::stod(m[1]);
+    EXPECT_LE(bytes, 16.0 * 1024 * 1024) << eye;
+    EXPECT_GT(bytes, 0.0) << eye;
+  }
+  // Hostile max-error: each a 400 with a JSON body.
+  for (const char* bad : {"max-error=-1", "max-error=1e308", "max-error=abc", "max-error=nan", "max-error=1&max-error=2",
+                          "max-error="})
+    expect_json_error(c->Get(("/v1/missions/hall/view?" + std::string(bad)).c_str()), 400, bad);
+  // A deleted mission's parts leave the renderer.
+  ASSERT_EQ(c->Delete("/v1/missions/hall")->status, 204);
+  bool released = false;
+  for (int i = 0; i < 100 && !released; ++i) {
+    auto metrics = c->Get("/metrics");
+    ASSERT_TRUE(metrics);
+    released = metrics->body.find("\nrgbdcast_resident_parts 0\n") != std::string::npos;
+    if (!released) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_TRUE(released);
 }

@@ -16,6 +16,7 @@ namespace {
 struct Counters {
   std::atomic<int> uploads{0}, releases{0}, renders{0}, loads{0}, appended_nodes{0};
   std::atomic<int> render_sleep_ms{0};
+  std::atomic<int> last_ids{0};  // resident scenes the last render drew together
 };
 
 // Fills the image with a colour derived from the resident id; sleeps to simulate a slow GPU.
@@ -37,8 +38,11 @@ class StandInRenderer : public Renderer {
     return ok_status();
   }
   void release(ResidentSceneId) override { ++c_->releases; }
-  Result<RenderResult> render(ResidentSceneId id, const ViewCamera& cam, const RenderOptions&) override {
+  Result<RenderResult> render_scenes(std::span<const ResidentSceneId> ids, const ViewCamera& cam,
+                                     const RenderOptions&) override {
     ++c_->renders;
+    const ResidentSceneId id = ids.empty() ? 0 : ids.back();
+    c_->last_ids = static_cast<int>(ids.size());
     std::this_thread::sleep_for(std::chrono::milliseconds(c_->render_sleep_ms.load()));
     RenderResult r;
     r.color = Image::make(cam.width, cam.height, 4);
@@ -220,3 +224,86 @@ TEST(ServiceRenderPool, FactoryFailureIsAnError) {
   EXPECT_EQ(pool.error().code, ErrorCode::kUnavailable);
   EXPECT_EQ(pool.error().message, "no GPU");
 }
+
+namespace rgbdcast::service {
+namespace {
+
+// A part whose mesh costs `kilobytes` * 1000 device bytes (24-byte vertices), loaded by counting.
+ViewPart sized_part(const std::string& key, int kilobytes, Counters* c) {
+  return {key, [kilobytes, c]() -> Result<std::shared_ptr<const Scene>> {
+            ++c->loads;
+            auto s = std::make_shared<Scene>();
+            s->nodes.resize(1);
+            s->nodes[0].mesh.positions.resize(static_cast<size_t>(kilobytes) * 1000 / 24);
+            return std::shared_ptr<const Scene>(s);
+          }};
+}
+
+std::vector<ViewPart> parts(const std::string& prefix, int first, int count, Counters* c) {
+  std::vector<ViewPart> out;
+  for (int i = first; i < first + count; ++i) out.push_back(sized_part(prefix + std::to_string(i), 240, c));
+  return out;
+}
+
+}  // namespace
+
+// Parts (a tiled mission's tiles) stay resident least-recently-used under a byte cap: a view loads only the parts it
+// lacks, the cap holds after every view whose own parts fit, a view whose parts exceed it still draws them all, and
+// forget() drops a mission's parts.
+TEST(ServiceRenderPool, PartsStayResidentUnderTheByteCap) {
+  Counters c;
+  RenderPoolOptions o{1, 4, 2};
+  o.resident_part_bytes = 1000 * 1000;  // four 240 kB parts
+  auto pool = make_pool(&c, o);
+  ASSERT_TRUE(pool);
+  ViewCamera camera;
+  camera.width = 32;
+  camera.height = 24;
+  auto first = pool->render_parts(parts("m/t", 0, 3, &c), camera, capture());
+  ASSERT_TRUE(first.ok()) << first.error().message;
+  EXPECT_EQ(first->parts_drawn, 3u);
+  EXPECT_EQ(first->parts_loaded, 3u);
+  EXPECT_EQ(c.last_ids, 3);
+  auto again = pool->render_parts(parts("m/t", 0, 3, &c), camera, capture());
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->parts_loaded, 0u) << "resident parts were loaded again";
+  EXPECT_EQ(c.loads, 3);
+  // A camera that moves along: each view adds one part, and the oldest go once the cap is reached.
+  for (int i = 1; i < 10; ++i) {
+    auto v = pool->render_parts(parts("m/t", i, 3, &c), camera, capture());
+    ASSERT_TRUE(v.ok());
+    EXPECT_EQ(v->parts_loaded, 1u) << i;
+    EXPECT_LE(pool->resident_part_bytes(), o.resident_part_bytes) << i;
+    EXPECT_EQ(pool->resident_part_bytes(), pool->resident_parts() * 240000u) << i;
+  }
+  // Six parts at once are over the cap: all drawn, then the set shrinks back under it.
+  auto wide = pool->render_parts(parts("m/w", 0, 6, &c), camera, capture());
+  ASSERT_TRUE(wide.ok());
+  EXPECT_EQ(wide->parts_drawn, 6u);
+  EXPECT_EQ(c.last_ids, 6);
+  EXPECT_LE(pool->resident_part_bytes(), o.resident_part_bytes);
+  EXPECT_GT(pool->resident_parts(), 0u);
+  // A part that is gone (a retired tile file) is left out; the rest is drawn.
+  std::vector<ViewPart> with_gone = parts("m/w", 0, 2, &c);
+  with_gone.push_back({"m/gone", [] () -> Result<std::shared_ptr<const Scene>> {
+                         return make_error(ErrorCode::kNotFound, "no tile file");
+                       }});
+  auto partial = pool->render_parts(std::move(with_gone), camera, capture());
+  ASSERT_TRUE(partial.ok());
+  EXPECT_EQ(partial->parts_drawn, 2u);
+  EXPECT_EQ(partial->parts_missing, 1u);
+  // Any other load error fails the view.
+  std::vector<ViewPart> broken = {{"m/broken", []() -> Result<std::shared_ptr<const Scene>> {
+                                     return make_error(ErrorCode::kInternal, "does not decode");
+                                   }}};
+  auto failed = pool->render_parts(std::move(broken), camera, capture());
+  ASSERT_FALSE(failed.ok());
+  EXPECT_EQ(failed.error().code, ErrorCode::kInternal);
+  // forget("m") drops every part under "m/" before the next job.
+  pool->forget("m");
+  ASSERT_TRUE(pool->render_parts({}, camera, capture()).ok());
+  EXPECT_EQ(pool->resident_parts(), 0u);
+  EXPECT_EQ(pool->resident_part_bytes(), 0u);
+}
+
+}  // namespace rgbdcast::service

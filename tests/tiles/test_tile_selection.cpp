@@ -1,0 +1,118 @@
+// The view's tile selection (tiles/tile_selection.h) on a hand-made hierarchy whose answers follow from its
+// definition: a row of leaves under one inner tile, cameras near, far, and looking away.
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "tiles/tile_selection.h"
+
+namespace rgbdcast::tiles {
+namespace {
+
+// Leaves (level 0) of 2 m along x at z in [0, 2], y in [-1, 0]; parents up to `top`, each with error `inner_error_m`
+// times its level. Floor division keys, as TileKey::parent makes them.
+std::map<TileKey, TileRecord> row_of_leaves(int leaves, int top, double inner_error_m) {
+  std::map<TileKey, TileRecord> records;
+  for (int i = 0; i < leaves; ++i) {
+    TileRecord r;
+    r.key = {0, i, 0};
+    r.box = Eigen::AlignedBox3d(Eigen::Vector3d(2.0 * i, -1.0, 0.0), Eigen::Vector3d(2.0 * i + 2.0, 0.0, 2.0));
+    r.triangles = 100;
+    r.bytes = 1000;
+    records[r.key] = r;
+    for (TileKey k = r.key.parent(); k.level <= top; k = k.parent()) {
+      TileRecord& p = records[k];
+      p.key = k;
+      p.box.extend(r.box);
+      p.geometric_error_m = inner_error_m * k.level;
+      p.triangles = 10;
+      p.bytes = 100;
+    }
+  }
+  return records;
+}
+
+// Looking along +z at the row from `back` metres in front of its centre line x = centre_x.
+ViewCamera camera_at(double centre_x, double back) {
+  auto c = ViewCamera::look_at(Eigen::Vector3d(centre_x, -0.5, -back), Eigen::Vector3d(centre_x, -0.5, 1.0),
+                               Eigen::Vector3d(0, -1, 0), 60.0, 640, 480);
+  EXPECT_TRUE(c.ok());
+  c->far_m = 1000.0;
+  return *c;
+}
+
+std::set<TileKey> keys(const TileSelection& s) {
+  std::set<TileKey> out;
+  for (const TileRecord* r : s.tiles) out.insert(r->key);
+  return out;
+}
+
+TEST(TileSelection, ErrorDecidesTheLevelAndZeroMeansLeaves) {
+  const auto records = row_of_leaves(8, 3, 0.05);  // 16 m of floor; top tile at level 3, error 0.15 m
+  // Far away (500 m): the top tile's error is 0.15 * fy / 500, well under 1 px: one tile, the top.
+  const ViewCamera far = camera_at(8.0, 500.0);
+  const TileSelection top = select_tiles(records, 3, far, 1.0);
+  ASSERT_EQ(top.tiles.size(), 1u);
+  EXPECT_EQ(top.tiles.front()->key, (TileKey{3, 0, 0}));
+  EXPECT_EQ(top.triangles, 10u);
+  // max-error 0 is full detail: every visible leaf, whatever the distance.
+  const TileSelection full = select_tiles(records, 3, far, 0.0);
+  EXPECT_EQ(full.tiles.size(), 8u);
+  for (const TileRecord* r : full.tiles) EXPECT_EQ(r->key.level, 0);
+  EXPECT_EQ(full.triangles, 800u);
+  // Nearer, the coarse tiles' projected error grows past 1 px and they refine.
+  const TileSelection near = select_tiles(records, 3, camera_at(8.0, 20.0), 1.0);
+  EXPECT_GT(near.tiles.size(), 1u);
+  // A larger tolerance never draws more triangles, at any distance.
+  for (double back : {5.0, 20.0, 80.0, 300.0}) {
+    size_t previous = SIZE_MAX;
+    for (double px : {0.0, 0.5, 1.0, 4.0, 16.0, 64.0}) {
+      const TileSelection s = select_tiles(records, 3, camera_at(8.0, back), px);
+      EXPECT_LE(s.triangles, previous) << back << " m, " << px << " px";
+      previous = s.triangles;
+    }
+  }
+}
+
+TEST(TileSelection, TheSelectionCoversTheViewOnceAndCullsWhatIsBehind) {
+  const auto records = row_of_leaves(8, 3, 0.05);
+  for (double px : {0.0, 1.0, 8.0}) {
+    const TileSelection s = select_tiles(records, 3, camera_at(8.0, 12.0), px);
+    // REPLACE: no drawn tile is an ancestor of another drawn tile.
+    const std::set<TileKey> drawn = keys(s);
+    for (const TileKey& k : drawn)
+      for (TileKey a = k.parent(); a.level <= 3; a = a.parent()) EXPECT_FALSE(drawn.count(a)) << k.name();
+    // Every leaf is covered by exactly one drawn tile (the whole row is in view from 12 m back at 60 degrees).
+    for (int i = 0; i < 8; ++i) {
+      int covering = 0;
+      for (TileKey a{0, i, 0}; a.level <= 3; a = a.parent()) covering += static_cast<int>(drawn.count(a));
+      EXPECT_EQ(covering, 1) << "leaf " << i << " at " << px << " px";
+    }
+  }
+  // Turned around, looking along -z away from the row: nothing is drawn.
+  auto away = ViewCamera::look_at(Eigen::Vector3d(8.0, -0.5, -3.0), Eigen::Vector3d(8.0, -0.5, -10.0),
+                                  Eigen::Vector3d(0, -1, 0), 60.0, 640, 480);
+  ASSERT_TRUE(away.ok());
+  const TileSelection none = select_tiles(records, 3, *away, 0.0);
+  EXPECT_TRUE(none.tiles.empty());
+  EXPECT_GE(none.culled, 1u);
+  // Looking at the left end from close by: the leaves at the right end are outside the frustum.
+  const TileSelection left = select_tiles(records, 3, camera_at(1.0, 1.0), 0.0);
+  EXPECT_FALSE(keys(left).count(TileKey{0, 7, 0}));
+  EXPECT_TRUE(keys(left).count(TileKey{0, 0, 0}));
+}
+
+TEST(TileSelection, BoxTestsAgreeWithGeometry) {
+  const ViewCamera c = camera_at(0.0, 10.0);  // at (0, -0.5, -10) looking along +z
+  EXPECT_TRUE(box_in_frustum(Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1, 1, 1)), c));
+  EXPECT_FALSE(box_in_frustum(Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -30), Eigen::Vector3d(1, 1, -20)), c));
+  EXPECT_FALSE(box_in_frustum(Eigen::AlignedBox3d(Eigen::Vector3d(50, -1, -1), Eigen::Vector3d(60, 1, 1)), c));
+  EXPECT_FALSE(box_in_frustum(Eigen::AlignedBox3d(), c));  // empty
+  EXPECT_DOUBLE_EQ(distance_to_box(Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1, 1, 1)), c),
+                   9.0);
+  EXPECT_DOUBLE_EQ(
+      distance_to_box(Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -11), Eigen::Vector3d(1, 1, 1)), c), 0.0);
+}
+
+}  // namespace
+}  // namespace rgbdcast::tiles

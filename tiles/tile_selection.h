@@ -1,0 +1,39 @@
+#pragma once
+// Which tiles of a mission's hierarchy a view draws: the 3D Tiles traversal with REPLACE refinement, by screen-space
+// error. A tile's screen-space error is its geometric error projected at its nearest point to the camera,
+// error_m * fy / distance, in pixels (the pinhole form of error * height / (2 * distance * tan(fovy / 2)) that 3D
+// Tiles clients use). Contract:
+// - From the top level down, a tile outside the view frustum is skipped with its subtree (its box lies wholly outside
+//   one of the frustum's planes); a visible tile whose error is at most max_error_px, or a leaf, is drawn; any other
+//   is replaced by its children. max_error_px = 0 draws the visible leaves: full detail.
+// - A tile whose children are all absent is drawn itself (REPLACE needs something to replace it with).
+// - A camera inside a tile's box has distance 0: that tile always refines.
+#include <cstddef>
+#include <map>
+#include <vector>
+
+#include "scene/camera.h"
+#include "tiles/tile_hierarchy.h"
+
+namespace rgbdcast::tiles {
+
+struct TileSelection {
+  std::vector<const TileRecord*> tiles;  // to draw, pointing into the records given
+  size_t visited = 0, culled = 0;
+  std::uint64_t triangles = 0, bytes = 0;  // of the tiles to draw (bytes: their GLB files)
+};
+
+// The tiles `camera` draws at max_error_px (>= 0, finite). `records` is a committed hierarchy's (tile -> record),
+// its top tiles at `top_level`.
+TileSelection select_tiles(const std::map<TileKey, TileRecord>& records, int top_level, const ViewCamera& camera,
+                           double max_error_px);
+
+// Whether an axis-aligned world box can be seen by `camera` (some part of it inside the frustum, near to far), by the
+// plane test: false only when all eight corners lie outside one plane. Conservative: may say true for a box beside
+// the frustum's corner.
+bool box_in_frustum(const Eigen::AlignedBox3d& box, const ViewCamera& camera);
+
+// Euclidean distance from the camera's centre to the box (0 inside).
+double distance_to_box(const Eigen::AlignedBox3d& box, const ViewCamera& camera);
+
+}  // namespace rgbdcast::tiles
