@@ -13,8 +13,10 @@
 #include <thread>
 
 #include "gltf/atomic_file.h"
+#include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
 #include "service/mission_scene.h"
+#include "tests/common/gltf_validator.h"
 #include "tests/common/test_data.h"
 #include "tests/service/mission_keyframes.h"
 #include "tiles/tile_hierarchy.h"
@@ -30,6 +32,7 @@ constexpr double kLapStepM = 4.0;
 struct Keyframes {
   std::vector<Scene> decoded;
   std::vector<std::array<double, 7>> poses;
+  std::vector<size_t> glb_bytes;  // each keyframe file as posted
   std::string error;
 
   static const Keyframes& get() {
@@ -47,6 +50,7 @@ struct Keyframes {
         }
         out.decoded.push_back(std::move(*scene));
         out.poses.push_back(*pose);
+        out.glb_bytes.push_back(f.glb.size());
       }
       return out;
     }();
@@ -283,6 +287,46 @@ TEST(TileHierarchyTest, AKilledUpdateLeavesTheLastCommittedHierarchyWhole) {
     auto finished = h->update(first(12), loader());
     ASSERT_TRUE(finished) << finished.error().message;
     EXPECT_EQ(h->keyframes().size(), 12u);
+  }
+}
+
+// Every tile is a GLB that the Khronos validator accepts, in the compact wire format (quantized, meshopt-compressed)
+// with a JPEG texture; the tiles' bytes against the keyframes' bytes posted, printed per level.
+TEST(TileHierarchyTest, EveryTileIsAValidCompactTexturedGlbAndStorageIsMeasured) {
+  REQUIRE_KEYFRAMES();
+  for (size_t count : {4u, 12u}) {
+    auto h = open_ok(test::temp_dir("tiles-valid"));
+    ASSERT_TRUE(h);
+    const auto ids = first(count);
+    ASSERT_TRUE(h->update(ids, loader()));
+    size_t posted = 0;
+    for (const auto& id : ids) posted += Keyframes::get().glb_bytes[static_cast<size_t>(id.seq) % 4];
+    std::map<int, std::array<double, 5>> levels;  // tiles, triangles, bytes, texture bytes, largest error
+    for (const auto& [key, r] : h->tiles()) {
+      const std::string path = h->dir() + "/" + r.file();
+      EXPECT_GLTF_VALID(path);
+      auto bytes = glb::read_file_bytes(path, size_t(1) << 30);
+      ASSERT_TRUE(bytes);
+      auto chunks = glb::parse_glb(bytes->data(), bytes->size());
+      ASSERT_TRUE(chunks) << r.file();
+      const auto doc = nlohmann::json::parse(chunks->json, nullptr, false);
+      ASSERT_FALSE(doc.is_discarded()) << r.file();
+      const auto used = doc.value("extensionsUsed", nlohmann::json::array());
+      EXPECT_NE(std::find(used.begin(), used.end(), "EXT_meshopt_compression"), used.end()) << r.file();
+      EXPECT_NE(std::find(used.begin(), used.end(), "KHR_mesh_quantization"), used.end()) << r.file();
+      ASSERT_EQ(doc.value("images", nlohmann::json::array()).size(), 1u) << r.file() << " is not textured";
+      EXPECT_EQ(doc["images"][0]["mimeType"], "image/jpeg") << r.file();
+      auto& l = levels[key.level];
+      l[0] += 1, l[1] += r.triangles, l[2] += r.bytes;
+      l[3] += doc["bufferViews"][doc["images"][0]["bufferView"].get<size_t>()]["byteLength"].get<double>();
+      l[4] = std::max(l[4], r.geometric_error_m);
+    }
+    const double tiles_bytes = static_cast<double>(h->snapshot()->bytes);
+    std::printf("%zu keyframes, %zu B posted; tiles %.0f B = %.2fx\n", count, posted, tiles_bytes,
+                tiles_bytes / static_cast<double>(posted));
+    std::printf("level  tiles  triangles      bytes  texture B  max error m\n");
+    for (const auto& [level, l] : levels)
+      std::printf("%5d %6.0f %10.0f %10.0f %10.0f %12.4f\n", level, l[0], l[1], l[2], l[3], l[4]);
   }
 }
 
