@@ -1,7 +1,8 @@
 #pragma once
 // Filling one triangle's part of a footprint cell (atlas/footprint_layout.h) from an RGB8 image: the footprint atlas
 // fills cells from the colour frame through a per-triangle homography, and the tile baker (tiles/) fills them from a
-// keyframe's texture through an affine map. One loop serves both.
+// keyframe's texture through an affine map. One loop serves both. fill_cell_texels visits the same texels for a
+// caller whose colour is not a lookup in one image (a flat colour, a search over another surface).
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
@@ -31,5 +32,22 @@ void sample_bilinear_rgb(const CellSource& src, double u, double v, std::uint8_t
 // fallback_px (a continued plane that passes behind the camera).
 void fill_cell_triangle(const FootprintSlot& slot, const Eigen::Matrix3d& image_from_atlas,
                         const Eigen::Vector3d& fallback_h, const CellSource& src, Image* atlas, std::uint8_t* sampled);
+
+// Calls colour_at(x, y, rgb) for every texel of `slot`'s triangle (the texels fill_cell_triangle fills), with (x, y)
+// the texel's centre in atlas coordinates (texel (i, j) covers [i, i+1]^2) and rgb its 3 bytes in `atlas` (RGB8), and
+// marks them in `sampled` (atlas width x height).
+template <class ColourAt>
+void fill_cell_texels(const FootprintSlot& slot, Image* atlas, std::uint8_t* sampled, ColourAt&& colour_at) {
+  const int S = slot.cell_px;
+  for (int j = 0; j < S; ++j) {
+    const int split = S - 1 - j;  // texels i < split are the upper triangle's
+    const int i0 = slot.lower ? split : 0, i1 = slot.lower ? S : split;
+    const size_t row = static_cast<size_t>(slot.y0 + j) * atlas->width + slot.x0;
+    for (int i = i0; i < i1; ++i) {
+      colour_at(slot.x0 + i + 0.5, slot.y0 + j + 0.5, atlas->data.data() + 3 * (row + i));
+      sampled[row + i] = 1;
+    }
+  }
+}
 
 }  // namespace rgbdcast

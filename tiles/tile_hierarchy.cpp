@@ -16,13 +16,15 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kManifest = "hierarchy.json";
-constexpr int kFormat = 1;
+constexpr int kFormat = 2;  // 2: inner tiles are textured
 constexpr size_t kMaxManifestBytes = size_t(256) << 20;
 
 nlohmann::json options_json(const TilingOptions& o) {
   return {{"leaf_size_m", o.leaf_size_m},     {"top_level", o.top_level},
           {"inner_triangles", o.inner_triangles}, {"leaf_max_atlas_side_px", o.leaf.max_atlas_side_px},
-          {"leaf_gutter_px", o.leaf.gutter_px}, {"leaf_jpeg_quality", o.leaf.jpeg_quality}};
+          {"leaf_gutter_px", o.leaf.gutter_px}, {"leaf_jpeg_quality", o.leaf.jpeg_quality},
+          {"inner_max_atlas_side_px", o.inner.atlas.max_atlas_side_px}, {"inner_gutter_px", o.inner.atlas.gutter_px},
+          {"inner_jpeg_quality", o.inner.atlas.jpeg_quality}, {"inner_texels_per_error", o.inner.texels_per_error}};
 }
 
 // The quantization step of a tile's positions bounds how far its stored vertices are from the exact ones: the box
@@ -170,10 +172,9 @@ Result<UpdateStats> TileHierarchy::update(const std::vector<KeyframeId>& wanted,
 
 namespace {
 
-// Encodes a tile's mesh as its GLB and writes it; the record gets its size, box and triangle count. The content the
-// parent reads is the GLB decoded again, so that a tile's input is the same whether its children were built in this
-// update or an earlier one.
-Result<Mesh> write_tile(const std::string& dir, Mesh mesh, TileRecord* r) {
+// Encodes a tile's mesh as its GLB (compact: quantized, meshopt-compressed; its texture as the mesh holds it) and
+// writes it; the record gets its size and triangle count, and its box grows to hold the GLB's positions.
+Status write_tile(const std::string& dir, Mesh mesh, TileRecord* r) {
   Scene scene;
   SceneNode node;
   node.name = "tile_" + r->key.name();
@@ -181,17 +182,16 @@ Result<Mesh> write_tile(const std::string& dir, Mesh mesh, TileRecord* r) {
   scene.nodes.push_back(std::move(node));
   auto glb = encode_glb(scene);
   if (!glb) return make_error(glb.error().code, "tile " + r->key.name() + ": " + glb.error().message);
-  auto decoded = decode_glb(glb->data(), glb->size());
-  if (!decoded || decoded->nodes.empty())
-    return make_error(ErrorCode::kInternal, "tile " + r->key.name() + ": its own GLB does not decode");
   if (auto st = glb::write_file_atomically(dir + "/" + r->file(), *glb); !st) return st.error();
   r->bytes = glb->size();
   r->triangles = scene.triangle_count();
   const Eigen::AlignedBox3d box = mesh_box(scene.nodes.front().mesh, 0.0);
-  r->box = mesh_box(scene.nodes.front().mesh, position_pad_m(box));
-  return std::move(decoded->nodes.front().mesh);
+  r->box.extend(mesh_box(scene.nodes.front().mesh, position_pad_m(box)));
+  return ok_status();
 }
 
+// A tile's content as its parent reads it: the stored GLB decoded, whether it was written in this update or an
+// earlier one, so that a parent's input does not depend on which.
 Result<Mesh> read_tile(const std::string& dir, const TileRecord& r) {
   auto bytes = glb::read_file_bytes(dir + "/" + r.file(), size_t(512) << 20);
   if (!bytes) return bytes.error();
@@ -220,20 +220,7 @@ Status TileHierarchy::build_leaves(Build& b, SceneCache& scenes) {
     }
     auto mesh = keyframes.empty() ? Result<Mesh>(make_error(ErrorCode::kEmpty, "no keyframe"))
                                   : build_leaf(keyframes, leaf, options_.leaf_size_m, options_.leaf);
-    if (!mesh && mesh.error().code != ErrorCode::kEmpty)
-      return make_error(mesh.error().code, "leaf " + leaf.name() + ": " + mesh.error().message);
-    if (!mesh) {
-      b.stats.tiles_removed += b.tiles.erase(leaf);
-      continue;
-    }
-    TileRecord r;
-    r.key = leaf;
-    r.version = b.version;
-    auto written = write_tile(dir_, std::move(*mesh), &r);
-    if (!written) return written.error();
-    b.stats.bytes_written += r.bytes;
-    b.tiles[leaf] = r;
-    ++b.stats.leaves_built;
+    if (auto st = store_tile(b, leaf, std::move(mesh), TileRecord{}, &b.stats.leaves_built); !st) return st;
   }
   b.dirty = std::move(parents);
   return ok_status();
@@ -255,35 +242,40 @@ Status TileHierarchy::build_inner_levels(Build& b) {
           children.push_back(std::move(*mesh));
           child_records.push_back(&it->second);
         }
+      TileRecord r;  // holds its children's boxes, and its error covers theirs
+      double child_error = 0.0;
+      for (const TileRecord* c : child_records) {
+        child_error = std::max(child_error, c->geometric_error_m);
+        r.box.extend(c->box);
+      }
       std::vector<const Mesh*> inputs;
       for (const auto& m : children) inputs.push_back(&m);
       auto inner = inputs.empty() ? Result<InnerTile>(make_error(ErrorCode::kEmpty, "no child"))
-                                  : build_inner(inputs, options_.inner_triangles, level == 1);
-      if (!inner && inner.error().code != ErrorCode::kEmpty)
-        return make_error(inner.error().code, "tile " + key.name() + ": " + inner.error().message);
-      if (!inner) {
-        b.stats.tiles_removed += b.tiles.erase(key);
-        continue;
-      }
-      TileRecord r;
-      r.key = key;
-      r.version = b.version;
-      double child_error = 0.0;
-      Eigen::AlignedBox3d children_box;
-      for (const TileRecord* c : child_records) {
-        child_error = std::max(child_error, c->geometric_error_m);
-        children_box.extend(c->box);
-      }
-      auto written = write_tile(dir_, std::move(inner->mesh), &r);
-      if (!written) return written.error();
-      r.box.extend(children_box);
-      r.geometric_error_m = child_error + inner->simplify_error_m;
-      b.stats.bytes_written += r.bytes;
-      b.tiles[key] = r;
-      ++b.stats.inner_built;
+                                  : build_inner(inputs, child_error, options_.inner_triangles, level == 1,
+                                                options_.inner);
+      r.geometric_error_m = child_error + (inner ? inner->simplify_error_m : 0.0);
+      auto mesh = inner ? Result<Mesh>(std::move(inner->mesh)) : Result<Mesh>(inner.error());
+      if (auto st = store_tile(b, key, std::move(mesh), r, &b.stats.inner_built); !st) return st;
     }
     b.dirty = std::move(parents);
   }
+  return ok_status();
+}
+
+// Tile `key` of this build: `content` written as its GLB and recorded (record's version, size, triangles set here,
+// its box grown to hold the content; ++*built), or the tile removed when content is kEmpty.
+Status TileHierarchy::store_tile(Build& b, const TileKey& key, Result<Mesh> content, TileRecord record, size_t* built) {
+  if (!content && content.error().code == ErrorCode::kEmpty) {
+    b.stats.tiles_removed += b.tiles.erase(key);
+    return ok_status();
+  }
+  if (!content) return make_error(content.error().code, "tile " + key.name() + ": " + content.error().message);
+  record.key = key;
+  record.version = b.version;
+  if (auto st = write_tile(dir_, std::move(*content), &record); !st) return st;
+  b.stats.bytes_written += record.bytes;
+  b.tiles[key] = record;
+  ++*built;
   return ok_status();
 }
 

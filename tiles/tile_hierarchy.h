@@ -40,6 +40,7 @@ struct TilingOptions {
   int top_level = 6;               // the tree's top tiles: cells of leaf_size_m * 2^top_level (128 m by default)
   size_t inner_triangles = 20000;  // an inner tile keeps at most this many (and a quarter of its children's)
   LeafBakeOptions leaf;
+  InnerBakeOptions inner;
 };
 
 struct KeyframeId {
@@ -108,6 +109,7 @@ class TileHierarchy {
   Status load_committed();
   Status build_leaves(Build& b, SceneCache& scenes);
   Status build_inner_levels(Build& b);
+  Status store_tile(Build& b, const TileKey& key, Result<Mesh> content, TileRecord record, size_t* built);
   Status commit(Build& b);
   void publish();
 

@@ -1,11 +1,13 @@
-// An inner tile's content: its children's surfaces welded, simplified (meshoptimizer), coloured per vertex.
+// An inner tile's content: its children's surfaces welded, simplified (meshoptimizer), and textured from them.
 #include <meshoptimizer.h>
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
 
 #include "atlas/cell_fill.h"
+#include "tiles/tile_bake.h"
 #include "tiles/tile_content.h"
 
 namespace rgbdcast::tiles {
@@ -22,67 +24,235 @@ struct GridHash {
     return static_cast<size_t>(k.x * 73856093LL ^ k.y * 19349663LL ^ k.z * 83492791LL);
   }
 };
+GridKey grid_key(const Eigen::Vector3d& p, double step) {
+  return {static_cast<std::int64_t>(std::floor(p.x() / step)), static_cast<std::int64_t>(std::floor(p.y() / step)),
+          static_cast<std::int64_t>(std::floor(p.z() / step))};
+}
 
-// The welded surface being gathered: one vertex per 1 mm grid point, its colour the mean of its corners'.
+// A child's triangle as it was before the weld: which child, its corners there.
+struct SourceTriangle {
+  std::uint32_t child = 0;
+  std::array<std::uint32_t, 3> corner{};
+};
+
+// The welded surface being gathered: one vertex per 1 mm grid point; each welded triangle keeps its source.
 struct Welded {
   std::vector<Eigen::Vector3f> positions;
-  std::vector<std::array<std::uint32_t, 4>> color_sums;  // r, g, b, count
   std::vector<std::uint32_t> indices;
+  std::vector<SourceTriangle> sources;  // one per triangle of indices
   std::unordered_map<GridKey, std::uint32_t, GridHash> index_of;
 
-  std::uint32_t vertex(const Eigen::Vector3f& p, const std::uint8_t* rgb) {
+  std::uint32_t vertex(const Eigen::Vector3f& p) {
     const GridKey key{std::llround(p.x() / kWeldStepM), std::llround(p.y() / kWeldStepM),
                       std::llround(p.z() / kWeldStepM)};
     auto [it, added] = index_of.emplace(key, static_cast<std::uint32_t>(positions.size()));
-    if (added) {
-      positions.push_back(p);
-      color_sums.push_back({0, 0, 0, 0});
-    }
-    auto& c = color_sums[it->second];
-    c[0] += rgb[0], c[1] += rgb[1], c[2] += rgb[2], c[3] += 1;
+    if (added) positions.push_back(p);
     return it->second;
   }
+  Eigen::Vector3d corner(size_t t, int k) const { return positions[indices[3 * t + k]].cast<double>(); }
 };
 
-// The colour of a child's vertex: its texture at its uv, else its colour, else grey.
-void corner_color(const Mesh& m, const CellSource* texture, std::uint32_t v, std::uint8_t* rgb) {
-  if (texture) {
-    const Eigen::Vector2f& uv = m.uvs[v];
-    sample_bilinear_rgb(*texture, uv.x() * texture->cols - 0.5, uv.y() * texture->rows - 0.5, rgb);
+Status gather(const Mesh& m, std::uint32_t child, Welded* w) {
+  if (m.indices.size() % 3 != 0 || (!m.uvs.empty() && m.uvs.size() != m.positions.size()) ||
+      (!m.colors.empty() && m.colors.size() != m.positions.size()))
+    return make_error(ErrorCode::kInvalidInput, "inner tile: a child mesh is inconsistent");
+  for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+    SourceTriangle src{child, {m.indices[t], m.indices[t + 1], m.indices[t + 2]}};
+    std::array<std::uint32_t, 3> tri;
+    for (int k = 0; k < 3; ++k) {
+      if (src.corner[k] >= m.positions.size())
+        return make_error(ErrorCode::kInvalidInput, "inner tile: index out of range");
+      tri[k] = w->vertex(m.positions[src.corner[k]]);
+    }
+    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2]) continue;  // collapsed by the weld
+    w->indices.insert(w->indices.end(), tri.begin(), tri.end());
+    w->sources.push_back(src);
+  }
+  return ok_status();
+}
+
+bool has_texture(const Mesh& m) { return !m.uvs.empty() && !m.texture.empty() && m.texture.channels == 3; }
+
+// The side of the children's texels, metres: sqrt(world area / texel area) over their textured triangles; 0 when
+// none is textured.
+double children_texel_m(const Welded& w, const std::vector<const Mesh*>& children) {
+  double world = 0.0, texels = 0.0;
+  for (size_t t = 0; t < w.sources.size(); ++t) {
+    const SourceTriangle& s = w.sources[t];
+    const Mesh& m = *children[s.child];
+    if (!has_texture(m)) continue;
+    world += 0.5 * (w.corner(t, 1) - w.corner(t, 0)).cross(w.corner(t, 2) - w.corner(t, 0)).norm();
+    const Eigen::Vector2d size(m.texture.width, m.texture.height);
+    const Eigen::Vector2d a = m.uvs[s.corner[0]].cast<double>().cwiseProduct(size);
+    const Eigen::Vector2d e1 = m.uvs[s.corner[1]].cast<double>().cwiseProduct(size) - a;
+    const Eigen::Vector2d e2 = m.uvs[s.corner[2]].cast<double>().cwiseProduct(size) - a;
+    texels += 0.5 * std::abs(e1.x() * e2.y() - e1.y() * e2.x());
+  }
+  return texels > 0.0 ? std::sqrt(world / texels) : 0.0;
+}
+
+// The welded triangles on a uniform grid (a triangle in every cell its box meets), for nearest-point queries.
+class SurfaceGrid {
+ public:
+  explicit SurfaceGrid(const Welded& w) : w_(w), stamp_(w.sources.size(), 0) {
+    double extent = 0.0;
+    std::vector<Eigen::AlignedBox3d> boxes(w.sources.size());
+    for (size_t t = 0; t < boxes.size(); ++t) {
+      for (int k = 0; k < 3; ++k) boxes[t].extend(w.corner(t, k));
+      extent += boxes[t].sizes().maxCoeff();
+      bounds_.extend(boxes[t]);
+    }
+    cell_m_ = std::max(kWeldStepM, extent / static_cast<double>(std::max<size_t>(1, boxes.size())));
+    for (size_t t = 0; t < boxes.size(); ++t)
+      for_cells(boxes[t], [&](const GridKey& k) { cells_[k].push_back(static_cast<std::uint32_t>(t)); });
+  }
+
+  // The welded triangle nearest to p among those whose box meets p's box of half-side radius_m (growing it until
+  // one is within it, so the answer is the nearest of all), and its barycentric weights. Ties go to the lower index.
+  std::uint32_t nearest(const Eigen::Vector3d& p, double radius_m, Eigen::Vector3d* weights) const {
+    std::vector<std::uint32_t> found;
+    for (;;) {
+      query(Eigen::AlignedBox3d(p.array() - radius_m, p.array() + radius_m), &found);
+      double best_d2 = INFINITY;
+      std::uint32_t best = 0;
+      nearest_of(p, found, &best, &best_d2, weights);
+      if (best_d2 <= radius_m * radius_m) return best;
+      radius_m = std::max(2.0 * radius_m, std::sqrt(best_d2));
+    }
+  }
+
+  // Triangles whose box meets `box`, each once, in ascending order.
+  void query(const Eigen::AlignedBox3d& box, std::vector<std::uint32_t>* out) const {
+    out->clear();
+    ++epoch_;
+    const Eigen::AlignedBox3d q = box.intersection(bounds_);
+    if (q.isEmpty()) return;  // every triangle lies inside bounds_
+    const Eigen::Array3d cells = (q.sizes() / cell_m_).array() + 2.0;
+    if (cells.prod() > static_cast<double>(cells_.size())) {
+      for (const auto& [key, list] : cells_) collect(list, q, out);
+    } else {
+      for_cells(q, [&](const GridKey& k) {
+        if (auto it = cells_.find(k); it != cells_.end()) collect(it->second, q, out);
+      });
+    }
+    std::sort(out->begin(), out->end());
+  }
+
+  // The nearest point of the candidates to p (closest point on a triangle: Ericson, Real-Time Collision Detection,
+  // 5.1.5), keeping *best when none is nearer than *best_d2.
+  void nearest_of(const Eigen::Vector3d& p, const std::vector<std::uint32_t>& candidates, std::uint32_t* best,
+                  double* best_d2, Eigen::Vector3d* weights) const {
+    for (std::uint32_t t : candidates) {
+      const Eigen::Vector3d bary = closest_weights(p, w_.corner(t, 0), w_.corner(t, 1), w_.corner(t, 2));
+      const Eigen::Vector3d q = bary.x() * w_.corner(t, 0) + bary.y() * w_.corner(t, 1) + bary.z() * w_.corner(t, 2);
+      const double d2 = (q - p).squaredNorm();
+      if (d2 < *best_d2) *best_d2 = d2, *best = t, *weights = bary;
+    }
+  }
+
+ private:
+  template <class F>
+  void for_cells(const Eigen::AlignedBox3d& box, F&& f) const {
+    const GridKey lo = grid_key(box.min(), cell_m_), hi = grid_key(box.max(), cell_m_);
+    for (std::int64_t x = lo.x; x <= hi.x; ++x)
+      for (std::int64_t y = lo.y; y <= hi.y; ++y)
+        for (std::int64_t z = lo.z; z <= hi.z; ++z) f(GridKey{x, y, z});
+  }
+  void collect(const std::vector<std::uint32_t>& list, const Eigen::AlignedBox3d& q,
+               std::vector<std::uint32_t>* out) const {
+    for (std::uint32_t t : list) {
+      if (stamp_[t] == epoch_) continue;
+      stamp_[t] = epoch_;
+      Eigen::AlignedBox3d b;
+      for (int k = 0; k < 3; ++k) b.extend(w_.corner(t, k));
+      if (b.intersects(q)) out->push_back(t);
+    }
+  }
+  static Eigen::Vector3d closest_weights(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                         const Eigen::Vector3d& c) {
+    const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+    const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+    if (d1 <= 0 && d2 <= 0) return {1, 0, 0};
+    const Eigen::Vector3d bp = p - b;
+    const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+    if (d3 >= 0 && d4 <= d3) return {0, 1, 0};
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+      const double v = d1 / (d1 - d3);
+      return {1 - v, v, 0};
+    }
+    const Eigen::Vector3d cp = p - c;
+    const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+    if (d6 >= 0 && d5 <= d6) return {0, 0, 1};
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+      const double w = d2 / (d2 - d6);
+      return {1 - w, 0, w};
+    }
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+      const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+      return {0, 1 - w, w};
+    }
+    const double denom = va + vb + vc;
+    if (!(std::abs(denom) > 0)) return {1, 0, 0};  // a degenerate triangle: its first corner
+    const double v = vb / denom, w = vc / denom;
+    return {1 - v - w, v, w};
+  }
+
+  const Welded& w_;
+  double cell_m_ = 1.0;
+  Eigen::AlignedBox3d bounds_;
+  std::unordered_map<GridKey, std::vector<std::uint32_t>, GridHash> cells_;
+  mutable std::vector<std::uint32_t> stamp_;
+  mutable std::uint32_t epoch_ = 0;
+};
+
+// The colour of the children's surface at welded triangle t, barycentric weights `bary`: its child's texture
+// (bilinear at the interpolated UV), else its colours, else grey.
+void source_colour(const Welded& w, const std::vector<const Mesh*>& children, const std::vector<CellSource>& textures,
+                   std::uint32_t t, const Eigen::Vector3d& bary, std::uint8_t* rgb) {
+  const SourceTriangle& s = w.sources[t];
+  const Mesh& m = *children[s.child];
+  if (textures[s.child].data) {
+    Eigen::Vector2d uv = Eigen::Vector2d::Zero();
+    for (int k = 0; k < 3; ++k) uv += bary[k] * m.uvs[s.corner[k]].cast<double>();
+    const CellSource& src = textures[s.child];
+    sample_bilinear_rgb(src, uv.x() * src.cols - 0.5, uv.y() * src.rows - 0.5, rgb);
   } else if (!m.colors.empty()) {
-    std::copy(m.colors[v].begin(), m.colors[v].end(), rgb);
+    for (int c = 0; c < 3; ++c) {
+      double v = 0.0;
+      for (int k = 0; k < 3; ++k) v += bary[k] * m.colors[s.corner[k]][c];
+      rgb[c] = static_cast<std::uint8_t>(std::clamp(std::lround(v), 0L, 255L));
+    }
   } else {
     rgb[0] = rgb[1] = rgb[2] = 128;
   }
 }
 
-Status gather(const Mesh& m, Welded* w) {
-  if (m.indices.size() % 3 != 0 || (!m.uvs.empty() && m.uvs.size() != m.positions.size()) ||
-      (!m.colors.empty() && m.colors.size() != m.positions.size()))
-    return make_error(ErrorCode::kInvalidInput, "inner tile: a child mesh is inconsistent");
-  const bool textured = !m.uvs.empty() && !m.texture.empty() && m.texture.channels == 3;
-  const CellSource texture = textured ? cell_source(m.texture) : CellSource{};
-  for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
-    std::array<std::uint32_t, 3> tri;
-    for (int k = 0; k < 3; ++k) {
-      const std::uint32_t v = m.indices[t + k];
-      if (v >= m.positions.size()) return make_error(ErrorCode::kInvalidInput, "inner tile: index out of range");
-      std::uint8_t rgb[3];
-      corner_color(m, textured ? &texture : nullptr, v, rgb);
-      tri[k] = w->vertex(m.positions[v], rgb);
-    }
-    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2]) continue;  // collapsed by the weld
-    w->indices.insert(w->indices.end(), tri.begin(), tri.end());
-  }
-  return ok_status();
+// A simplified triangle's cell: the corner with the largest angle first, legs of side / texel_m texels.
+BakeTriangle bake_triangle(const std::array<Eigen::Vector3d, 3>& v, double texel_m) {
+  // The triangle in its own plane (an isometry), in texels.
+  const Eigen::Vector3d e1 = v[1] - v[0], e2 = v[2] - v[0];
+  const double l1 = e1.norm();
+  const Eigen::Vector3d x = l1 > 0 ? Eigen::Vector3d(e1 / l1) : Eigen::Vector3d::UnitX();
+  const double along = e2.dot(x), across = (e2 - along * x).norm();
+  const std::array<Eigen::Vector2d, 3> plane = {Eigen::Vector2d(0, 0), Eigen::Vector2d(l1 / texel_m, 0),
+                                                Eigen::Vector2d(along / texel_m, across / texel_m)};
+  int right = 0;
+  BakeTriangle t;
+  t.leg = footprint_leg_class(footprint_leg_px(plane, &right));
+  for (int k = 0; k < 3; ++k) t.world[k] = v[(right + k) % 3];
+  return t;
 }
 
 }  // namespace
 
-Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, size_t target_triangles, bool lock_border) {
+Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double children_error_m,
+                              size_t target_triangles, bool lock_border, const InnerBakeOptions& options) {
   Welded w;
-  for (const Mesh* m : children)
-    if (auto st = gather(*m, &w); !st) return st.error();
+  for (size_t c = 0; c < children.size(); ++c)
+    if (auto st = gather(*children[c], static_cast<std::uint32_t>(c), &w); !st) return st.error();
   if (w.indices.empty()) return make_error(ErrorCode::kEmpty, "inner tile: the children hold no triangle");
   InnerTile out;
   out.merged_triangles = w.indices.size() / 3;
@@ -97,19 +267,48 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, size_t t
   const float scale = meshopt_simplifyScale(&w.positions[0].x(), w.positions.size(), sizeof(Eigen::Vector3f));
   out.simplify_error_m = static_cast<double>(relative_error) * scale;
   if (simplified.empty()) return make_error(ErrorCode::kEmpty, "inner tile: nothing left after simplification");
-  // Keep the vertices the simplified triangles use, in the order they are first used.
-  std::vector<std::uint32_t> remap(w.positions.size(), UINT32_MAX);
-  for (std::uint32_t& v : simplified) {
-    if (remap[v] == UINT32_MAX) {
-      remap[v] = static_cast<std::uint32_t>(out.mesh.positions.size());
-      out.mesh.positions.push_back(w.positions[v]);
-      const auto& c = w.color_sums[v];
-      out.mesh.colors.push_back({static_cast<std::uint8_t>(c[0] / c[3]), static_cast<std::uint8_t>(c[1] / c[3]),
-                                 static_cast<std::uint8_t>(c[2] / c[3])});
+
+  const double error_m = children_error_m + out.simplify_error_m;
+  const double texel_m = std::max({error_m / options.texels_per_error, children_texel_m(w, children), kWeldStepM});
+  std::vector<BakeTriangle> tris(simplified.size() / 3);
+  for (size_t i = 0; i < tris.size(); ++i)
+    tris[i] = bake_triangle({w.positions[simplified[3 * i]].cast<double>(),
+                             w.positions[simplified[3 * i + 1]].cast<double>(),
+                             w.positions[simplified[3 * i + 2]].cast<double>()},
+                            texel_m);
+  std::vector<CellSource> textures(children.size());
+  for (size_t c = 0; c < children.size(); ++c)
+    if (has_texture(*children[c])) textures[c] = cell_source(children[c]->texture);
+  const SurfaceGrid grid(w);
+  // Candidates per triangle: the children's triangles within the simplifier's error (or two texels) of its box; a
+  // texel whose nearest candidate is farther than that asks the grid again (SurfaceGrid::nearest), so it stays exact.
+  const double margin_m = std::max(out.simplify_error_m, 2.0 * texel_m);
+  std::vector<std::uint32_t> candidates;
+  auto mesh = bake_atlas_mesh(tris, options.atlas, [&](size_t i, const FootprintSlot& slot,
+                                                       const std::array<Eigen::Vector2d, 3>& corners, Image* atlas,
+                                                       std::uint8_t* sampled) {
+    const BakeTriangle& t = tris[i];
+    Eigen::Matrix3d A, W;
+    Eigen::AlignedBox3d box;
+    for (int k = 0; k < 3; ++k) {
+      A.col(k) << corners[k], 1.0;
+      W.col(k) = t.world[k];
+      box.extend(t.world[k]);
     }
-    v = remap[v];
-  }
-  out.mesh.indices = std::move(simplified);
+    const Eigen::Matrix3d world_from_atlas = W * A.inverse();  // barycentric weights of the texel, then the point
+    grid.query(Eigen::AlignedBox3d(box.min().array() - margin_m, box.max().array() + margin_m), &candidates);
+    fill_cell_texels(slot, atlas, sampled, [&](double x, double y, std::uint8_t* rgb) {
+      const Eigen::Vector3d p = world_from_atlas * Eigen::Vector3d(x, y, 1.0);
+      Eigen::Vector3d bary;
+      std::uint32_t best = 0;
+      double best_d2 = INFINITY;
+      grid.nearest_of(p, candidates, &best, &best_d2, &bary);
+      if (!(best_d2 <= margin_m * margin_m)) best = grid.nearest(p, margin_m, &bary);
+      source_colour(w, children, textures, best, bary, rgb);
+    });
+  });
+  if (!mesh) return make_error(mesh.error().code, "inner tile: " + mesh.error().message);
+  out.mesh = std::move(*mesh);
   return out;
 }
 

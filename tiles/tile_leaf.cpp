@@ -6,8 +6,7 @@
 
 #include "atlas/cell_fill.h"
 #include "atlas/footprint_layout.h"
-#include "atlas/texture_encode.h"
-#include "atlas/unsampled_fill.h"
+#include "tiles/tile_bake.h"
 #include "tiles/tile_content.h"
 
 namespace rgbdcast::tiles {
@@ -62,20 +61,6 @@ std::array<Eigen::Vector2d, 3> source_pixels(const LeafTriangle& t) {
   return px;
 }
 
-// A cell of one colour: a triangle of a vertex-coloured mesh gets the mean of its corners' colours.
-void fill_cell_flat(const FootprintSlot& slot, const Rgb8& rgb, Image* atlas, std::uint8_t* sampled) {
-  const int S = slot.cell_px;
-  for (int j = 0; j < S; ++j) {
-    const int split = S - 1 - j;
-    const int i0 = slot.lower ? split : 0, i1 = slot.lower ? S : split;
-    for (int i = i0; i < i1; ++i) {
-      std::uint8_t* px = atlas->pixel(slot.x0 + i, slot.y0 + j);
-      px[0] = rgb[0], px[1] = rgb[1], px[2] = rgb[2];
-      sampled[static_cast<size_t>(slot.y0 + j) * atlas->width + slot.x0 + i] = 1;
-    }
-  }
-}
-
 Rgb8 mean_color(const LeafTriangle& t) {
   const Mesh& m = t.node->mesh;
   if (m.colors.empty()) return {128, 128, 128};
@@ -84,20 +69,6 @@ Rgb8 mean_color(const LeafTriangle& t) {
     for (int c = 0; c < 3; ++c) sum[c] += m.colors[t.corner[k]][c];
   return {static_cast<std::uint8_t>(sum[0] / 3), static_cast<std::uint8_t>(sum[1] / 3),
           static_cast<std::uint8_t>(sum[2] / 3)};
-}
-
-// Lays the cells out, halving every leg until the atlas fits max_side.
-Result<FootprintLayout> layout_cells(const std::vector<LeafTriangle>& tris, const LeafBakeOptions& options) {
-  std::vector<FootprintTriangle> cells(tris.size());
-  for (size_t i = 0; i < tris.size(); ++i) cells[i].leg = tris[i].leg;
-  for (int attempt = 0; attempt < 10; ++attempt) {
-    FootprintLayout layout;
-    if (make_footprint_layout(cells, options.gutter_px, options.max_atlas_side_px, &layout)) return layout;
-    for (auto& c : cells) c.leg = footprint_leg_class(std::max(1, c.leg / 2));
-  }
-  return make_error(ErrorCode::kInvalidArgument, "leaf atlas: " + std::to_string(tris.size()) +
-                                                     " triangles do not fit a " +
-                                                     std::to_string(options.max_atlas_side_px) + " px atlas");
 }
 
 }  // namespace
@@ -154,37 +125,28 @@ Result<Mesh> build_leaf(const std::vector<const Scene*>& keyframes, const TileKe
     }
   }
   if (tris.empty()) return make_error(ErrorCode::kEmpty, "leaf " + key.name() + ": no triangle");
-  auto layout = layout_cells(tris, options);
-  if (!layout) return layout.error();
-  Image atlas = Image::make(layout->width, layout->height, 3);
-  std::vector<std::uint8_t> sampled(static_cast<size_t>(atlas.width) * atlas.height, 0);
-  Mesh out;
-  out.positions.reserve(3 * tris.size());
-  out.uvs.reserve(3 * tris.size());
-  const Eigen::Vector2d inv_size(1.0 / atlas.width, 1.0 / atlas.height);
-  for (size_t i = 0; i < tris.size(); ++i) {
+  std::vector<BakeTriangle> cells(tris.size());
+  for (size_t i = 0; i < tris.size(); ++i) cells[i] = {tris[i].world, tris[i].leg};
+  auto mesh = bake_atlas_mesh(cells, options, [&](size_t i, const FootprintSlot& slot,
+                                                  const std::array<Eigen::Vector2d, 3>& corners, Image* atlas,
+                                                  std::uint8_t* sampled) {
     const LeafTriangle& t = tris[i];
-    const auto corners = layout->corners(i);
     const Mesh& m = t.node->mesh;
     if (m.textured() && !m.texture.empty() && m.texture.channels == 3) {
       const auto px = source_pixels(t);
       const Eigen::Vector2d centre = (px[0] + px[1] + px[2]) / 3.0;  // an affine map never needs the fallback
-      fill_cell_triangle(layout->slots[i], affine_from_corners(corners, px), Eigen::Vector3d(centre.x(), centre.y(), 1),
-                         cell_source(m.texture), &atlas, sampled.data());
-    } else {
-      fill_cell_flat(layout->slots[i], mean_color(t), &atlas, sampled.data());
+      fill_cell_triangle(slot, affine_from_corners(corners, px), Eigen::Vector3d(centre.x(), centre.y(), 1),
+                         cell_source(m.texture), atlas, sampled);
+    } else {  // a vertex-coloured triangle: one colour, the mean of its corners'
+      const Rgb8 rgb = mean_color(t);
+      fill_cell_texels(slot, atlas, sampled, [&](double, double, std::uint8_t* px) {
+        std::copy(rgb.begin(), rgb.end(), px);
+      });
     }
-    for (int k = 0; k < 3; ++k) {
-      out.positions.push_back(t.world[k].cast<float>());
-      out.uvs.push_back(corners[k].cwiseProduct(inv_size).cast<float>());
-      out.indices.push_back(static_cast<std::uint32_t>(out.indices.size()));
-    }
-  }
-  if (auto st = fill_unsampled_texels(&atlas, sampled); !st) return st.error();
-  out.texture = std::move(atlas);
-  double encode_ms = 0.0;
-  if (auto st = attach_jpeg(out, options.jpeg_quality, &encode_ms); !st) return st.error();
-  return out;
+  });
+  if (!mesh && mesh.error().code != ErrorCode::kEmpty)
+    return make_error(mesh.error().code, "leaf " + key.name() + ": " + mesh.error().message);
+  return mesh;
 }
 
 Eigen::AlignedBox3d mesh_box(const Mesh& mesh, double pad_m) {
