@@ -34,6 +34,16 @@ inline void send_json(httplib::Response& res, int status, const nlohmann::json& 
   res.set_content(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n", "application/json");
 }
 
+// Sets the strong ETag and answers 304 when If-None-Match names it (or is "*"): true when answered, and the caller
+// sends nothing more.
+inline bool answer_not_modified(const httplib::Request& req, httplib::Response& res, const std::string& etag) {
+  res.set_header("ETag", etag);
+  const std::string inm = req.get_header_value("If-None-Match");
+  if (inm.empty() || (inm != "*" && inm.find(etag) == std::string::npos)) return false;
+  res.status = 304;
+  return true;
+}
+
 // 503 for a full queue.
 inline void send_busy(httplib::Response& res, const std::string& detail, int retry_after_s) {
   res.set_header("Retry-After", std::to_string(retry_after_s));

@@ -9,6 +9,7 @@
 
 #include "gltf/gltf_io.h"
 #include "service/connection_gate.h"
+#include "service/mission_export.h"
 #include "service/mission_scene.h"
 #include "service/mission_view.h"
 #include "service/model_flavors.h"
@@ -41,6 +42,30 @@ std::optional<std::int64_t> parse_seq(const std::string& text) {
   if (v > kMaxKeyframeSeq) return std::nullopt;
   return v;
 }
+
+}  // namespace
+
+Result<KeyframePage> parse_keyframe_page(const std::multimap<std::string, std::string>& params) {
+  KeyframePage page;
+  for (const auto& [k, v] : params) {
+    if (k != "after" && k != "limit")
+      return make_error(ErrorCode::kInvalidArgument, "unknown parameter " + quote_for_error(k) + " (after, limit)");
+    if (params.count(k) != 1) return make_error(ErrorCode::kInvalidArgument, k + ": given more than once");
+    auto n = parse_seq(v);
+    if (k == "after") {
+      if (!n) return make_error(ErrorCode::kInvalidArgument, "after: must be a keyframe seq 0..2^31-1");
+      page.after = *n;
+    } else {
+      if (!n || *n < 1 || *n > static_cast<std::int64_t>(kMaxKeyframePage))
+        return make_error(ErrorCode::kInvalidArgument,
+                          "limit: must be an integer 1.." + std::to_string(kMaxKeyframePage));
+      page.limit = static_cast<size_t>(*n);
+    }
+  }
+  return page;
+}
+
+namespace {
 
 std::string event_text(const MissionKeyframe& k) {
   return "id: " + k.event_id() + "\nevent: keyframe\ndata: " + k.answer().dump() + "\n\n";
@@ -207,24 +232,41 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
 void MissionRoutes::get_mission(const httplib::Request& req, httplib::Response& res) {
   auto name = name_or_error(req, res);
   if (!name) return;
+  auto page = parse_keyframe_page(req.params);
+  if (!page) return send_error(res, page.error());
   auto keyframes = missions_.keyframes(*name);
   if (!keyframes) return send_error(res, 404, "no mission " + *name);
-  nlohmann::json list = nlohmann::json::array();
+  // Totals over every keyframe; entries only for the page (keyframes are in seq order).
   std::uint64_t bytes = 0, triangles = 0;
   for (const auto& k : *keyframes) {
-    nlohmann::json e = k.entry();
-    // The keyframe's own intrinsics (its capture camera): the operator page projects its overlay with them.
-    if (k.camera.is_object()) {
-      nlohmann::json intrinsics = nlohmann::json::object();
-      for (const char* key : {"fx", "fy", "cx", "cy", "width", "height"})
-        if (k.camera.contains(key)) intrinsics[key] = k.camera[key];
-      e["intrinsics"] = intrinsics;
-    }
-    list.push_back(e);
     bytes += k.bytes;
     triangles += k.triangles;
   }
-  send_json(res, 200, {{"name", *name}, {"keyframes", list}, {"bytes", bytes}, {"triangles", triangles}});
+  nlohmann::json list = nlohmann::json::array();
+  auto it = std::upper_bound(keyframes->begin(), keyframes->end(), page->after,
+                             [](std::int64_t after, const MissionKeyframe& k) { return after < k.seq; });
+  for (; it != keyframes->end() && list.size() < page->limit; ++it) {
+    nlohmann::json e = it->entry();
+    // The keyframe's own intrinsics (its capture camera): the operator page projects its overlay with them.
+    if (it->camera.is_object()) {
+      nlohmann::json intrinsics = nlohmann::json::object();
+      for (const char* key : {"fx", "fy", "cx", "cy", "width", "height"})
+        if (it->camera.contains(key)) intrinsics[key] = it->camera[key];
+      e["intrinsics"] = intrinsics;
+    }
+    list.push_back(std::move(e));
+  }
+  nlohmann::json next = nullptr;
+  if (it != keyframes->end() && !list.empty()) next = list.back()["seq"];
+  send_json(res, 200,
+            {{"name", *name},
+             {"keyframe_count", keyframes->size()},
+             {"bytes", bytes},
+             {"triangles", triangles},
+             {"after", page->after < 0 ? nlohmann::json(nullptr) : nlohmann::json(page->after)},
+             {"limit", page->limit},
+             {"keyframes", list},
+             {"next_after", next}});
 }
 
 void MissionRoutes::get_model(const httplib::Request& req, httplib::Response& res) {
@@ -233,9 +275,20 @@ void MissionRoutes::get_model(const httplib::Request& req, httplib::Response& re
   // ?flavor=compact|compat|draco as for scenes (service/model_flavors.h); none: compact, as before.
   std::optional<ModelFlavor> asked;
   if (!read_flavor_param(req, res, &asked)) return;
+  std::optional<double> max_error_m;
+  if (!read_max_error_param(req, res, &max_error_m)) return;
+  for (const auto& [k, v] : req.params)
+    if (k != "flavor" && k != "max-error")
+      return send_error(res, 400, "unknown parameter " + quote_for_error(k) + " (flavor, max-error)");
   const ModelFlavor flavor = asked.value_or(ModelFlavor::kCompact);
   auto keyframes = missions_.keyframes(*name);
   if (!keyframes) return send_error(res, 404, "no mission " + *name);
+  // max-error: the tiles as stored (compact), merged and streamed from disk (service/mission_export.h).
+  if (max_error_m) {
+    if (flavor != ModelFlavor::kCompact)
+      return send_error(res, 400, "max-error exports are compact only (the tiles are stored so); drop flavor=");
+    return send_tile_model(req, res, tiles_, *name, *max_error_m);
+  }
   std::string made_of;
   for (const auto& k : *keyframes) made_of += std::to_string(k.seq) + ":" + k.etag + " ";
   const std::string cache_key = *name + "?" + to_string(flavor);
@@ -429,13 +482,8 @@ void MissionRoutes::get_tileset(const httplib::Request& req, httplib::Response& 
   const std::string body = snapshot ? snapshot->tileset_json
                                     : tiles::make_tileset({}, 1, 0, "tiles/").dump();
   const std::string etag = "\"tileset-" + std::to_string(snapshot ? snapshot->version : 0) + "\"";
-  res.set_header("ETag", etag);
   res.set_header("Cache-Control", "no-cache");
-  const std::string inm = req.get_header_value("If-None-Match");
-  if (!inm.empty() && inm.find(etag) != std::string::npos) {
-    res.status = 304;
-    return;
-  }
+  if (answer_not_modified(req, res, etag)) return;
   res.status = 200;
   res.set_content(body, "application/json");
 }
@@ -451,13 +499,8 @@ void MissionRoutes::get_tile(const httplib::Request& req, httplib::Response& res
   if (!snapshot || !snapshot->files.count(file))
     return send_error(res, 404, "no tile " + file + " in mission " + *name + " (tiles of older versions are removed)");
   const std::string etag = "\"" + file + "\"";  // the name changes with the content: a strong validator
-  res.set_header("ETag", etag);
   res.set_header("Cache-Control", "public, max-age=31536000, immutable");
-  const std::string inm = req.get_header_value("If-None-Match");
-  if (!inm.empty() && (inm == "*" || inm.find(etag) != std::string::npos)) {
-    res.status = 304;
-    return;
-  }
+  if (answer_not_modified(req, res, etag)) return;
   auto bytes = std::make_shared<std::string>();
   {
     std::ifstream in(tiles_.tile_dir(*name) + "/" + file, std::ios::binary);

@@ -40,6 +40,15 @@ struct MissionRouteOptions {
 // The key of a mission among the render pool's scenes ("mission/<name>": scene ids are hex, so never one of these).
 std::string mission_scene_key(const std::string& name);
 
+// A page of GET /v1/missions/{name}: the keyframes with seq > after (every seq when after is -1), at most limit.
+inline constexpr size_t kDefaultKeyframePage = 100, kMaxKeyframePage = 1000;
+struct KeyframePage {
+  std::int64_t after = -1;
+  size_t limit = kDefaultKeyframePage;
+};
+// ?after=SEQ&limit=N (both optional, each at most once, nothing else): kInvalidArgument naming what is wrong.
+Result<KeyframePage> parse_keyframe_page(const std::multimap<std::string, std::string>& params);
+
 class MissionRoutes {
  public:
   // render_view runs `render` and answers its image as the request asks (the scene view route's own code).

@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gltf/glb_container.h"
-#include "service/http_errors.h"
+#include "service/http_reply.h"
 
 namespace rgbdcast::service {
 namespace {
@@ -39,11 +39,6 @@ Result<FlavoredModel> make_flavor(const StoredScene& scene, ModelFlavor flavor, 
   *converted = true;
   std::string etag = etag_of(out->data(), out->size());
   return FlavoredModel{std::make_shared<const std::vector<std::uint8_t>>(std::move(*out)), std::move(etag)};
-}
-
-void send_error(httplib::Response& res, int status, const std::string& detail) {
-  res.status = status;
-  res.set_content(error_body(status, detail), "application/json");
 }
 
 }  // namespace
@@ -92,13 +87,8 @@ bool read_flavor_param(const httplib::Request& req, httplib::Response& res, std:
 void send_model(const httplib::Request& req, httplib::Response& res,
                 std::shared_ptr<const std::vector<std::uint8_t>> bytes, const std::string& etag,
                 const std::string& filename) {
-  res.set_header("ETag", etag);
   res.set_header("Cache-Control", "no-cache");
-  const std::string inm = req.get_header_value("If-None-Match");
-  if (!inm.empty() && (inm == "*" || inm.find(etag) != std::string::npos)) {
-    res.status = 304;
-    return;
-  }
+  if (answer_not_modified(req, res, etag)) return;
   res.status = 200;
   res.set_header("Content-Disposition", "attachment; filename=\"" + filename + "\"");
   const size_t size = bytes->size();

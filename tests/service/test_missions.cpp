@@ -18,6 +18,7 @@
 #include <iostream>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <regex>
 #include <thread>
 
@@ -898,4 +899,105 @@ TEST(Missions, ViewsDrawTheTilesetByScreenSpaceErrorUnderTheResidentCap) {
     if (!released) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   EXPECT_TRUE(released);
+}
+
+// A mission's JSON in pages (?after=SEQ&limit=N) with its totals; model.glb?max-error=M merged from the tiles and
+// streamed from disk: M = 0 holds every posted triangle, a large M fewer; hostile parameters are a 4xx with JSON.
+TEST(Missions, TheJsonPagesAndTheTileExportIsBoundedByMaxError) {
+  REQUIRE_KEYFRAMES();
+  const auto& k = keyframes();
+  const TestDir test_dir("missions-export");
+  ServerProcess server;
+  std::string error;
+  ASSERT_TRUE(server.start(test_dir.path, {}, &error)) << error;
+  auto c = client(server.port());
+  for (int i = 0; i < 4; ++i) ASSERT_EQ(post_keyframe(*c, "long", i, k[static_cast<size_t>(i)])->status, 201);
+
+  const std::string all_text = c->Get("/v1/missions/long")->body;
+  const json all = json::parse(all_text);
+  ASSERT_TRUE(all.contains("keyframe_count")) << all_text.substr(0, 400);
+  EXPECT_EQ(all["keyframe_count"], 4);
+  EXPECT_EQ(all["keyframes"].size(), 4u);
+  EXPECT_TRUE(all["next_after"].is_null());
+  EXPECT_TRUE(all["after"].is_null());
+  EXPECT_EQ(all["limit"], 100);
+  size_t posted = 0;
+  for (const auto& e : all["keyframes"]) posted += e["triangles"].get<size_t>();
+  EXPECT_EQ(all["triangles"].get<size_t>(), posted);
+  const json first = json::parse(c->Get("/v1/missions/long?limit=2")->body);
+  ASSERT_EQ(first["keyframes"].size(), 2u);
+  EXPECT_EQ(first["keyframes"][1]["seq"], 1);
+  EXPECT_EQ(first["next_after"], 1);
+  EXPECT_EQ(first["keyframe_count"], 4);
+  EXPECT_EQ(first["bytes"], all["bytes"]);
+  const json second = json::parse(c->Get("/v1/missions/long?after=1&limit=2")->body);
+  ASSERT_EQ(second["keyframes"].size(), 2u);
+  EXPECT_EQ(second["keyframes"][0]["seq"], 2);
+  EXPECT_TRUE(second["next_after"].is_null());
+  EXPECT_EQ(second["keyframes"][0], all["keyframes"][2]);
+  EXPECT_TRUE(json::parse(c->Get("/v1/missions/long?after=3")->body)["keyframes"].empty());
+  for (const char* bad : {"?limit=0", "?limit=1001", "?limit=x", "?after=-1", "?after=1e3", "?after=1&after=2",
+                          "?page=2", "?after=99999999999"})
+    expect_json_error(c->Get((std::string("/v1/missions/long") + bad).c_str()), 400, bad);
+
+  // The full-detail export once the tileset holds every posted triangle (built in the background).
+  std::optional<httplib::Result> full_result;
+  size_t full_triangles = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < deadline) {
+    full_result.emplace(c->Get("/v1/missions/long/model.glb?max-error=0"));
+    httplib::Result& full = *full_result;
+    ASSERT_TRUE(full);
+    if (full->status == 200) {
+      auto scene = rgbdcast::decode_glb(reinterpret_cast<const std::uint8_t*>(full->body.data()), full->body.size());
+      ASSERT_TRUE(scene) << scene.error().message;
+      if ((full_triangles = scene->triangle_count()) == posted) break;
+    } else {
+      EXPECT_EQ(full->status, 409) << full->body;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  ASSERT_EQ(full_triangles, posted);
+  httplib::Result& full = *full_result;
+  EXPECT_EQ(full->get_header_value("Content-Type"), "model/gltf-binary");
+  EXPECT_EQ(full->get_header_value("Content-Length"), std::to_string(full->body.size()));
+  EXPECT_NE(full->get_header_value("Content-Disposition").find("long-e0.glb"), std::string::npos);
+  const std::string full_path = test_dir.path + "/full.glb";
+  std::ofstream(full_path, std::ios::binary) << full->body;
+  EXPECT_GLTF_VALID(full_path);
+
+  auto coarse = c->Get("/v1/missions/long/model.glb?max-error=10000");
+  ASSERT_TRUE(coarse);
+  ASSERT_EQ(coarse->status, 200) << coarse->body;
+  auto coarse_scene =
+      rgbdcast::decode_glb(reinterpret_cast<const std::uint8_t*>(coarse->body.data()), coarse->body.size());
+  ASSERT_TRUE(coarse_scene) << coarse_scene.error().message;
+  EXPECT_GT(coarse_scene->triangle_count(), 0u);
+  EXPECT_LT(coarse_scene->triangle_count(), posted);
+  EXPECT_LT(coarse->body.size(), full->body.size());
+  EXPECT_LE(std::stoi(coarse->get_header_value("X-Tiles")), std::stoi(full->get_header_value("X-Tiles")));
+  const std::string coarse_path = test_dir.path + "/coarse.glb";
+  std::ofstream(coarse_path, std::ios::binary) << coarse->body;
+  EXPECT_GLTF_VALID(coarse_path);
+  std::printf("export: %zu triangles posted; max-error=0 %zu bytes in %s tiles; max-error=10000 %zu bytes, %zu "
+              "triangles in %s tiles; mission JSON %zu bytes, a page of 2 %zu bytes\n",
+              posted, full->body.size(), full->get_header_value("X-Tiles").c_str(), coarse->body.size(),
+              coarse_scene->triangle_count(), coarse->get_header_value("X-Tiles").c_str(),
+              c->Get("/v1/missions/long")->body.size(), c->Get("/v1/missions/long?limit=2")->body.size());
+
+  // The same tileset version and bound: 304.
+  const std::string etag = full->get_header_value("ETag");
+  ASSERT_FALSE(etag.empty());
+  auto again = c->Get("/v1/missions/long/model.glb?max-error=0", {{"If-None-Match", etag}});
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->status, 304);
+  EXPECT_NE(coarse->get_header_value("ETag"), etag);
+
+  for (const char* bad : {"?max-error=-1", "?max-error=1e308", "?max-error=10001", "?max-error=abc", "?max-error=nan",
+                          "?max-error=inf", "?max-error=", "?max-error=1,2", "?max-error=1&max-error=2",
+                          "?max-error=0&flavor=compat", "?max-error=0&detail=full"})
+    expect_json_error(c->Get((std::string("/v1/missions/long/model.glb") + bad).c_str()), 400, bad);
+  expect_json_error(c->Get("/v1/missions/nope/model.glb?max-error=0"), 404, "an unknown mission");
+  expect_json_error(c->Get("/v1/missions/bad.name/model.glb?max-error=0"), 400, "a malformed name");
+  expect_json_error(c->Get("/v1/missions/long/tiles/9_9_9.v1.glb"), 404, "an unknown tile");
 }
