@@ -52,7 +52,8 @@ else
   echo "setup ($layer): Debian packages already installed"
 fi
 
-# npm packages used by tests (glTF validator, three.js for the external-viewer test), pinned in tools/package.json.
+# npm packages used by tests (glTF validator, three.js for the external-viewer test, 3DTilesRendererJS for the tileset
+# test), pinned in tools/package.json.
 if [ "$layer" = test ] && [ -f tools/package.json ]; then
   if [ ! -d tools/node_modules ] || [ tools/package.json -nt tools/node_modules ]; then
     echo "setup: installing npm packages in tools/"

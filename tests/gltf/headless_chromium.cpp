@@ -45,10 +45,12 @@ pid_t spawn_chromium(const std::vector<std::string>& args, const std::string& lo
 
 PagePost run_tools_page(const std::string& chromium, const std::string& page_and_query,
                         const std::map<std::string, std::string>& files, const std::string& work_dir,
-                        const std::string& tag, int width, int height, int timeout_ms) {
+                        const std::string& tag, int width, int height, int timeout_ms,
+                        const std::map<std::string, int>& forwards) {
   PagePost r;
   StaticHttpServer server(source_path("tools"));
   for (const auto& [url, file] : files) server.map(url, file);
+  for (const auto& [prefix, port] : forwards) server.forward(prefix, port);
   if (!server.start()) {
     r.body = "the loopback HTTP server did not start";
     return r;

@@ -25,10 +25,12 @@ struct PagePost {
 // the folder of its singleton socket, which an ended Chromium leaves in /tmp otherwise); its pid, or -1.
 pid_t spawn_chromium(const std::vector<std::string>& args, const std::string& log, const std::string& tmp_dir);
 
-// Serves tools/ plus `files` (URL path -> file), opens tools/<page_and_query> at width x height with a fresh profile
-// under work_dir, waits up to timeout_ms for the page's POST, then ends Chromium (by its pid) and removes the profile.
+// Serves tools/ plus `files` (URL path -> file), relays GETs under each prefix of `forwards` to that loopback port
+// (StaticHttpServer::forward), opens tools/<page_and_query> at width x height with a fresh profile under work_dir,
+// waits up to timeout_ms for the page's POST, then ends Chromium (by its pid) and removes the profile.
 PagePost run_tools_page(const std::string& chromium, const std::string& page_and_query,
                         const std::map<std::string, std::string>& files, const std::string& work_dir,
-                        const std::string& tag, int width, int height, int timeout_ms = 90000);
+                        const std::string& tag, int width, int height, int timeout_ms = 90000,
+                        const std::map<std::string, int>& forwards = {});
 
 }  // namespace rgbdcast::test

@@ -6,6 +6,8 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <cctype>
 #include <chrono>
@@ -44,7 +46,43 @@ static std::string mime_of(const std::string& path) {
   if (ends(".js") || ends(".mjs")) return "text/javascript";
   if (ends(".glb")) return "model/gltf-binary";
   if (ends(".wasm")) return "application/wasm";
+  if (ends(".json")) return "application/json";
   return "application/octet-stream";
+}
+
+static void send_all(int c, const std::string& out) {
+  size_t sent = 0;
+  while (sent < out.size()) {
+    const ssize_t n = ::send(c, out.data() + sent, out.size() - sent, MSG_NOSIGNAL);
+    if (n <= 0) break;
+    sent += static_cast<size_t>(n);
+  }
+}
+
+// GET `target` from 127.0.0.1:port as HTTP/1.0 and pass the raw answer on to the client socket c, until the upstream
+// closes (Connection: close) or is silent for 30 s; 502 when it cannot connect.
+static void relay_get(int c, int port, const std::string& target) {
+  const int u = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  a.sin_port = htons(static_cast<std::uint16_t>(port));
+  if (u < 0 || ::connect(u, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    if (u >= 0) ::close(u);
+    send_all(c, "HTTP/1.0 502 Bad Gateway\r\nContent-Length: 0\r\nConnection: close\r\n\r\n");
+    return;
+  }
+  send_all(u, "GET " + target + " HTTP/1.0\r\nHost: 127.0.0.1:" + std::to_string(port) +
+                  "\r\nConnection: close\r\n\r\n");
+  char buf[65536];
+  for (;;) {
+    pollfd q{u, POLLIN, 0};
+    if (::poll(&q, 1, 30000) <= 0) break;
+    const ssize_t n = ::recv(u, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    send_all(c, std::string(buf, static_cast<size_t>(n)));
+  }
+  ::close(u);
 }
 
 std::optional<std::pair<std::string, std::string>> StaticHttpServer::wait_for_post(
@@ -106,6 +144,13 @@ void StaticHttpServer::serve() {
       cv_.notify_all();
       continue;
     }
+    const auto forwarded = std::find_if(forward_.begin(), forward_.end(),
+                                        [&](const auto& f) { return path.rfind(f.first, 0) == 0; });
+    if (method == "GET" && forwarded != forward_.end()) {
+      relay_get(c, forwarded->second, target);
+      ::close(c);
+      continue;
+    }
     std::string file;
     if (extra_.count(path))
       file = extra_[path];
@@ -121,13 +166,7 @@ void StaticHttpServer::serve() {
       body = "not found";
       head = "HTTP/1.0 404 Not Found\r\nContent-Length: 9\r\nConnection: close\r\n\r\n";
     }
-    const std::string out = head + body;
-    size_t sent = 0;
-    while (sent < out.size()) {
-      const ssize_t n = ::send(c, out.data() + sent, out.size() - sent, MSG_NOSIGNAL);
-      if (n <= 0) break;
-      sent += static_cast<size_t>(n);
-    }
+    send_all(c, head + body);
     ::close(c);
   }
 }
