@@ -24,7 +24,8 @@ For each size N, variant and binary, a fresh server on loopback (its own data di
   9. model.glb: bytes and seconds.
 A binary whose estimated RSS (--mb-per-keyframe NAME=MB, 3.8 for one named "baseline": it holds every keyframe in
 memory) would pass --max-rss-gb at N is skipped ("skipped: memory"); one whose measured RSS passes it while posting is
-stopped there ("stopped: memory at K keyframes"). Prints one table per variant; --json writes every figure.
+stopped there ("stopped: memory at K keyframes"); a server that dies or fails a request ends its row ("failed at seq
+K", with its log's tail in the JSON). Prints one table per variant; --json writes every figure.
 
     bench/long_mission.py [--variants exploration,revisit] [--bin NAME=PATH ...] [--json OUT] N [N ...]
     (default binaries: new=$RGBDCAST_BIN or build/app/rgbdcast, baseline=$RGBDCAST_BASELINE_BIN when set)
@@ -37,7 +38,6 @@ import os
 import random
 import shutil
 import socket
-import statistics
 import struct
 import subprocess
 import sys
@@ -519,6 +519,16 @@ def run_one(name, binary, n, variant, workload, a, work):
         del body
         r["rss_end_mb"], r["hwm_end_mb"] = server.memory_mb()
         return r
+    except (OSError, RuntimeError, http.client.HTTPException, ValueError) as e:
+        # A server that died or failed a request ends this row, not the run: the row says what happened and where.
+        code = server.proc.poll()
+        r["failed"] = f"{type(e).__name__}: {e}"[:200] + ("" if code is None else f"; server exited with {code}")
+        r["failed_at_seq"] = locals().get("seq")
+        log.flush()
+        r["log_tail"] = open(log.name, errors="replace").read()[-2000:]
+        print(f"long_mission: {variant} N={n} {name}: {r['failed']} (seq {r['failed_at_seq']})\n{r['log_tail']}",
+              file=sys.stderr, flush=True)
+        return r
     finally:
         server.stop()
         log.close()
@@ -538,7 +548,9 @@ COLUMNS = ["N", "binary", "posted MB", "POST p50/p95 ms", "tile lag s", "RSS ing
 
 
 def row(r):
-    if "posted_bytes" not in r:
+    if "failed" in r:
+        return [str(r["n"]), r["binary"], f"failed at seq {r['failed_at_seq']}: {r['failed']}"] + [""] * (len(COLUMNS) - 3)
+    if "posted_bytes" not in r or "throughput" not in r:
         return [str(r["n"]), r["binary"], "skipped: " + r["skipped"] if not r["skipped"].startswith("stopped") else
                 r["skipped"]] + [""] * (len(COLUMNS) - 3)
     mb = 1e6
