@@ -23,9 +23,10 @@ For each size N, variant and binary, a fresh server on loopback (its own data di
   8. storage: bytes under the data dir's tiles/<mission>/ and the whole data dir, against the posted bytes;
   9. model.glb: bytes and seconds.
 A binary whose estimated RSS (--mb-per-keyframe NAME=MB, 3.8 for one named "baseline": it holds every keyframe in
-memory) would pass --max-rss-gb at N is skipped ("skipped: memory"); one whose measured RSS passes it while posting is
-stopped there ("stopped: memory at K keyframes"); a server that dies or fails a request ends its row ("failed at seq
-K", with its log's tail in the JSON). Prints one table per variant; --json writes every figure.
+memory) would pass --max-rss-gb at N is skipped ("skipped: memory"); a server whose RSS passes it at any time is
+killed by a watchdog ("stopped: memory"). A server that dies or fails a request ends its row ("failed at seq K", K the
+last keyframe posted; its log's tail in the JSON), not the run. Prints one table per variant; --json writes every
+figure.
 
     bench/long_mission.py [--variants exploration,revisit] [--bin NAME=PATH ...] [--json OUT] N [N ...]
     (default binaries: new=$RGBDCAST_BIN or build/app/rgbdcast, baseline=$RGBDCAST_BASELINE_BIN when set)
@@ -188,11 +189,18 @@ def free_port():
 
 
 class Server:
-    def __init__(self, binary, data, log):
+    """`rgbdcast serve` on a free loopback port, watched: past max_rss_mb of VmRSS it is killed (SIGKILL, by pid) and
+    killed_at_mb says so, since one view can grow a server by gigabytes between two requests."""
+
+    def __init__(self, binary, data, log, max_rss_mb):
         self.port = free_port()
         self.data = data
+        self.killed_at_mb = None
         self.proc = subprocess.Popen([binary, "serve", "--data-dir", data, "--bind", "127.0.0.1", "--port",
                                       str(self.port)], stdout=log, stderr=subprocess.STDOUT, env=binary_env(binary))
+        self._stopping = threading.Event()
+        self._watchdog = threading.Thread(target=self._watch, args=(max_rss_mb,), daemon=True)
+        self._watchdog.start()
         for _ in range(300):
             if self.proc.poll() is not None:
                 raise RuntimeError(f"{binary} serve exited with {self.proc.returncode}")
@@ -217,6 +225,17 @@ class Server:
         finally:
             c.close()
 
+    def _watch(self, max_rss_mb):
+        while not self._stopping.wait(0.25):
+            try:
+                rss = self.memory_mb()[0]
+            except (OSError, KeyError):
+                return  # the server is gone
+            if rss > max_rss_mb:
+                self.killed_at_mb = rss
+                self.proc.kill()
+                return
+
     def memory_mb(self):
         """(VmRSS, VmHWM) in MiB."""
         fields = {}
@@ -227,6 +246,11 @@ class Server:
                     fields[key] = int(value.split()[0]) / 1024
         return fields["VmRSS"], fields["VmHWM"]
 
+    def check_alive(self):
+        code = self.proc.poll()
+        if code is not None:
+            raise RuntimeError(f"the server exited with {code}")
+
     def hierarchy(self):
         """(version, set of seqs) of the committed tile hierarchy, or (0, empty) before the first commit."""
         try:
@@ -236,6 +260,8 @@ class Server:
         return j["version"], {k[0] for k in j["keyframes"]}
 
     def stop(self):
+        self._stopping.set()
+        self._watchdog.join()
         self.proc.terminate()
         try:
             self.proc.wait(timeout=20)
@@ -290,6 +316,7 @@ def wait_tiles(server, n, timeout_s):
         _, seqs = server.hierarchy()
         if len(seqs) >= n and all(s in seqs for s in range(n)):
             return time.monotonic() - t0
+        server.check_alive()
         time.sleep(0.2)
     return None
 
@@ -413,6 +440,7 @@ def live_ingest(server, poster, first_seq, count, rate, timeout_s):
         held = set().union(*(e[2] for e in events)) if events else set()
         if all(s in held for s in starts):
             break
+        server.check_alive()
         time.sleep(0.1)
     stop.set()
     try:
@@ -471,7 +499,7 @@ def run_one(name, binary, n, variant, workload, a, work):
         return r
     data = tempfile.mkdtemp(prefix=f"data-{name}-{variant}-{n}.", dir=work)
     log = open(os.path.join(work, f"serve-{name}-{variant}-{n}.log"), "w")
-    server = Server(binary, data, log)
+    server = Server(binary, data, log, 1024 * a.max_rss_gb)
     try:
         poster = Poster(server, workload, variant)
         post_ms, last_answer = [], None
@@ -480,10 +508,6 @@ def run_one(name, binary, n, variant, workload, a, work):
             t0, t1 = poster.post(seq)
             post_ms.append(1000 * (t1 - t0))
             last_answer = t1
-            if seq % 50 == 49 and server.memory_mb()[0] > 1024 * a.max_rss_gb:
-                r["skipped"] = f"stopped: memory at {seq + 1} keyframes"
-                r["rss_mb"], r["hwm_mb"] = server.memory_mb()
-                return r
         r.update(posted_bytes=poster.posted_bytes, bulk_s=time.monotonic() - t_bulk, post_p50_ms=pct(post_ms, 50),
                  post_p95_ms=pct(post_ms, 95))
         # The tile worker's lag: from the last POST's answer until the committed hierarchy holds every keyframe.
@@ -523,6 +547,8 @@ def run_one(name, binary, n, variant, workload, a, work):
         # A server that died or failed a request ends this row, not the run: the row says what happened and where.
         code = server.proc.poll()
         r["failed"] = f"{type(e).__name__}: {e}"[:200] + ("" if code is None else f"; server exited with {code}")
+        if server.killed_at_mb is not None:
+            r["failed"] = f"stopped: memory ({server.killed_at_mb:.0f} MB RSS)"
         r["failed_at_seq"] = locals().get("seq")
         log.flush()
         r["log_tail"] = open(log.name, errors="replace").read()[-2000:]
@@ -550,9 +576,8 @@ COLUMNS = ["N", "binary", "posted MB", "POST p50/p95 ms", "tile lag s", "RSS ing
 def row(r):
     if "failed" in r:
         return [str(r["n"]), r["binary"], f"failed at seq {r['failed_at_seq']}: {r['failed']}"] + [""] * (len(COLUMNS) - 3)
-    if "posted_bytes" not in r or "throughput" not in r:
-        return [str(r["n"]), r["binary"], "skipped: " + r["skipped"] if not r["skipped"].startswith("stopped") else
-                r["skipped"]] + [""] * (len(COLUMNS) - 3)
+    if "skipped" in r:
+        return [str(r["n"]), r["binary"], "skipped: " + r["skipped"]] + [""] * (len(COLUMNS) - 3)
     mb = 1e6
     t, live, lj, m = r["throughput"], r["live"], r["late_join"], r["model"]
     live_cell = f"{cell(live['p50_ms'])}/{cell(live['p95_ms'])}"
