@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <list>
+#include <memory>
 
 #include <nlohmann/json.hpp>
 
@@ -35,29 +36,30 @@ double position_pad_m(const Eigen::AlignedBox3d& box) {
 
 }  // namespace
 
-// The placed keyframes one update reads, the most recent few kept decoded.
+// The placed keyframes one update reads, the most recent few kept decoded. A scene is shared: a caller that holds
+// many at once (a leaf seen by more keyframes than the cache keeps) keeps each alive after the cache drops it.
 class TileHierarchy::SceneCache {
  public:
   SceneCache(const KeyframeLoader& load, size_t keep) : load_(load), keep_(keep) {}
-  Result<const Scene*> get(const KeyframeId& id) {
+  Result<std::shared_ptr<const Scene>> get(const KeyframeId& id) {
     for (auto it = entries_.begin(); it != entries_.end(); ++it)
       if (it->first == id) {
         entries_.splice(entries_.begin(), entries_, it);
-        return &entries_.front().second;
+        return entries_.front().second;
       }
     auto scene = load_(id);
     if (!scene)
       return make_error(scene.error().code, "keyframe " + std::to_string(id.seq) + " rev " + std::to_string(id.rev) +
                                                 ": " + scene.error().message);
-    entries_.emplace_front(id, std::move(*scene));
+    entries_.emplace_front(id, std::make_shared<const Scene>(std::move(*scene)));
     if (entries_.size() > keep_) entries_.pop_back();
-    return &entries_.front().second;
+    return entries_.front().second;
   }
 
  private:
   const KeyframeLoader& load_;
   size_t keep_;
-  std::list<std::pair<KeyframeId, Scene>> entries_;  // most recent first
+  std::list<std::pair<KeyframeId, std::shared_ptr<const Scene>>> entries_;  // most recent first
 };
 
 std::string TileRecord::file() const { return key.name() + ".v" + std::to_string(version) + ".glb"; }
@@ -212,11 +214,13 @@ Status TileHierarchy::build_leaves(Build& b, SceneCache& scenes) {
   std::set<TileKey> parents;
   for (const TileKey& leaf : b.dirty) {
     parents.insert(leaf.parent());
+    std::vector<std::shared_ptr<const Scene>> held;  // alive while the leaf is built, whatever the cache drops
     std::vector<const Scene*> keyframes;
     for (const auto& id : holders[leaf]) {
       auto scene = scenes.get(id);
       if (!scene) return scene.error();
-      keyframes.push_back(*scene);
+      held.push_back(*scene);
+      keyframes.push_back(held.back().get());
     }
     auto mesh = keyframes.empty() ? Result<Mesh>(make_error(ErrorCode::kEmpty, "no keyframe"))
                                   : build_leaf(keyframes, leaf, options_.leaf_size_m, options_.leaf);

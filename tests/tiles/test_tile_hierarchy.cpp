@@ -180,6 +180,34 @@ TEST(TileHierarchyTest, ErrorGrowsFromLeavesToRootAndInnerTilesAreSimplified) {
   walk(tileset["root"], tileset["geometricError"].get<double>());
 }
 
+// A robot that returns to the same room: every keyframe lands on the same leaves, so a leaf holds more keyframes
+// than the update's decoded-keyframe cache keeps (16). Each must stay alive while its leaf is built.
+TEST(TileHierarchyTest, ALeafSeenByMoreKeyframesThanTheCacheKeepsHoldsThemAll) {
+  REQUIRE_KEYFRAMES();
+  const size_t passes = 5, n = Keyframes::get().size();  // 20 keyframes, 5 on each of the 4 poses
+  KeyframeLoader same_place = [n](const KeyframeId& id) {
+    return Keyframes::get().placed({static_cast<std::int64_t>(static_cast<size_t>(id.seq) % n), id.rev});
+  };
+  auto h = open_ok(test::temp_dir("tiles-revisit"));
+  ASSERT_TRUE(h);
+  const auto ids = first(passes * n);
+  auto stats = h->update(ids, same_place);
+  ASSERT_TRUE(stats) << stats.error().message;
+  size_t posted = 0;
+  for (const auto& id : ids) posted += same_place(id)->triangle_count();
+  size_t in_leaves = 0, most_holders = 0;
+  std::map<TileKey, size_t> holders;
+  for (const auto& [seq, e] : h->keyframes())
+    for (const auto& leaf : e.leaves) most_holders = std::max(most_holders, ++holders[leaf]);
+  for (const auto& [key, r] : h->tiles())
+    if (key.level == 0) {
+      EXPECT_EQ(tile_mesh(*h, r).triangle_count(), r.triangles) << key.name();
+      in_leaves += r.triangles;
+    }
+  EXPECT_GT(most_holders, 16u) << "the test must put more keyframes on one leaf than the cache keeps";
+  EXPECT_EQ(in_leaves, posted);
+}
+
 TEST(TileHierarchyTest, IncrementalUpdatesGiveTheSameTilesAsOneBuild) {
   REQUIRE_KEYFRAMES();
   auto once = open_ok(test::temp_dir("tiles-once"));
