@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The whole test suite: install what is needed (scripts/setup.sh test: the demo's packages and the test tools),
 # build everything, run every test under ctest, RGBDCAST_TEST_JOBS (default: the number of cores) at a time. Tests
-# that need a resource alone say so in their CMakeLists (RESOURCE_LOCK); no test asserts wall-clock time.
+# that need a resource alone say so in their CMakeLists (RESOURCE_LOCK).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh test
