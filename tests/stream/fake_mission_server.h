@@ -41,8 +41,9 @@ class FakeMissionServer {
     int swallow = 0;        // then the answers of this many stored keyframes are held until the same (seq, rev) is
                             // posted again (the client gave up on it): the keyframe is stored, its answer lost
     bool refuse_token = false;  // every POST gets 401 (a wrong token)
-    // Called after a POST was stored and before it is answered, without the server's lock; may wait with
-    // wait_until(). `post` is the request as recorded so far.
+    // Called once a POST's body was read, before it is stored (the service's time: what another POST stores
+    // meanwhile decides this one's answer, e.g. 409 stale_revision), without the server's lock; may wait with
+    // wait_until() or sleep. `post` is the request as recorded so far.
     std::function<void(FakeMissionServer&, const ServedPost& post)> hold;
   };
 
