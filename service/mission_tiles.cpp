@@ -19,6 +19,7 @@ void MissionTiles::start() {
     std::lock_guard lock(mutex_);
     if (worker_.joinable()) return;
     stopping_ = false;
+    stop_update_ = false;
   }
   std::error_code ec;
   fs::create_directories(root_, ec);
@@ -35,6 +36,7 @@ void MissionTiles::stop() {
   {
     std::lock_guard lock(mutex_);
     stopping_ = true;
+    stop_update_ = true;
   }
   cv_.notify_all();
   if (worker_.joinable()) worker_.join();
@@ -124,7 +126,8 @@ void MissionTiles::update_one(const std::string& mission) {
     auto it = by_seq.find(id.seq);
     if (it == by_seq.end()) return make_error(ErrorCode::kNotFound, "not stored");
     return load_placed_keyframe(missions_, *it->second);
-  });
+  }, &stop_update_);
+  if (!updated && stop_update_) return;  // stopped: uncommitted, not a failure
   {
     std::lock_guard lock(mutex_);
     snapshots_[mission] = hierarchy->snapshot();

@@ -9,7 +9,10 @@
 // - A keyframe that fails to build leaves the mission's last committed tileset served; the error is counted and kept
 //   (last_error), and the next keyframe of the mission tries again.
 // - forget() (the mission was deleted) drops the hierarchy and its folder.
+// - stop() ends an update under way between two tiles (uncommitted: the next start builds it again), so a server
+//   shutting down does not wait for it.
 // Thread-safe.
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <map>
@@ -62,6 +65,7 @@ class MissionTiles {
   std::set<std::string> queue_;
   std::string busy_;  // the mission being updated, or empty
   bool stopping_ = false;
+  std::atomic<bool> stop_update_{false};  // set by stop(), read by the update under way
   std::map<std::string, std::unique_ptr<tiles::TileHierarchy>> hierarchies_;  // used by the worker only
   std::map<std::string, std::shared_ptr<const tiles::TilesetSnapshot>> snapshots_;
   MissionTilesStats stats_;

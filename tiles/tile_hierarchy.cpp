@@ -138,7 +138,8 @@ Status TileHierarchy::load_committed() {
   return ok_status();
 }
 
-Result<UpdateStats> TileHierarchy::update(const std::vector<KeyframeId>& wanted, const KeyframeLoader& load) {
+Result<UpdateStats> TileHierarchy::update(const std::vector<KeyframeId>& wanted, const KeyframeLoader& load,
+                                          const std::atomic<bool>* stop) {
   Build b;
   b.version = version_ + 1;
   b.tiles = tiles_;
@@ -168,8 +169,8 @@ Result<UpdateStats> TileHierarchy::update(const std::vector<KeyframeId>& wanted,
   }
   b.stats.version = version_;
   if (b.dirty.empty() && b.stats.keyframes_changed == 0) return b.stats;
-  if (auto st = build_leaves(b, scenes); !st) return st.error();
-  if (auto st = build_inner_levels(b); !st) return st.error();
+  if (auto st = build_leaves(b, scenes, stop); !st) return st.error();
+  if (auto st = build_inner_levels(b, stop); !st) return st.error();
   if (auto st = commit(b); !st) return st.error();
   b.stats.version = version_;
   return b.stats;
@@ -207,9 +208,14 @@ Result<Mesh> read_tile(const std::string& dir, const TileRecord& r) {
   return std::move(scene->nodes.front().mesh);
 }
 
+Status stopped(const std::atomic<bool>* stop) {
+  if (stop && stop->load()) return make_error(ErrorCode::kUnavailable, "tiles: stopped before the update committed");
+  return ok_status();
+}
+
 }  // namespace
 
-Status TileHierarchy::build_leaves(Build& b, SceneCache& scenes) {
+Status TileHierarchy::build_leaves(Build& b, SceneCache& scenes, const std::atomic<bool>* stop) {
   // Which keyframes each dirty leaf holds, in seq order.
   std::map<TileKey, std::vector<KeyframeId>> holders;
   for (const auto& [seq, e] : b.keyframes)
@@ -217,6 +223,7 @@ Status TileHierarchy::build_leaves(Build& b, SceneCache& scenes) {
       if (b.dirty.count(leaf)) holders[leaf].push_back({seq, e.rev});
   std::set<TileKey> parents;
   for (const TileKey& leaf : b.dirty) {
+    if (auto st = stopped(stop); !st) return st;
     parents.insert(leaf.parent());
     std::vector<std::shared_ptr<const Scene>> held;  // alive while the leaf is built, whatever the cache drops
     std::vector<const Scene*> keyframes;
@@ -234,10 +241,11 @@ Status TileHierarchy::build_leaves(Build& b, SceneCache& scenes) {
   return ok_status();
 }
 
-Status TileHierarchy::build_inner_levels(Build& b) {
+Status TileHierarchy::build_inner_levels(Build& b, const std::atomic<bool>* stop) {
   for (int level = 1; level <= options_.top_level; ++level) {
     std::set<TileKey> parents;
     for (const TileKey& key : b.dirty) {
+      if (auto st = stopped(stop); !st) return st;
       parents.insert(key.parent());
       std::vector<Mesh> children;
       std::vector<const TileRecord*> child_records;

@@ -17,6 +17,7 @@
 //   same tile contents as one built from scratch.
 // - Every tile's geometric error is in metres and at least each of its children's; leaves' is 0.
 // Not thread-safe, except snapshot(), which any thread may call while update() runs.
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -89,7 +90,10 @@ class TileHierarchy {
   // Brings the hierarchy to `keyframes` (the mission's current keyframes, one rev per seq) and commits a new version
   // when anything changed (else returns the current version and changes nothing). A keyframe that fails to load or
   // build fails the update (kept uncommitted: the previous version stays served), naming the keyframe or tile.
-  Result<UpdateStats> update(const std::vector<KeyframeId>& keyframes, const KeyframeLoader& load);
+  // `stop`, when given and set, ends the update between two tiles (kUnavailable, uncommitted, as a crash would leave
+  // it): a server shutting down does not wait for a long update.
+  Result<UpdateStats> update(const std::vector<KeyframeId>& keyframes, const KeyframeLoader& load,
+                             const std::atomic<bool>* stop = nullptr);
 
   std::uint64_t version() const { return version_; }
   const std::map<TileKey, TileRecord>& tiles() const { return tiles_; }
@@ -108,8 +112,8 @@ class TileHierarchy {
   struct Build;
   class SceneCache;
   Status load_committed();
-  Status build_leaves(Build& b, SceneCache& scenes);
-  Status build_inner_levels(Build& b);
+  Status build_leaves(Build& b, SceneCache& scenes, const std::atomic<bool>* stop);
+  Status build_inner_levels(Build& b, const std::atomic<bool>* stop);
   Status store_tile(Build& b, const TileKey& key, Result<Mesh> content, TileRecord record, size_t* built);
   Status commit(Build& b);
   void publish();

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -249,6 +250,8 @@ TEST(TileHierarchyTest, ARevisionReplacesItsKeyframesSurface) {
   EXPECT_FALSE(revised->keyframes().count(3));
 }
 
+// A stopped update commits nothing; reopening serves the committed version, deletes what the stopped one wrote and
+// builds nothing again.
 TEST(TileHierarchyTest, ReopeningServesTheCommittedVersionAndBuildsNothingAgain) {
   REQUIRE_KEYFRAMES();
   const std::string dir = test::temp_dir("tiles-reopen");
@@ -258,6 +261,17 @@ TEST(TileHierarchyTest, ReopeningServesTheCommittedVersionAndBuildsNothingAgain)
     ASSERT_TRUE(h && h->update(first(4), loader()));
     ASSERT_TRUE(h->update(first(6), loader()));
     before = contents(*h);
+    // A stop during the next update (set while the first dirty leaf loads its keyframes) ends it uncommitted.
+    std::atomic<bool> stop{false};
+    const auto stopped = h->update(first(8), [&](const KeyframeId& id) {
+      if (id.seq < 6) stop = true;
+      return Keyframes::get().placed(id);
+    }, &stop);
+    ASSERT_FALSE(stopped);
+    EXPECT_EQ(stopped.error().code, ErrorCode::kUnavailable) << stopped.error().message;
+    EXPECT_EQ(h->version(), 2u);
+    EXPECT_EQ(h->snapshot()->version, 2u);
+    EXPECT_EQ(contents(*h), before);
   }
   auto h = open_ok(dir);
   ASSERT_TRUE(h);
