@@ -1,4 +1,5 @@
-// The operator page in a real browser: headless Chromium (Debian's) opens GET /?selftest=1 on the real server, the
+// The operator page's server-rendered views in a real browser: headless Chromium (Debian's) opens
+// GET /?render=server&selftest=1 on the real server, the
 // page lists the scene, shows the capture view, orbits once by a scripted drag (30 degrees) and marks itself done;
 // the DOM says the last view was an eye/target view and the screenshot of the view region is a rendered image, not
 // the page background.
@@ -71,7 +72,7 @@ TEST(ServicePage, HeadlessChromiumOrbitsAndShowsARenderedView) {
   ASSERT_EQ(page->status, 200);
   EXPECT_NE(page->get_header_value("Content-Type").find("text/html"), std::string::npos);
 
-  const std::string url = "http://127.0.0.1:" + std::to_string(server.port()) + "/?selftest=1";
+  const std::string url = "http://127.0.0.1:" + std::to_string(server.port()) + "/?render=server&selftest=1";
   int code = -1;
   fs::create_directories(dir + "/profile-dom");
   const std::string dom = run_chromium(dir + "/profile-dom", "--dump-dom", url, &code);
@@ -96,7 +97,8 @@ TEST(ServicePage, HeadlessChromiumOrbitsAndShowsARenderedView) {
   ASSERT_FALSE(img.empty()) << "no screenshot at " << shot;
   ASSERT_GE(img.cols, 640);
   ASSERT_GE(img.rows, 480);
-  // The view occupies the top-left 640x480 of the page. Blank would be the page's #3a4458 box or black.
+  // The view fills the window (the panel sits on the right): its top-left 640x480 is view. Blank would be the page's
+  // #3a4458 background or black.
   const cv::Mat view = img(cv::Rect(0, 0, 640, 480));
   int rendered = 0;
   for (int y = 0; y < view.rows; ++y)
