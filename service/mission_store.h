@@ -1,5 +1,5 @@
 #pragma once
-// Live missions on disk (issue 10): <data_dir>/missions/<name>/<seq>.glb (the keyframe GLB as the robot sent it;
+// Live missions on disk: <data_dir>/missions/<name>/<seq>.glb (the keyframe GLB as the robot sent it;
 // <seq>.r<rev>.glb for a revision rev > 0) and <seq>.json (its pose, sizes, times and rev). Contract:
 // - put() writes the GLB, then the JSON, each with write_file_atomic (service/scene_store.h: temporary name, fsync,
 //   rename, fsync of the folder); the JSON is the commit marker, so a crash leaves a whole keyframe or none.
