@@ -7,9 +7,15 @@
 //                             three/build/, three/examples/jsm/ and 3d-tiles-renderer/build/, only .js and .wasm;
 //                             404 when the folder or the file is missing (the page then renders on the server).
 // Names with "..", empty segments or characters outside [A-Za-z0-9._/-] are 400. httplib.h: see http_reply.h.
+// A module is read and gzipped once (again when its file changes) and sent with Content-Encoding: gzip to clients
+// that accept it, as is to the others: httplib would otherwise compress each answer itself, with brotli at its
+// slowest quality when the client accepts br (three.core.js: 5.5 s of one core per request).
 #include <httplib.h>
 
 #include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 
@@ -30,8 +36,18 @@ class WebAssets {
   bool modules_present() const;
   void install(httplib::Server& server, const Guard& guard) const;
 
+  struct Module {
+    std::string bytes, gzipped;  // gzipped is empty when compression did not pay
+    long long stamp = 0;         // the file's size and modification time when read
+  };
+
  private:
+  // The module at `path` (checked by the caller), read and compressed on first use; null when the file is missing.
+  std::shared_ptr<const Module> module(const std::string& path) const;
+
   std::string modules_dir_;
+  mutable std::mutex mutex_;
+  mutable std::map<std::string, std::shared_ptr<const Module>> modules_;
 };
 
 }  // namespace rgbdcast::service
