@@ -7,7 +7,8 @@
 // them in one go. Locally it loads the current tileset once and a newer one on each `tileset` event (only changed
 // tiles cross the network); it asks the server for a view only for "robot view". EventSource reconnects by itself
 // with Last-Event-ID when the stream drops.
-// Tests: ?selftest=1 (scene, server views: orbits once by a scripted drag, marks <body data-selftest="done">);
+// Tests: ?selftest=1 (scene: with server views orbits once by a scripted drag and marks <body data-selftest="done">;
+// locally, with &report=URL, POSTs the drawn pixels there);
 // ?mission=NAME&selftest=N&report=URL waits for N keyframes, then POSTs what it saw to URL (see selftest.js).
 import { drawTimeline } from "./timeline.js";
 import { ServerView } from "./server_view.js";
@@ -17,7 +18,7 @@ const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
 const mission = params.get("mission");
 const sceneId = params.get("scene");
-const live = { entries: new Map(), keyframes: new Map(), received: 0, opened: 0, reconnects: 0, newest: null,
+const live = { entries: new Map(), received: 0, opened: 0, reconnects: 0, newest: null,
                follow: false, tilesetKeyframes: new Map(), tilesetVersion: null, shown: [], syncs: 0 };
 const net = { bytes: 0, tileBytes: 0, tileRequests: 0, viewRequests: 0, origins: new Set(), urls: [] };
 const page = { mode: "server", note: "", local: null, server: null, fitted: false, live };
@@ -144,8 +145,9 @@ async function loadMissions() {
 // ---- Missions ----
 const missionBase = () => "/v1/missions/" + encodeURIComponent(mission);
 
-// Reads the mission's pages from seq `from` on (all of them when undefined).
-async function readMission(from) {
+// Reads the mission's pages from seq `from` on (all of them when undefined); `changed` gets the seqs that were new
+// or refined (a higher rev).
+async function readMission(from, changed) {
   let after = from === undefined ? null : from - 1;
   let body = null;
   do {
@@ -153,7 +155,11 @@ async function readMission(from) {
     const res = await fetch(missionBase() + query);
     if (!res.ok) { setStatus("mission " + mission + ": " + res.status); return null; }
     body = await res.json();
-    for (const k of body.keyframes) live.entries.set(k.seq, k);
+    for (const k of body.keyframes) {
+      const had = live.entries.get(k.seq);
+      if (!had || (had.rev || 0) < (k.rev || 0)) changed.push(k.seq);
+      live.entries.set(k.seq, k);
+    }
     after = body.next_after;
   } while (after !== null);
   const order = captureOrder(live.entries);
@@ -163,20 +169,26 @@ async function readMission(from) {
 
 let syncFrom = null, syncing = null, waiting = [];
 // Coalesces keyframe events into one read of the mission from the lowest changed seq; resolves once that read, the
-// marks and (server mode) the view are done.
+// marks and (server mode) the view are done. Each keyframe the read found new or refined is then "shown".
 function sync(seq) {
   syncFrom = syncFrom === null ? seq : Math.min(syncFrom, seq);
+  const done = new Promise((resolve) => waiting.push(resolve));  // before runSync takes the waiting list
   if (!syncing) syncing = runSync();
-  return new Promise((resolve) => waiting.push(resolve));
+  return done;
 }
 async function runSync() {
   while (syncFrom !== null) {
     const from = syncFrom, done = waiting;
     syncFrom = null; waiting = [];
-    const body = await readMission(from);
+    const changed = [];
+    const body = await readMission(from, changed);
     live.syncs += 1;
     if (body) missionShown(body);
     if (page.server) await page.server.refresh();
+    for (const seq of changed) {
+      live.shown.push(seq);
+      if (page.onKeyframeShown) page.onKeyframeShown(live.entries.get(seq));
+    }
     for (const resolve of done) resolve();
   }
   syncing = null;
@@ -238,10 +250,11 @@ function subscribe() {
   es.addEventListener("keyframe", (e) => {
     live.received += 1;
     const k = JSON.parse(e.data);
-    const had = live.keyframes.get(k.seq);
-    if (had && (had.rev || 0) >= (k.rev || 0)) return;  // a replay we already have (a higher rev is a refinement)
-    live.keyframes.set(k.seq, k);
-    sync(k.seq).then(() => { live.shown.push(k.seq); if (page.onKeyframeShown) page.onKeyframeShown(k); });
+    // A replay of a keyframe the page has already read is skipped (a higher rev is a refinement): a late-joining page
+    // reads the mission once, not once per replayed event.
+    const had = live.entries.get(k.seq);
+    if (had && (had.rev || 0) >= (k.rev || 0)) return;
+    sync(k.seq);
   });
   es.addEventListener("tileset", (e) => {
     const t = JSON.parse(e.data);
@@ -272,6 +285,9 @@ async function startMission() {
   if (page.local) {
     // The current tileset, once; newer versions come with `tileset` events.
     page.local.loadTileset(missionBase() + "/tileset.json");
+    // The first view fits the mission once its tileset has tiles and its keyframes are read: frames run until then,
+    // whatever the order in which the two arrive.
+    page.local.keepDrawing = () => !page.fitted;
     page.local.onFrame = () => {
       if (!page.fitted && live.entries.size > 0 && page.local.fit(firstPose())) page.fitted = true;
     };
@@ -307,7 +323,7 @@ async function main() {
   await showScene(sceneId || scenes[0].id);
   if (params.get("selftest") === "1") {
     const { sceneSelftest } = await import("./selftest.js");
-    await sceneSelftest(page);
+    await sceneSelftest(page, net, params.get("report"));
   }
 }
 

@@ -45,6 +45,7 @@ export class LocalView {
     this.frames = 0;
     this.swaps = [];          // {version, at} of each tileset put on screen
     this.onSwap = null;
+    this.keepDrawing = null;  // () => true while the page waits for something a frame brings (the first fit)
     this.resize();
     new ResizeObserver(() => this.resize()).observe(stage);
     const loop = () => { this.frame(); requestAnimationFrame(loop); };
@@ -76,6 +77,12 @@ export class LocalView {
   static version(tiles) {
     const a = tiles && tiles.rootTileset && tiles.rootTileset.asset;
     return a && a.tilesetVersion !== undefined ? String(a.tilesetVersion) : null;
+  }
+
+  // Whether the tileset has any tile below its root (before the first keyframe is in, it has none).
+  static hasTiles(tiles) {
+    const root = tiles.rootTileset && tiles.rootTileset.root;
+    return !!(root && root.children && root.children.length > 0);
   }
 
   static busy(tiles) {
@@ -135,7 +142,7 @@ export class LocalView {
 
   frame() {
     const busy = (this.tiles && LocalView.busy(this.tiles)) || (this.nextTiles && LocalView.busy(this.nextTiles));
-    if (!this.dirty && !busy && !this.nextTiles) return;
+    if (!this.dirty && !busy && !this.nextTiles && !(this.keepDrawing && this.keepDrawing())) return;
     this.dirty = false;
     const t0 = performance.now();
     this.camera.updateMatrixWorld();
@@ -147,23 +154,33 @@ export class LocalView {
     if (this.onFrame) this.onFrame();
   }
 
-  // The centre and radius of what is shown (glTF frame), or null before anything is loaded.
-  bounds() {
-    const sphere = new THREE.Sphere();
-    if (this.tiles && this.tiles.getBoundingSphere(sphere)) {
+  // The eight corners of what is shown (glTF frame: the tileset's root box, or the scene's box), or null before
+  // anything is loaded.
+  corners() {
+    const box = new THREE.Box3(), toWorld = new THREE.Matrix4();
+    if (this.tiles && LocalView.hasTiles(this.tiles) && this.tiles.getOrientedBoundingBox(box, toWorld)) {
       this.tiles.group.updateMatrixWorld(true);
-      sphere.applyMatrix4(this.tiles.group.matrixWorld);
-      return sphere;
+      toWorld.premultiply(this.tiles.group.matrixWorld);
+    } else if (this.model) {
+      box.setFromObject(this.model);
+    } else {
+      return null;
     }
-    if (this.model) return new THREE.Box3().setFromObject(this.model).getBoundingSphere(sphere);
-    return null;
+    if (box.isEmpty()) return null;
+    const out = [];
+    for (let i = 0; i < 8; i += 1)
+      out.push(new THREE.Vector3(i & 1 ? box.max.x : box.min.x, i & 2 ? box.max.y : box.min.y,
+                                 i & 4 ? box.max.z : box.min.z).applyMatrix4(toWorld));
+    return out;
   }
 
-  // Looks at what is shown from behind and above `pose` (the first keyframe's camera) or from the front, far enough for
-  // its bounding sphere to fit the view. False when nothing is loaded yet.
+  // Looks at what is shown from behind and above `pose` (the first keyframe's camera) or from the front, at the
+  // smallest distance at which every corner of its box is in the view. False when nothing is loaded yet.
   fit(pose) {
-    const b = this.bounds();
-    if (!b || !(b.radius > 0)) return false;
+    const corners = this.corners();
+    if (!corners) return false;
+    const center = new THREE.Vector3();
+    for (const c of corners) center.addScaledVector(c, 1 / 8);
     let toward = new THREE.Vector3(0, 0.5, 1);
     if (pose) {
       const c = poseToGltfCamera(pose);
@@ -171,14 +188,27 @@ export class LocalView {
       toward = back.setY(0).normalize().add(new THREE.Vector3(0, 0.6, 0));
     }
     toward.normalize();
-    const fov = THREE.MathUtils.degToRad(Math.min(this.camera.fov, this.camera.fov * this.camera.aspect));
-    const distance = 1.05 * b.radius / Math.sin(fov / 2);
     this.camera.fov = 60;
-    this.camera.position.copy(b.center).addScaledVector(toward, distance);
+    this.camera.position.copy(center).add(toward);
+    this.camera.lookAt(center);
+    this.camera.updateMatrixWorld(true);
+    // In the frame of a camera at the centre looking along -toward (x right, y up, -z ahead): moved back by D, a
+    // corner at (x, y, z) is at depth D - z and in view when |x| <= (D - z) tanH and |y| <= (D - z) tanV.
+    const view = this.camera.matrixWorldInverse.clone().multiply(new THREE.Matrix4().makeTranslation(toward));
+    const tanV = Math.tan(THREE.MathUtils.degToRad(this.camera.fov / 2)), tanH = tanV * this.camera.aspect;
+    let distance = 0, radius = 0;
+    for (const c of corners) {
+      radius = Math.max(radius, c.distanceTo(center));
+      const v = c.clone().applyMatrix4(view);
+      distance = Math.max(distance, v.z + Math.abs(v.x) / tanH, v.z + Math.abs(v.y) / tanV);
+    }
+    if (!(radius > 0)) return false;
+    distance *= 1.05;
+    this.camera.position.copy(center).addScaledVector(toward, distance);
     this.camera.near = Math.max(0.01, distance / 1000);
-    this.camera.far = distance + 4 * b.radius;
+    this.camera.far = distance + 4 * radius;
     this.camera.updateProjectionMatrix();
-    this.controls.target.copy(b.center);
+    this.controls.target.copy(center);
     this.controls.update();
     this.dirty = true;
     return true;
@@ -240,8 +270,7 @@ export class LocalView {
     const w = gl.drawingBufferWidth, h = gl.drawingBufferHeight;
     const px = new Uint8Array(w * h * 4);
     gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, px);
-    const bg = new THREE.Color(kBackground);
-    const b = [bg.r, bg.g, bg.b].map((v) => Math.round(v * 255));
+    const b = [(kBackground >> 16) & 255, (kBackground >> 8) & 255, kBackground & 255];  // sRGB, as drawn
     let drawn = 0;
     for (let i = 0; i < px.length; i += 4)
       if (Math.abs(px[i] - b[0]) > 2 || Math.abs(px[i + 1] - b[1]) > 2 || Math.abs(px[i + 2] - b[2]) > 2) drawn += 1;

@@ -3,9 +3,20 @@
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const $ = (id) => document.getElementById(id);
 
+// Scene, local rendering: once the GLB is drawn, its drawn pixels and the page's requests go to `report`.
+async function localScene(page, net, report) {
+  const local = page.local;
+  const frames = local.frames;
+  local.dirty = true;  // one more frame: the fitted view is on screen
+  while (local.frames === frames) await sleep(50);
+  const d = local.drawnPixels();
+  await post(report, { mode: page.mode, note: page.note, drawn: d.drawn, width: d.width, height: d.height,
+                       stats: local.stats(), network: networkReport(net) });
+}
+
 // Scene, server views: a scripted drag through the same handlers a mouse uses (75 px right: 30 degrees of orbit).
-export async function sceneSelftest(page) {
-  if (!page.server) { document.body.dataset.selftest = "local"; return; }
+export async function sceneSelftest(page, net, report) {
+  if (page.local) return report ? localScene(page, net, report) : undefined;
   await page.server.idle();
   const stage = $("stage"), r = stage.getBoundingClientRect();
   const x0 = r.left + 320, y0 = r.top + 240;
@@ -49,7 +60,7 @@ async function serverMission(page, net, want, report) {
   await sleep(50);
   await v.idle();
   await post(report, { mode: page.mode, note: page.note, seen, pixels, received: live.received,
-                       distinct: live.keyframes.size, reconnects: live.reconnects, robotUrl, followUrl: v.s.lastUrl,
+                       distinct: live.entries.size, reconnects: live.reconnects, robotUrl, followUrl: v.s.lastUrl,
                        newest: live.newest, overlayPixels: overlay, robotCamera, syncs: live.syncs,
                        network: networkReport(net) });
 }
@@ -65,8 +76,9 @@ async function settled(local, ms = 60000) {
   }
 }
 
-// Mission, local rendering: a sample of the drawn pixels each time a tileset version is on screen, until the view
-// shows a version holding `want` keyframes; then the view area is resized and drawn again.
+// Mission, local rendering: a sample of the drawn pixels each time a tileset version is on screen (also POSTed to
+// /drawn-K beside `report`, K its keyframes), until the view shows a version holding `want` keyframes; then the view
+// area is resized and drawn again.
 async function localMission(page, net, want, report) {
   const live = page.live, local = page.local, samples = [];
   const t0 = performance.now();
@@ -76,13 +88,17 @@ async function localMission(page, net, want, report) {
     const version = local.stats().version;
     const d = local.drawnPixels();
     if (firstDrawnMs === null && d.drawn > 0) firstDrawnMs = performance.now() - t0;
-    samples.push({ version, keyframes: live.tilesetKeyframes.get(version) ?? null, drawn: d.drawn,
+    const keyframes = live.tilesetKeyframes.get(version) ?? null;
+    samples.push({ version, keyframes, drawn: d.drawn,
                    width: d.width, height: d.height, tileBytes: net.tileBytes, tileRequests: net.tileRequests });
+    // The test posts the next keyframe once the page has drawn this many.
+    if (keyframes !== null)
+      await fetch(new URL("/drawn-" + keyframes, report), { method: "POST", mode: "no-cors", body: String(d.drawn) });
   };
   let last = null;
   while (performance.now() - t0 < 120000) {
     const v = local.stats().version;
-    if (v !== null && v !== last && page.fitted) { await sample(); last = v; }
+    if (v !== null && v !== last && page.fitted && live.tilesetKeyframes.has(v)) { await sample(); last = v; }
     const k = live.tilesetKeyframes.get(last);
     if (live.entries.size >= want && k !== undefined && k >= want) break;
     await sleep(100);
@@ -97,7 +113,7 @@ async function localMission(page, net, want, report) {
   await settled(local);
   const after = local.drawnPixels();
   await post(report, { mode: page.mode, note: page.note, samples, firstDrawnMs, resized: { before, after },
-                       stats: local.stats(), received: live.received, distinct: live.keyframes.size,
+                       stats: local.stats(), received: live.received, distinct: live.entries.size,
                        reconnects: live.reconnects, syncs: live.syncs, network: networkReport(net) });
 }
 
