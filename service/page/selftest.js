@@ -37,8 +37,8 @@ async function post(report, result) {
   await fetch(report, { method: "POST", mode: "no-cors", body: JSON.stringify(result) });
 }
 
-// Mission, server views: after each of `want` keyframes, the drawn pixels of the view and of the overlay; then the
-// robot-view and follow buttons.
+// Mission, server views: after each of `want` keyframes, the drawn pixels of the view and of the overlay (and a POST
+// to /shown-N beside `report`, N the keyframes shown); then the robot-view and follow buttons.
 async function serverMission(page, net, want, report) {
   const live = page.live, v = page.server, seen = [], pixels = [], overlay = [];
   await new Promise((resolve) => {
@@ -47,6 +47,8 @@ async function serverMission(page, net, want, report) {
       seen.push(k.seq);
       pixels.push(v.drawnPixels());
       overlay.push(v.overlayPixels());
+      // The test may post the next keyframe once the page has shown this many.
+      await fetch(new URL("/shown-" + seen.length, report), { method: "POST", mode: "no-cors", body: String(k.seq) });
       if (seen.length >= want) resolve();
     };
   });

@@ -1,5 +1,6 @@
 // The operator page's mission mode with server-rendered views (?render=server) in a real browser: headless Chromium (Debian's) opens /?mission=NAME on the real
-// server while the test posts keyframes (real TUM frames reduced by the CLI) one by one. The page follows the event
+// server while the test posts keyframes (real TUM frames reduced by the CLI) one by one, each after the page showed the
+// one before. The page follows the event
 // stream, re-renders after each keyframe and counts the drawn pixels of its fixed orbit view; the server ends every
 // event stream after 3 s, so the page must reconnect (EventSource, Last-Event-ID) to see the later keyframes. The
 // test asserts the drawn pixels grow, every keyframe arrived exactly once despite the reconnects, the trajectory
@@ -57,8 +58,10 @@ TEST(MissionPage, HeadlessChromiumFollowsAGrowingMission) {
   const pid_t pid = rgbdcast::test::spawn_chromium(args, log, dir);
   ASSERT_GT(pid, 0) << "cannot start " << chromium;
 
-  // Keyframes arrive while the page watches: one every 2.5 s, so that at least one stream end falls between them.
+  // Keyframes arrive while the page watches: each once the page has shown the ones before, and 2.5 s later, so that
+  // at least one stream end falls between them.
   for (int seq = 1; seq < 4; ++seq) {
+    if (!reports.wait_for_post({"/shown-" + std::to_string(seq)}, 60000)) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(2500));
     post(seq);
   }
