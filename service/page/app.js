@@ -21,7 +21,7 @@ const sceneId = params.get("scene");
 const live = { entries: new Map(), received: 0, opened: 0, reconnects: 0, newest: null,
                follow: false, tilesetKeyframes: new Map(), tilesetVersion: null, shown: [], syncs: 0 };
 const net = { bytes: 0, tileBytes: 0, tileRequests: 0, viewRequests: 0, origins: new Set(), urls: [] };
-const page = { mode: "server", note: "", local: null, server: null, fitted: false, live };
+const page = { mode: "server", note: "", local: null, server: null, fitted: false, live, net };
 window.rgbdcastPage = page;  // for the tests and the benchmark
 
 function setStatus(text) { $("status").textContent = text; }

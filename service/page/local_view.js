@@ -43,6 +43,7 @@ export class LocalView {
     this.dirty = true;
     this.frameMs = 0;         // update + render of the last drawn frame (CPU)
     this.frames = 0;
+    this.firstTilesMs = null;  // when a frame first drew tiles (ms since the page's navigation started)
     this.swaps = [];          // {version, at} of each tileset put on screen
     this.onSwap = null;
     this.keepDrawing = null;  // () => true while the page waits for something a frame brings (the first fit)
@@ -151,6 +152,7 @@ export class LocalView {
     this.renderer.render(this.scene, this.camera);
     this.frameMs = performance.now() - t0;
     this.frames += 1;
+    if (this.firstTilesMs === null && this.tiles && this.tiles.visibleTiles.size > 0) this.firstTilesMs = performance.now();
     if (this.onFrame) this.onFrame();
   }
 
@@ -261,7 +263,8 @@ export class LocalView {
     const info = this.renderer.info.render;
     return { version: LocalView.version(t), resident: t ? t.stats.inCache : 0, visible: t ? t.visibleTiles.size : 0,
              loading: t ? t.stats.queued + t.stats.downloading + t.stats.parsing : 0, frameMs: this.frameMs,
-             calls: info.calls, triangles: info.triangles, frames: this.frames, size: this.size };
+             calls: info.calls, triangles: info.triangles, frames: this.frames, size: this.size,
+             firstTilesMs: this.firstTilesMs };
   }
 
   // Pixels of the drawn frame that are not the background (by more than 2/255 in some channel), for the tests.
