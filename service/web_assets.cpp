@@ -53,7 +53,7 @@ bool accepts_gzip(const httplib::Request& req) {
   return a.find("gzip") != std::string::npos;
 }
 
-// Sends `bytes` as is: a content provider of known length is one httplib does not compress again.
+// Sends the module (gzipped or not) as it is: httplib does not compress a content provider of known length.
 void send_bytes(httplib::Response& res, std::shared_ptr<const WebAssets::Module> m, bool gzipped,
                 const std::string& type) {
   const size_t size = gzipped ? m->gzipped.size() : m->bytes.size();
