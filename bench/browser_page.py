@@ -4,7 +4,8 @@ server's CPU per operator-minute with local against server rendering, in the sam
 
 The mission: N keyframes of bench/long_mission.py's exploration workload (12 TUM fr1/xyz frames reduced once, posted
 in laps moved 4 m apart) posted to a fresh `rgbdcast serve` on loopback; the benchmark waits until the tile worker's
-committed tileset holds all N. Then, each in a fresh Chromium profile (a cold cache) at WIDTHxHEIGHT:
+committed tileset holds all N. Then, each in a fresh Chromium profile (a cold cache) in a WIDTHxHEIGHT window (headless
+Chromium's view is smaller: 1280x577 in a 1280x720 window):
   1. late join, local: /?mission=NAME; time from navigation to the first frame that drew a tile (the page's
      firstTilesMs), and until the page has the current tileset version on screen with nothing queued, downloading or
      parsing ("drawn"); the bytes downloaded by then (resource timing: all, the npm modules, tileset + tiles) and the
@@ -15,11 +16,13 @@ committed tileset holds all N. Then, each in a fresh Chromium profile (a cold ca
   3. an operator orbiting for OPERATOR_S s (DevTools mouse drags, 20 moves a second across the view), once with the
      local page and once with /?mission=NAME&render=server: the server's CPU seconds (utime + stime of its process)
      over that time, per minute, and the view requests it served.
-Prints one table; --json writes every figure.
+Prints one table; --json writes every figure; --screenshot writes the page as drawn at the first N (the README's
+picture: `--screenshot docs/operator-page.png 12`).
 
-    bench/browser_page.py [--bin PATH] [--json OUT] N [N ...]
+    bench/browser_page.py [--bin PATH] [--json OUT] [--screenshot PNG] N [N ...]
 """
 import argparse
+import base64
 import json
 import os
 import shutil
@@ -139,6 +142,12 @@ def late_join(server, a, work, n):
                  tileset_bytes=settled["tilesetBytes"], tile_requests=settled["tileRequests"],
                  view_requests=settled["viewRequests"], resident=settled["stats"]["resident"],
                  visible=settled["stats"]["visible"], version=settled["stats"]["version"])
+        if a.screenshot:  # the page as drawn, once (the first N)
+            time.sleep(1.0)  # the status line refreshes every 500 ms
+            shot = ch.cdp.call("Page.captureScreenshot", format="png")
+            with open(a.screenshot, "wb") as f:
+                f.write(base64.b64decode(shot["data"]))
+            a.screenshot = None
         o = ch.cdp.eval(ORBIT % a.frames)
         r.update(orbit_p50_ms=lm.pct(o["ms"], 50), orbit_p95_ms=lm.pct(o["ms"], 95), calls=o["calls"],
                  triangles=o["triangles"], resident_after_orbit=o["resident"])
@@ -221,6 +230,7 @@ def main():
     p.add_argument("--data", default=os.environ.get("RGBDCAST_DATA", os.path.join(ROOT, "..", "shared", "data")))
     p.add_argument("--json", help="write every figure here")
     p.add_argument("--keep-data", action="store_true")
+    p.add_argument("--screenshot", help="write a PNG of the local page once the first mission is drawn")
     a = p.parse_args()
     work = tempfile.mkdtemp(prefix="browser-page-bench.")
     excerpt = os.path.join(a.data, "tum", "rgbd_dataset_freiburg1_xyz_200_319")
