@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kManifest = "hierarchy.json";
-constexpr int kFormat = 2;  // 2: inner tiles are textured
+constexpr int kFormat = 3;  // 2: inner tiles are textured; 3: their texels at least twice their children's
 constexpr size_t kMaxManifestBytes = size_t(256) << 20;
 
 nlohmann::json options_json(const TilingOptions& o) {
