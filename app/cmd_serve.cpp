@@ -90,6 +90,11 @@ void register_serve(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0.1, 3600.0));
 
+  cmd->add_option("--web-modules", opts->web_modules_dir,
+                  "Folder of the operator page's npm modules (three.js, 3DTilesRendererJS); default: the source "
+                  "tree's tools/node_modules. Without them the page shows server-rendered views")
+      ->check(CLI::ExistingDirectory);
+
   cmd->add_option("--import", *imports, "GLB files to store at start (skipped when already stored)")
       ->check(CLI::ExistingFile);
 
@@ -133,6 +138,12 @@ void register_serve(CLI::App& app) {
                   path.c_str(), id.c_str(), base.c_str(), id.c_str(), base.c_str(), id.c_str());
     }
     std::printf("rgbdcast serve: %zu scenes in %s\n", svc->scene_count(), opts->data_dir.c_str());
+    if (svc->web_modules_present())
+      std::printf("rgbdcast serve: operator page renders in the browser (WebGL), modules from %s\n",
+                  svc->web_modules_dir().c_str());
+    else
+      std::printf("rgbdcast serve: no three.js modules in %s (npm ci in tools/): the operator page shows server-rendered "
+                  "views\n", svc->web_modules_dir().c_str());
     std::printf("rgbdcast serve: listening on %s/ (operator page), API under /v1/scenes\n", base.c_str());
     std::fflush(stdout);
 

@@ -29,7 +29,11 @@ TEST_PACKAGES=(
 )
 
 case "$layer" in
-  demo) packages=("${DEMO_PACKAGES[@]}") ;;
+  demo)
+    packages=("${DEMO_PACKAGES[@]}")
+    # npm installs three.js and 3DTilesRendererJS for the operator page's local rendering (tools/package.json).
+    command -v npm >/dev/null 2>&1 || packages+=(nodejs npm)
+    ;;
   test)
     packages=("${DEMO_PACKAGES[@]}" "${TEST_PACKAGES[@]}")
     # Node.js with npm runs the test tools of tools/package.json: the machine image ships Node 20 (with npm); a
@@ -52,13 +56,17 @@ else
   echo "setup ($layer): Debian packages already installed"
 fi
 
-# npm packages used by tests (glTF validator, three.js for the external-viewer test, 3DTilesRendererJS for the tileset
-# test), pinned in tools/package.json.
-if [ "$layer" = test ] && [ -f tools/package.json ]; then
+# npm packages, pinned in tools/package.json: three.js and 3DTilesRendererJS, which rgbdcast serve hands to the
+# operator page, and the glTF validator of the tests. Both layers install them; a failed install leaves the page on
+# server-rendered views.
+if [ -f tools/package.json ]; then
   if [ ! -d tools/node_modules ] || [ tools/package.json -nt tools/node_modules ]; then
     echo "setup: installing npm packages in tools/"
-    (cd tools && npm install --no-audit --no-fund --loglevel=error)
-    touch tools/node_modules
+    if (cd tools && npm ci --no-audit --no-fund --loglevel=error); then
+      touch tools/node_modules
+    else
+      echo "setup: npm ci in tools/ failed: the operator page will show server-rendered views" >&2
+    fi
   else
     echo "setup: npm packages already installed"
   fi

@@ -79,6 +79,7 @@ std::string tileset_event_text(std::uint64_t version, const std::shared_ptr<cons
     data["tiles"] = s->tiles;
     data["triangles"] = s->triangles;
     data["bytes"] = s->bytes;
+    data["keyframes"] = s->keyframes.size();  // the page knows when the tileset holds the keyframes it has listed
   }
   return "event: tileset\ndata: " + data.dump() + "\n\n";
 }

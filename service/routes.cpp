@@ -29,6 +29,8 @@ RouteMatch match_route(std::string_view path) {
   if (path == "/metrics") return route("/metrics", "GET, HEAD");
   if (path == "/v1/scenes") return route("/v1/scenes", "GET, HEAD, POST");
   if (path == "/v1/missions") return route("/v1/missions", "GET, HEAD");
+  if (path.substr(0, 6) == "/page/" && path.size() > 6) return route("/page/{file}", "GET, HEAD");
+  if (path.substr(0, 13) == "/web/modules/" && path.size() > 13) return route("/web/modules/{path}", "GET, HEAD");
   if (path.substr(0, kMissions.size()) == kMissions) {
     // /v1/missions/{name}[/keyframes|/model.glb|/view|/events]: a malformed name is the handler's 400.
     const std::string_view rest = path.substr(kMissions.size());
@@ -40,6 +42,8 @@ RouteMatch match_route(std::string_view path) {
     if (tail == "/model.glb") return route("/v1/missions/{name}/model.glb", "GET, HEAD");
     if (tail == "/view") return route("/v1/missions/{name}/view", "GET, HEAD, POST");
     if (tail == "/events") return route("/v1/missions/{name}/events", "GET");
+    if (tail == "/tileset.json") return route("/v1/missions/{name}/tileset.json", "GET, HEAD");
+    if (tail.substr(0, 7) == "/tiles/") return route("/v1/missions/{name}/tiles/{file}", "GET, HEAD");
     return {};
   }
   if (path.substr(0, kScenes.size()) != kScenes) return {};

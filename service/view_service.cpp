@@ -32,6 +32,7 @@
 #include "service/scene_ingest.h"
 #include "service/scene_store.h"
 #include "service/view_params.h"
+#include "service/web_assets.h"
 
 namespace rgbdcast::service {
 namespace {
@@ -86,6 +87,7 @@ struct ViewService::Impl {
   std::unique_ptr<MissionStore> missions;
   std::unique_ptr<MissionTiles> tiles;  // after missions: its worker reads the store until it is destroyed
   std::unique_ptr<MissionRoutes> mission_routes;
+  std::unique_ptr<WebAssets> web;
   std::unique_ptr<GatedServer> server;  // last: destroyed first, its workers may still wait on the pools
   int port = 0;
 
@@ -363,7 +365,8 @@ void ViewService::Impl::routes() {
   server->Get("/", guarded([](Req, Res res) { res.set_content(operator_page_html(), "text/html; charset=utf-8"); }));
   server->Get("/healthz", guarded([this](Req, Res res) {
     send_json(res, 200, {{"status", "ok"}, {"backend", pool->backend()}, {"device", pool->device()},
-                         {"scenes", store->count()}, {"missions", missions->count()}});
+                         {"scenes", store->count()}, {"missions", missions->count()},
+                         {"web_modules", web->modules_present()}});
   }));
   server->Get("/metrics", guarded([this](Req, Res res) {
     MetricsGauges g;
@@ -407,6 +410,7 @@ void ViewService::Impl::routes() {
   server->Get(R"(/v1/scenes/([^/]+)/view)", guarded([this](Req req, Res res) { get_view(req, res); }));
   server->Post(R"(/v1/scenes/([^/]+)/view)", guarded([this](Req req, Res res) { get_view(req, res); }));
   mission_routes->install(*server, guarded, guarded_reader);
+  web->install(*server, guarded);
 }
 
 ViewService::ViewService(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -461,6 +465,8 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   if (!st) return st.error();
   auto impl = std::make_unique<Impl>();
   impl->options = options;
+  if (options.web_modules_dir.empty()) impl->options.web_modules_dir = RGBDCAST_WEB_MODULES_DIR;
+  impl->web = std::make_unique<WebAssets>(impl->options.web_modules_dir);
   auto store = SceneStore::open(options.data_dir);
   if (!store) return store.error();
   impl->store = std::move(*store);
@@ -581,6 +587,8 @@ std::string ViewService::url() const {
 std::string ViewService::backend() const { return impl_->pool->backend(); }
 std::string ViewService::backend_reason() const { return impl_->backend_reason; }
 std::string ViewService::device() const { return impl_->pool->device(); }
+std::string ViewService::web_modules_dir() const { return impl_->options.web_modules_dir; }
+bool ViewService::web_modules_present() const { return impl_->web->modules_present(); }
 size_t ViewService::scene_count() const { return impl_->store->count(); }
 
 Status ViewService::run() {

@@ -51,6 +51,9 @@ struct ServeOptions {
   int max_event_streams = 4;
   double event_stream_max_s = 300.0;  // an SSE response ends after this long; EventSource reconnects
   double keep_alive_s = 15.0;         // ": keep-alive" after this long without an event
+  // The operator page's npm modules (three.js, 3DTilesRendererJS: service/web_assets.h); "" = the build's default,
+  // tools/node_modules of the source tree. Without them the page renders on the server.
+  std::string web_modules_dir;
 };
 
 class ViewService {
@@ -65,6 +68,8 @@ class ViewService {
   std::string backend() const;       // "vulkan" or "osmesa"
   std::string backend_reason() const;
   std::string device() const;
+  std::string web_modules_dir() const;  // the folder the page's modules come from
+  bool web_modules_present() const;     // whether three.js and 3DTilesRendererJS are in it
   size_t scene_count() const;
   // Stores a GLB file as if it had been POSTed (same checks); a file whose bytes are already stored is not stored
   // twice (the existing scene is returned), so importing at every start is harmless.

@@ -6,6 +6,7 @@
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <unistd.h>
+#include <zlib.h>
 
 #include <gtest/gtest.h>
 
@@ -387,6 +388,58 @@ TEST_F(ServiceHttp, UnknownScenesAndPathTraversal) {
     EXPECT_TRUE(d->status == 400 || d->status == 404) << path << " -> " << d->status;
     expect_json_error(d, d->status, "delete " + path);
   }
+}
+
+std::string gunzip(const std::string& in) {
+  z_stream z{};
+  if (inflateInit2(&z, 15 + 16) != Z_OK) return "";
+  std::string out;
+  char buf[1 << 16];
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
+  z.avail_in = static_cast<uInt>(in.size());
+  int rc = Z_OK;
+  while (rc == Z_OK) {
+    z.next_out = reinterpret_cast<Bytef*>(buf);
+    z.avail_out = sizeof buf;
+    rc = inflate(&z, Z_NO_FLUSH);
+    out.append(buf, sizeof buf - z.avail_out);
+  }
+  inflateEnd(&z);
+  return rc == Z_STREAM_END ? out : "";
+}
+
+// The page's npm modules: gzipped for a client that accepts gzip (whatever else it accepts), as they are for the
+// others, the same bytes as the file either way; only the modules' folders; the page's own files by name.
+TEST_F(ServiceHttp, PageModulesAreTheFilesGzippedOnlyUnderTheirFolders) {
+  const std::string file = rgbdcast::test::source_path("tools/node_modules/three/build/three.module.js");
+  if (!fs::exists(file)) RGBDCAST_MISSING_PREREQUISITE(file + " missing (scripts/setup.sh runs npm ci in tools/)");
+  const std::string bytes = rgbdcast::test::read_file(file);
+  auto get = [&](const std::string& path, const std::string& accept) {
+    return rgbdcast::test::raw_request(server_->port(), "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1:" +
+                                                            std::to_string(server_->port()) + "\r\n" +
+                                                            accept + "Connection: close\r\n\r\n");
+  };
+  const auto gz = get("/web/modules/three/build/three.module.js", "Accept-Encoding: gzip, deflate, br, zstd\r\n");
+  ASSERT_TRUE(gz.ok);
+  EXPECT_EQ(gz.status, 200);
+  EXPECT_EQ(gz.headers.count("content-encoding") ? gz.headers.at("content-encoding") : "", "gzip");
+  EXPECT_LT(gz.body.size(), bytes.size() / 3);
+  EXPECT_TRUE(gunzip(gz.body) == bytes) << "the gzipped module is not the file";
+  for (const std::string& accept : {std::string("Accept-Encoding: br\r\n"), std::string()}) {
+    const auto plain = get("/web/modules/three/build/three.module.js", accept);
+    ASSERT_TRUE(plain.ok) << accept;
+    EXPECT_EQ(plain.status, 200) << accept;
+    EXPECT_EQ(plain.headers.count("content-encoding"), 0u) << accept;
+    EXPECT_TRUE(plain.body == bytes) << accept << ": " << plain.body.size() << " bytes, the file has " << bytes.size();
+  }
+  expect_json_error(c_->Get("/web/modules/three/package.json"), 404, "a file outside the modules' folders");
+  expect_json_error(c_->Get("/web/modules/three/build/..%2F..%2Fpackage.json"), 400, "an escaping path");
+  expect_json_error(c_->Get("/web/modules/three/build/.hidden.js"), 400, "a hidden name");
+  expect_json_error(c_->Get("/page/nothing.js"), 404, "an unknown page file");
+  auto app = c_->Get("/page/app.js");
+  ASSERT_TRUE(app);
+  EXPECT_EQ(app->status, 200);
+  EXPECT_NE(app->get_header_value("Content-Type").find("text/javascript"), std::string::npos);
 }
 
 TEST_F(ServiceHttp, BadUploadsStoreNothing) {

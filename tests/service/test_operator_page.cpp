@@ -1,4 +1,5 @@
-// The operator page in a real browser: headless Chromium (Debian's) opens GET /?selftest=1 on the real server, the
+// The operator page's server-rendered views in a real browser: headless Chromium (Debian's) opens
+// GET /?render=server&selftest=1 on the real server, the
 // page lists the scene, shows the capture view, orbits once by a scripted drag (30 degrees) and marks itself done;
 // the DOM says the last view was an eye/target view and the screenshot of the view region is a rendered image, not
 // the page background.
@@ -71,7 +72,7 @@ TEST(ServicePage, HeadlessChromiumOrbitsAndShowsARenderedView) {
   ASSERT_EQ(page->status, 200);
   EXPECT_NE(page->get_header_value("Content-Type").find("text/html"), std::string::npos);
 
-  const std::string url = "http://127.0.0.1:" + std::to_string(server.port()) + "/?selftest=1";
+  const std::string url = "http://127.0.0.1:" + std::to_string(server.port()) + "/?render=server&selftest=1";
   int code = -1;
   fs::create_directories(dir + "/profile-dom");
   const std::string dom = run_chromium(dir + "/profile-dom", "--dump-dom", url, &code);
@@ -96,8 +97,9 @@ TEST(ServicePage, HeadlessChromiumOrbitsAndShowsARenderedView) {
   ASSERT_FALSE(img.empty()) << "no screenshot at " << shot;
   ASSERT_GE(img.cols, 640);
   ASSERT_GE(img.rows, 480);
-  // The view occupies the top-left 640x480 of the page. Blank would be the page's #3a4458 box or black.
-  const cv::Mat view = img(cv::Rect(0, 0, 640, 480));
+  // The view fills the window and the scene sits in its middle; the panel covers the top right. The 500x400 of the
+  // view left of the panel's edge and above the status line: blank would be the page's #3a4458 background or black.
+  const cv::Mat view = img(cv::Rect(150, 100, 500, 400));
   int rendered = 0;
   for (int y = 0; y < view.rows; ++y)
     for (int x = 0; x < view.cols; ++x) {
@@ -108,7 +110,7 @@ TEST(ServicePage, HeadlessChromiumOrbitsAndShowsARenderedView) {
     }
   cv::Scalar mean, sd;
   cv::meanStdDev(view, mean, sd);
-  const double fraction = rendered / (640.0 * 480.0);
+  const double fraction = rendered / (500.0 * 400.0);
   std::cout << "screenshot view region: " << fraction * 100 << " % rendered pixels, stddev " << sd[0] << "/" << sd[1]
             << "/" << sd[2] << "\n";
   EXPECT_GT(fraction, 0.2);
