@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Durability of the scene store (issue 11): ROUNDS times, start `rgbdcast serve`, let 4 clients upload (3 stream
+# Durability of the scene store: ROUNDS times, start `rgbdcast serve`, let 4 clients upload (3 stream
 # GLBs, 1 sends RGB-D frames that the server reduces), kill -9 the server at a random moment, then check the store
 # as the crash left it and again after a restart: every scene the restarted server lists has its GLB and metadata
 # with matching sizes, no GLB or metadata is alone, and no temporary file is left.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Load test of `rgbdcast serve` (issue 5): wrk, 8 connections for 30 s, 640x480 JPEG views of TUM fr1/xyz frame 0
+# Load test of `rgbdcast serve`: wrk, 8 connections for 30 s, 640x480 JPEG views of TUM fr1/xyz frame 0
 # from a ring of viewpoints; prints p50, p99, views/s and errors.
 #
 #   bench/load.sh                      # starts build/app/rgbdcast serve on a free port with a temporary store

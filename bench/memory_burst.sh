@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# RSS of `rgbdcast serve` around a burst of large views (issue 11): base after one small view, peak during VIEWS views
+# RSS of `rgbdcast serve` around a burst of large views: base after one small view, peak during VIEWS views
 # of random sizes up to 4096x4096 from 4 clients, right after, and after IDLE_S seconds without requests.
 #   bench/memory_burst.sh [VIEWS=200] [IDLE_S=8] [BUILD_DIR=build]   (RGBDCAST_BIN overrides the binary)
 set -euo pipefail

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# Service side of a live mission (issue 10): KEYFRAMES frames of the TUM fr1/xyz excerpt (every 120/KEYFRAMES-th),
+# Service side of a live mission: KEYFRAMES frames of the TUM fr1/xyz excerpt (every 120/KEYFRAMES-th),
 # each reduced by `rgbdcast reduce --preset realtime` (its default 40 kB budget), posted in order with its ground-truth
 # pose (relative to the first). Per keyframe: the post's received -> available time (the server's share of the
-# capture-to-view latency), its store and append parts (X-Store-Ms, X-Append-Ms), and a 640x480 orbit view right
-# after it (the mission resident and grown, not uploaded again). Then the same mission loaded whole by a fresh server
+# capture-to-view latency), its store and append parts (X-Store-Ms; X-Append-Ms only from binaries that append to the
+# renderers on POST, empty otherwise), and a 640x480 orbit view right after it (which draws the new keyframe). Then the same mission loaded whole by a fresh server
 # (X-Upload-Ms: what each keyframe would cost if the mission were uploaded again instead of appended).
 #   bench/mission_ingest.sh [KEYFRAMES=12] [BUILD_DIR=build]   (RGBDCAST_BIN overrides the binary)
 set -euo pipefail

@@ -1,12 +1,13 @@
 #!/usr/bin/python3
-"""What a keyframe POST costs a client on a direct connection, beyond the server's own work (issue 10).
+"""What a keyframe POST costs a client on a direct connection, beyond the server's own work.
 
 For each rgbdcast binary given, starts `rgbdcast serve` on loopback, posts the GLBs given (in order, as seq 1, 2, ...
 of one mission, over one keep-alive connection, Python's http.client as the client), ROUNDS times each into a fresh
 mission, and prints one table: per binary, the median over all posts of the client's time from the request's start
 to the answer, the server's own share (the answer's available - received: body, decode, store, append), of that the
-store (both files written and synced: X-Store-Ms) and the renderers' append (X-Append-Ms), and the difference (what
-the connection adds: on loopback nothing but the TCP stack's own waits).
+store (both files written and synced: X-Store-Ms) and the renderers' append (X-Append-Ms: only binaries that append
+to the resident renderers on POST report it; nan for those that draw new keyframes at the next view), and the
+difference (what the connection adds: on loopback nothing but the TCP stack's own waits).
 
     bench/post_roundtrip.py [--rounds 5] --bin NAME=PATH [--bin NAME=PATH ...] GLB [GLB ...]
 """

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Soak test of `rgbdcast serve` (issue 11): 8 clients on loopback mix GLB uploads, views of random sizes and modes,
+# Soak test of `rgbdcast serve`: 8 clients on loopback mix GLB uploads, views of random sizes and modes,
 # GLB downloads, listings and deletes for DURATION seconds, then the server stops by itself. Reports the number of
 # requests by status class, every 5xx, and RSS after warm-up vs at its peak and at the end.
 #   bench/soak.sh [DURATION_S=1800] [CLIENTS=8] [BUILD_DIR=build]

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# What one stored scene costs the server in memory (issue 11's soak analysis): starts `rgbdcast serve` on an empty
+# What one stored scene costs the server in memory: starts `rgbdcast serve` on an empty
 # store, reduces TUM fr1/xyz frame 0 on it (as bench/soak.sh does), then uploads that GLB SCENES more times from 2
 # clients and reads the server's RSS (and its anonymous part) before, after the uploads and after deleting them
 # again, each after 6 s idle (the server trims its heap when idle). Prints kB of RSS and RssAnon per stored scene.

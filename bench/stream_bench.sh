@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# bench/stream_bench.sh: rgbdcast stream over an emulated link (issue 10). For each input and link it starts a fresh
+# bench/stream_bench.sh: rgbdcast stream over an emulated link. For each input and link it starts a fresh
 # `rgbdcast serve`, a link relay in front of it (bench/stream/link_relay.py: rate, one-way delay, loss, outage; this
 # kernel has no sch_netem, see its header), streams the input with --link-kbps equal to the link rate, then reads the
 # mission back and prints one table (bench/stream/table.py): keyframes sent, kB per keyframe, link utilisation,

@@ -1,5 +1,5 @@
 #pragma once
-// The fuzz targets of issue 11: one function per parser of outside bytes. Each must return normally on any input;
+// The fuzz targets: one function per parser of outside bytes. Each must return normally on any input;
 // a crash, a sanitizer report, or an accepted result that breaks its contract (std::abort) is a bug. The libFuzzer
 // harness (fuzz_harness.cpp) calls one of them; tests/fuzz replays the seed corpora and every crash input found.
 #include <cstddef>

@@ -3,7 +3,7 @@
 // frame and --sequence) and the service's server-side reduction (multipart frame uploads), so they cannot drift
 // apart. ReductionParams{} stays the paper's values (reduction/pipeline.h); the product's default is realtime
 // because the benchmark shows it wins over the paper preset on time, bytes, coverage and novel-view fidelity
-// (BENCHMARKS.md, "Realtime preset", issue 9).
+// (BENCHMARKS.md, "Realtime preset").
 #include <cstdint>
 #include <vector>
 
@@ -36,7 +36,7 @@ struct JpegPng16 {
 Result<JpegPng16> encode_jpeg_png16(const RgbdFrame& frame, int jpeg_quality, int depth_step = 1);
 
 // The realtime preset's default budget for this frame: min(kDefaultBudgetKb, a quarter of its JPEG90+PNG16
-// payload), so the GLB is at most a quarter of what the frame costs as images (issue 9) also on frames whose images
+// payload), so the GLB is at most a quarter of what the frame costs as images also on frames whose images
 // compress well (the PCL Kinect PCDs: 130.7 kB of JPEG90+PNG16, so 32.7 kB). Costs one JPEG and one PNG encode of
 // the frame (measured in BENCHMARKS.md, "Default budget"). Never below 4 kB (FrameReductionOptions'
 // floor). Errors: encode_jpeg_png16's. reduce_and_texture makes the same estimate when

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer harnesses of fuzz/ (clang-16, ASan + UBSan + libFuzzer) in build-fuzz/ and runs each one for
-# [seconds] (default 20) from its seed corpus, through ctest (tests fuzz_smoke_*). A crash, leak, timeout (10 s) or
-# an input that takes over 2.5 GB fails the run; the input is kept in build-fuzz/fuzz/artifacts/.
+# [seconds] (default 20) from its seed corpus, through ctest (tests fuzz_smoke_*, RGBDCAST_JOBS of them at a time).
+# A crash, leak, timeout (10 s) or an input that takes over 2.5 GB fails the run; the input is kept in
+# build-fuzz/fuzz/artifacts/.
 #   scripts/fuzz.sh            # the CI smoke run: 10 harnesses x 20 s (rosbag only where ROS bag input is built)
 #   scripts/fuzz.sh 600        # longer
 #   FUZZ_ONLY=glb scripts/fuzz.sh 3600
@@ -31,5 +32,5 @@ start=$(date +%s)
 cmake --build build-fuzz -j"$jobs" --target "${targets[@]}"
 built=$(date +%s)
 cd build-fuzz
-ctest -L fuzz -R "^fuzz_smoke_(${only})\$" --output-on-failure
+ctest -L fuzz -R "^fuzz_smoke_(${only})\$" --output-on-failure -j"$jobs"
 echo "fuzz.sh: build $((built - start)) s, runs $(($(date +%s) - built)) s (${seconds} s per harness)"

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The test suite under AddressSanitizer + UndefinedBehaviorSanitizer (issue 11): builds everything with
+# The test suite under AddressSanitizer + UndefinedBehaviorSanitizer: builds everything with
 # -DRGBDCAST_SANITIZE=ON (RelWithDebInfo) in build-asan/ and runs ctest there. Any sanitizer report fails its test:
 # UBSan does not recover, ASan aborts, LeakSanitizer reports at exit. The only suppressions are third-party leaks, each
 # with its reason, in tests/sanitizers/lsan.supp. Extra arguments go to ctest:

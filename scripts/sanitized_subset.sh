@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# CI's sanitized tests (issue 11): the test programs of the libraries that read untrusted input (GLB, Draco, PCD,
+# CI's sanitized tests: the test programs of the libraries that read untrusted input (GLB, Draco, PCD,
 # frames, multipart bodies, intrinsics, trajectories, view queries, the service's store and guards, keyframes) and
 # the fuzz regression cases, built in build-fuzz/ with clang-16 and ASan + UBSan, whose libraries scripts/fuzz.sh has
 # built already, and run under scripts/sanitizer_env.sh's options. The whole suite under ASan + UBSan is
@@ -19,6 +19,6 @@ source scripts/sanitizer_env.sh "$root"
 cd build-fuzz
 status=0
 # The other test programs are not built here: their placeholders (*_NOT_BUILT) are left out.
-ctest --output-on-failure --timeout 900 -LE fuzz -E NOT_BUILT "$@" || status=$?
+ctest --output-on-failure --timeout 900 -j"${RGBDCAST_JOBS:-2}" -LE fuzz -E NOT_BUILT "$@" || status=$?
 echo "sanitized_subset.sh: build $((built - start)) s, tests $(($(date +%s) - built)) s"
 exit $status

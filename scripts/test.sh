@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # The whole test suite: install what is needed (scripts/setup.sh test: the demo's packages and the test tools),
-# build everything, run every test under ctest.
+# build everything, run every test under ctest, RGBDCAST_TEST_JOBS (default: the number of cores) at a time. Tests
+# that need a resource alone say so in their CMakeLists (RESOURCE_LOCK).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh test
 bash scripts/build.sh
 cd build
-ctest --output-on-failure --timeout 900 "$@"
-# The fuzz smoke run (issue 11): every libFuzzer target for RGBDCAST_FUZZ_SECONDS (20 s) from its seed corpus, built
+ctest --output-on-failure --timeout 900 -j"${RGBDCAST_TEST_JOBS:-$(nproc)}" "$@"
+# The fuzz smoke run: every libFuzzer target for RGBDCAST_FUZZ_SECONDS (20 s) from its seed corpus, built
 # with clang-16 in build-fuzz/. RGBDCAST_FUZZ_SECONDS=0 skips it.
 cd ..
 if [ "${RGBDCAST_FUZZ_SECONDS:-20}" != 0 ]; then

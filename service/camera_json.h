@@ -1,5 +1,5 @@
 #pragma once
-// A full camera as robots and viewers state it (issue 12): intrinsics and a camera-to-world pose, in JSON.
+// A full camera as robots and viewers state it: intrinsics and a camera-to-world pose, in JSON.
 //
 //   {"fx": 517.3, "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480,
 //    "pose": [[1,0,0,0], [0,1,0,0], [0,0,1,0], [0,0,0,1]]}

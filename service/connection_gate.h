@@ -1,5 +1,5 @@
 #pragma once
-// cpp-httplib's Server with the connection handling replaced (issue 11): in 0.11.4 every accepted connection holds a
+// cpp-httplib's Server with the connection handling replaced: in 0.11.4 every accepted connection holds a
 // pool thread from accept to close, so idle or slow clients (200 idle connections, 16 slowloris clients at 1 byte/s)
 // take every thread and /healthz waits for minutes. Here:
 // - one gate thread (epoll) holds every connection that is between requests or still sending its header block; it

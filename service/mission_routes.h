@@ -1,5 +1,5 @@
 #pragma once
-// The /v1/missions routes (issue 10; wire contract in service/openapi.yaml):
+// The /v1/missions routes (wire contract in service/openapi.yaml):
 //   POST   /v1/missions/{name}/keyframes?seq=N&pose=tx,ty,tz,qx,qy,qz,qw[&captured=T]   (a keyframe GLB)
 //   GET    /v1/missions, /v1/missions/{name}, /v1/missions/{name}/model.glb, /v1/missions/{name}/view?...
 //   GET    /v1/missions/{name}/events    (Server-Sent Events: "keyframe" events, and "tileset" when it changed)

@@ -1,5 +1,5 @@
 #pragma once
-// A live mission as one Scene (issue 10): each keyframe GLB (its mesh in its own camera frame, as `rgbdcast reduce`
+// A live mission as one Scene: each keyframe GLB (its mesh in its own camera frame, as `rgbdcast reduce`
 // writes it) placed in the mission's world frame by the pose the sender gave. The world frame is the scene world of
 // scene/camera.h (OpenCV axes); encode_glb's root node turns it into glTF axes, as for `reduce --sequence`, whose
 // multi-node writer this shares.

@@ -1,5 +1,5 @@
 #pragma once
-// The checks every request passes once its headers are read and before its body is (issue 11), in this order:
+// The checks every request passes once its headers are read and before its body is, in this order:
 // 1. Host is one of the server's own names (or the host of an allowed origin), and Origin, when sent, is the
 //    server's own or allowed: 403 otherwise (DNS rebinding and cross-site requests). A missing Host is 400.
 // 2. The method is one the route allows: 405 with Allow.

@@ -429,7 +429,7 @@ Status check_options(const ServeOptions& o) {
   if (o.renderers < 1 || o.render_queue < 0 || o.reducers < 1 || o.reduce_queue < 0 || o.max_uploads < 1)
     return bad("renderers, reducers and max uploads must be at least 1, queues at least 0");
   // Views waiting for a renderer and bodies being received each hold an HTTP thread: with fewer threads than
-  // they need, every thread blocks first and the queue's 503 never comes (issue 11). Two stay for /healthz.
+  // they need, every thread blocks first and the queue's 503 never comes. Two stay for /healthz.
   // Open event streams hold a thread each for as long as they last (service/mission_routes.h).
   if (o.max_event_streams < 0 || o.max_event_streams > 256) return bad("max event streams must be 0..256");
   if (!(o.event_stream_max_s >= 1 && o.event_stream_max_s <= 86400)) return bad("event stream length 1..86400 s");

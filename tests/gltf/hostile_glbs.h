@@ -1,5 +1,5 @@
 #pragma once
-// GLBs built to attack a decoder, as issue 11's probe sent them: each starts from a small textured scene written by
+// GLBs built to attack a decoder, as a hostile client sends them: each starts from a small textured scene written by
 // encode_glb (plain: no quantization, no meshopt, so the JSON is easy to edit) and changes one thing.
 // Shared by the decoder tests (tests/gltf) and the server tests (tests/service).
 #include <cstdint>

@@ -1,4 +1,4 @@
-// The input parsers against hostile bytes (issue 11): intrinsics JSON from memory, frame size caps read from the
+// The input parsers against hostile bytes: intrinsics JSON from memory, frame size caps read from the
 // image header before decoding, the PCD header check in front of PCL.
 #include <gtest/gtest.h>
 #include <sys/resource.h>

@@ -1,5 +1,5 @@
 // Tracking through real hand-held motion: the 120-frame TUM fr1/xyz excerpt (frames 200-319, up to 63 cm and 27 deg
-// of motion, with ground truth). The goals of issue 10: at least 95 % of the frames tracked, relative pose error
+// of motion, with ground truth). The goals: at least 95 % of the frames tracked, relative pose error
 // between consecutive tracked frames of at most 2 cm / 1 deg RMSE and no pair worse than 5 cm / 3 deg.
 #include <gtest/gtest.h>
 

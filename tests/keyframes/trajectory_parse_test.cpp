@@ -1,4 +1,4 @@
-// The trajectory parsers on text from memory (issue 11): the same results as the file readers, and hostile lines
+// The trajectory parsers on text from memory: the same results as the file readers, and hostile lines
 // (an index past int, non-numbers, truncated matrices) are one-line errors or skipped lines, never UB.
 #include <gtest/gtest.h>
 
@@ -25,7 +25,7 @@ TEST(TrajectoryParse, MatchesTheFileReaderOnTumGroundTruth) {
 
 TEST(TrajectoryParse, HostileTextIsAnErrorNotUndefinedBehaviour) {
   const std::string rot = "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n";
-  // A frame index a double holds but an int does not (the cast was UB before issue 11).
+  // A frame index a double holds but an int does not (casting it would be undefined behaviour).
   for (const std::string head : {"1e300 0 1\n", "-1 0 1\n", "2.5 0 1\n", "2147483648 0 1\n"}) {
     auto r = parse_trajectory(head + rot, TrajectoryFormat::kRedwood, "t.log");
     ASSERT_FALSE(r) << head;

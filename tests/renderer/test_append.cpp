@@ -1,4 +1,4 @@
-// Renderer::append (a live mission grows by a keyframe, issue 10): a scene uploaded in parts and grown by appends
+// Renderer::append (a live mission grows by a keyframe): a scene uploaded in parts and grown by appends
 // renders exactly what the whole scene uploaded at once renders, on both backends (Vulkan under validation); a failed
 // append leaves the resident scene as it was; an unknown id is kNotFound.
 #include "tests/renderer/renderer_fixture.h"

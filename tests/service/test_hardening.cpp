@@ -1,4 +1,4 @@
-// Issue 11, the HTTP server: a battery of hostile and careless requests through the real `rgbdcast serve` (every
+// The HTTP server: a battery of hostile and careless requests through the real `rgbdcast serve` (every
 // answer a 4xx with a JSON body, the server alive after each, nothing stored), idle and slowloris connections,
 // access control, startup on a damaged store and on a used port, kill -9 during uploads.
 #include <signal.h>
@@ -322,7 +322,7 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
   add("delete traversal", request(p, "DELETE", "/v1/scenes/..%2F..%2Ftmp"), 0);
   add("delete dot-dot", request(p, "DELETE", "/v1/scenes/.."), 0);
 
-  // Live missions (issue 10): the same guard, framing limits and path rules on their routes.
+  // Live missions: the same guard, framing limits and path rules on their routes.
   const std::string kf = "/v1/missions/m/keyframes?seq=0&pose=0,0,0,0,0,0,1";
   add("mission: cross-site keyframe", request(p, "POST", kf, "Origin: http://attacker.example\r\n" + glb_type, glb), 403);
   add("mission: rebinding keyframe", request(p, "POST", kf, "Host: rebind.example\r\n" + glb_type, glb), 403);

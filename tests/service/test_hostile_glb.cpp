@@ -1,4 +1,4 @@
-// The real `rgbdcast serve` against issue 11's GLB attacks, over loopback HTTP: URIs naming server files (buffer and
+// The real `rgbdcast serve` against GLB attacks, over loopback HTTP: URIs naming server files (buffer and
 // image), JSON nested 15,000 and 20,000 levels deep, an accessor claiming 2^26 elements and a zero-filled one. Each
 // gets a 422 JSON error that names the problem without server paths, nothing is stored, the server stays up, and its
 // peak RSS (VmHWM) does not grow for what the files only claim.

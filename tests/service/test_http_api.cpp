@@ -1,5 +1,5 @@
 // The real `rgbdcast serve` driven over loopback HTTP: uploads both ways (GLB and an RGB-D frame of TUM fr1/xyz),
-// list, views (decoded and checked), GLB download with ETag, every bad input of issue 5 with its status and JSON
+// list, views (decoded and checked), GLB download with ETag, every bad input with its status and JSON
 // error body, metrics, concurrency and the bounded queue, restart persistence, kill -9 during uploads.
 #include <arpa/inet.h>
 #include <httplib.h>

@@ -90,19 +90,18 @@ TEST(MissionStore, EventsInArrivalOrderWithCursorsAndWakeups) {
 
   // A waiting stream wakes when a keyframe becomes available, not when it is only stored.
   auto cursor = *s.cursor_after("m", MissionEventId{4});
+  const auto t0 = std::chrono::steady_clock::now();  // before the writer starts: its sleeps bound the wait below
   std::thread writer([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     (void)s.put(keyframe("m", 6), bytes("glb-6"));
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     (void)s.mark_available("m", 6, 2000.0);
   });
-  const auto t0 = std::chrono::steady_clock::now();
   auto live = s.wait_events("m", cursor, std::chrono::milliseconds(5000));
   const double waited_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   writer.join();
-  EXPECT_EQ(seqs(live.events), (std::vector<std::int64_t>{6}));
-  EXPECT_GE(waited_ms, 150.0);
-  EXPECT_LT(waited_ms, 4000.0);
+  EXPECT_EQ(seqs(live.events), (std::vector<std::int64_t>{6}));  // woken by it: a timeout returns none
+  EXPECT_GE(waited_ms, 150.0);  // not by the put 100 ms in: by mark_available, 100 ms later
   EXPECT_TRUE(s.wait_events("m", cursor, std::chrono::milliseconds(50)).events.empty());  // timeout: nothing new
 
   // Deleting ends the stream (exists = false), even if a mission of the same name is made again.

@@ -1,4 +1,4 @@
-// Live missions (issue 10) against the real `rgbdcast serve`: keyframe GLBs reduced from real TUM fr1/xyz frames by
+// Live missions against the real `rgbdcast serve`: keyframe GLBs reduced from real TUM fr1/xyz frames by
 // the real CLI, posted with their ground-truth poses. Idempotent re-posts and 409 conflicts, the JSON shapes of the
 // wire contract, views that grow as keyframes arrive without the mission being uploaded again, the merged model.glb
 // (validator-clean, a node and a camera per keyframe), a restart mid-mission (nothing lost or duplicated), a corrupt

@@ -4,6 +4,9 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
+#include <functional>
+#include <mutex>
 #include <thread>
 
 #include "service/render_pool.h"
@@ -17,6 +20,17 @@ struct Counters {
   std::atomic<int> uploads{0}, releases{0}, renders{0}, loads{0}, appended_nodes{0};
   std::atomic<int> render_sleep_ms{0};
   std::atomic<int> last_ids{0};  // resident scenes the last render drew together
+  // A closed gate holds every render until it opens (a GPU busy for as long as the test needs).
+  std::mutex gate_mu;
+  std::condition_variable gate_cv;
+  bool gate_closed = false;
+  void open_gate() {
+    {
+      std::lock_guard lock(gate_mu);
+      gate_closed = false;
+    }
+    gate_cv.notify_all();
+  }
 };
 
 // Fills the image with a colour derived from the resident id; sleeps to simulate a slow GPU.
@@ -43,6 +57,10 @@ class StandInRenderer : public Renderer {
     ++c_->renders;
     const ResidentSceneId id = ids.empty() ? 0 : ids.back();
     c_->last_ids = static_cast<int>(ids.size());
+    {
+      std::unique_lock lock(c_->gate_mu);
+      c_->gate_cv.wait(lock, [this] { return !c_->gate_closed; });
+    }
     std::this_thread::sleep_for(std::chrono::milliseconds(c_->render_sleep_ms.load()));
     RenderResult r;
     r.color = Image::make(cam.width, cam.height, 4);
@@ -163,40 +181,58 @@ TEST(ServiceRenderPool, ErrorsPassThrough) {
   EXPECT_EQ(r.error().code, ErrorCode::kInvalidArgument);
 }
 
-// One worker busy for 300 ms, a queue of 2: of 8 simultaneous requests, 1 renders at once, 2 wait, the other 5 are
-// refused immediately with kUnavailable.
+// One worker busy (its render held until the test lets it go), a queue of 2: of 8 requests, 1 renders, 2 wait, and
+// the other 5 are refused with kUnavailable while the render is still held: at once, not after waiting for it.
 TEST(ServiceRenderPool, FullQueueRefusesAtOnce) {
   Counters c;
-  c.render_sleep_ms = 300;
   auto pool = make_pool(&c, {1, 2, 2});
   ASSERT_TRUE(pool);
   ASSERT_TRUE(pool->render("a", capture()).ok());  // warm: the scene is resident
-  std::atomic<int> ok{0}, refused{0};
-  std::atomic<double> slowest_refusal_ms{0};
-  std::vector<std::thread> clients;
-  for (int i = 0; i < 8; ++i) {
-    clients.emplace_back([&, i] {
-      std::this_thread::sleep_for(std::chrono::milliseconds(i == 0 ? 0 : 50));  // the first one starts rendering
-      const auto t0 = std::chrono::steady_clock::now();
-      auto r = pool->render("a", capture());
-      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      if (r.ok()) {
-        ++ok;
-      } else {
-        EXPECT_EQ(r.error().code, ErrorCode::kUnavailable);
-        EXPECT_NE(r.error().message.find("queue full"), std::string::npos);
-        ++refused;
-        double prev = slowest_refusal_ms.load();
-        while (ms > prev && !slowest_refusal_ms.compare_exchange_weak(prev, ms)) {
-        }
-      }
-    });
+  {
+    std::lock_guard lock(c.gate_mu);
+    c.gate_closed = true;
   }
+  std::atomic<int> ok{0}, refused{0};
+  auto client = [&] {
+    auto r = pool->render("a", capture());
+    if (r.ok()) {
+      ++ok;
+    } else {
+      EXPECT_EQ(r.error().code, ErrorCode::kUnavailable);
+      EXPECT_NE(r.error().message.find("queue full"), std::string::npos);
+      ++refused;
+    }
+  };
+  auto wait_for = [](const std::function<bool()>& done) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (!done() && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    return done();
+  };
+  std::vector<std::thread> clients;
+  auto give_up = [&] {  // (a failed wait: the threads are let go before the test ends)
+    c.open_gate();
+    for (auto& t : clients) t.join();
+  };
+  clients.emplace_back(client);  // the first one starts rendering, and is held
+  if (!wait_for([&] { return c.renders == 2; })) {
+    ADD_FAILURE() << "the render never started";
+    return give_up();
+  }
+  for (int i = 0; i < 2; ++i) clients.emplace_back(client);  // two wait in the queue
+  if (!wait_for([&] { return pool->queue_depth() == 2; })) {
+    ADD_FAILURE() << "the queue never held two";
+    return give_up();
+  }
+  for (int i = 0; i < 5; ++i) clients.emplace_back(client);
+  wait_for([&] { return refused == 5; });  // answered while the render is still held (a refusal that waited never is)
+  EXPECT_EQ(refused, 5);
+  EXPECT_EQ(ok, 0);
+  c.open_gate();
   for (auto& t : clients) t.join();
   EXPECT_EQ(ok, 3);
   EXPECT_EQ(refused, 5);
   EXPECT_EQ(pool->rejected(), 5u);
-  EXPECT_LT(slowest_refusal_ms.load(), 100.0);  // refused at once, not after waiting for a render
 }
 
 // No waiting room at all: an idle worker still takes a view; a second one at the same time is refused.

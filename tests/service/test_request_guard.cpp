@@ -1,4 +1,4 @@
-// The request guard, the route table, image headers, path redaction and the job queue (issue 11), without a server.
+// The request guard, the route table, image headers, path redaction and the job queue, without a server.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -47,7 +47,7 @@ TEST(Routes, LabelsAndAllowedMethods) {
   EXPECT_TRUE(match_route("/v1/scenes/x").allows("DELETE"));
   EXPECT_FALSE(match_route("/v1/scenes/x/view").allows("DELETE"));
   EXPECT_FALSE(match_route("/healthz").allows("GE"));  // whole names only
-  // Live missions (issue 10).
+  // Live missions.
   EXPECT_STREQ(match_route("/v1/missions").allow, "GET, HEAD");
   EXPECT_STREQ(match_route("/v1/missions/robot-1").allow, "GET, HEAD, DELETE");
   EXPECT_STREQ(match_route("/v1/missions/robot-1/keyframes").allow, "POST");

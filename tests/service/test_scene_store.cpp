@@ -115,7 +115,7 @@ TEST(ServiceStore, AtomicWriteLeavesNoTemporaryFile) {
   fs::remove_all(dir);
 }
 
-// Issue 11: a truncated metadata file, or one whose field has the wrong type, is moved to quarantine/ with its GLB;
+// A truncated metadata file, or one whose field has the wrong type, is moved to quarantine/ with its GLB;
 // the other scenes are served (before: exit 2 on the first, SIGABRT on the second).
 TEST(ServiceStore, BadMetadataIsQuarantinedAndTheRestServed) {
   const std::string dir = rgbdcast::test::temp_dir("store-quarantine");

@@ -1,4 +1,4 @@
-// The view route's full camera (issue 12) over real HTTP: camera= as a query parameter and the camera JSON as a POST
+// The view route's full camera over real HTTP: camera= as a query parameter and the camera JSON as a POST
 // body both reproduce pose=capture byte for byte when they state the capture camera; bad cameras are 400 with a JSON
 // error body.
 #include <httplib.h>
