@@ -2,6 +2,7 @@
 
 #include <libpq-fe.h>
 
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 
@@ -70,7 +71,10 @@ std::vector<std::uint8_t> PgResult::bytes(int row, int col) const {
 Result<std::unique_ptr<PgConnection>> PgConnection::connect(const std::string& uri) {
   if (!is_postgres_uri(uri))
     return make_error(ErrorCode::kInvalidArgument, "a PostgreSQL store is a libpq URI: postgresql://...");
-  PGconn* c = PQconnectdb(uri.c_str());
+  // Bounded: 10 s to connect unless the URI says otherwise (the URI comes later, so its connect_timeout wins).
+  const char* keys[] = {"connect_timeout", "dbname", nullptr};
+  const char* values[] = {"10", uri.c_str(), nullptr};
+  PGconn* c = PQconnectdbParams(keys, values, /*expand_dbname=*/1);
   if (!c) return make_error(ErrorCode::kUnavailable, "postgresql: out of memory");
   if (PQstatus(c) != CONNECTION_OK) {
     const std::string why = one_line(PQerrorMessage(c));
@@ -132,10 +136,10 @@ Status PgConnection::run(std::string_view sql, const std::vector<PgParam>& param
   return ok_status();
 }
 
-Result<std::unique_ptr<PgPool>> PgPool::open(const std::string& uri, size_t size) {
+Result<std::unique_ptr<PgPool>> PgPool::open(const std::string& uri, size_t size, double wait_s) {
   auto first = PgConnection::connect(uri);
   if (!first) return first.error();
-  std::unique_ptr<PgPool> pool(new PgPool(uri, size == 0 ? 1 : size));
+  std::unique_ptr<PgPool> pool(new PgPool(uri, size == 0 ? 1 : size, wait_s));
   pool->idle_.push_back(std::move(*first));
   return pool;
 }
@@ -146,22 +150,28 @@ PgPool::Lease::~Lease() {
 
 Result<PgPool::Lease> PgPool::lease() {
   std::unique_lock lock(mutex_);
-  freed_.wait(lock, [&] { return !idle_.empty() || out_ < size_; });
+  if (!freed_.wait_for(lock, std::chrono::duration<double>(wait_s_),
+                       [&] { return !idle_.empty() || out_ < size_; }))
+    return make_error(ErrorCode::kUnavailable, "postgresql: every connection of the pool is busy");
   ++out_;
+  std::unique_ptr<PgConnection> c;
   if (!idle_.empty()) {
-    auto c = std::move(idle_.back());
+    c = std::move(idle_.back());
     idle_.pop_back();
-    if (!c->broken()) return Lease(this, std::move(c));
   }
-  lock.unlock();
-  auto c = PgConnection::connect(uri_);  // a new one, or one in place of a broken one
-  if (!c) {
-    std::lock_guard relock(mutex_);
-    --out_;
+  lock.unlock();  // the lease is made unlocked: its moves and, on an error, its release take the lock
+  if (c && !c->broken()) return Lease(this, std::move(c));
+  c.reset();
+  auto made = PgConnection::connect(uri_);  // a new one, or one in place of a broken one
+  if (!made) {
+    {
+      std::lock_guard relock(mutex_);
+      --out_;
+    }
     freed_.notify_one();
-    return c.error();
+    return made.error();
   }
-  return Lease(this, std::move(*c));
+  return Lease(this, std::move(*made));
 }
 
 void PgPool::give_back(std::unique_ptr<PgConnection> c) {

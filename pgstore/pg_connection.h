@@ -97,12 +97,15 @@ class PgPool {
  public:
   // Opens the first connection now (so a wrong URI or an unreachable server is an error at start); the others as
   // they are needed, up to `size`.
-  static Result<std::unique_ptr<PgPool>> open(const std::string& uri, size_t size);
+  static Result<std::unique_ptr<PgPool>> open(const std::string& uri, size_t size, double wait_s = 10.0);
 
   class Lease {
    public:
     Lease(PgPool* pool, std::unique_ptr<PgConnection> c) : pool_(pool), conn_(std::move(c)) {}
-    Lease(Lease&&) = default;
+    // A moved-from lease owns nothing and gives nothing back: only the last holder returns the connection.
+    Lease(Lease&& o) noexcept : pool_(o.pool_), conn_(std::move(o.conn_)) { o.pool_ = nullptr; }
+    Lease& operator=(Lease&&) = delete;
+    Lease(const Lease&) = delete;
     ~Lease();
     PgConnection* operator->() { return conn_.get(); }
     PgConnection& operator*() { return *conn_; }
@@ -111,15 +114,17 @@ class PgPool {
     PgPool* pool_;
     std::unique_ptr<PgConnection> conn_;
   };
-  // A connection, waiting while all are leased; kUnavailable when none can be made.
+  // A connection, waiting at most the pool's wait while all are leased; kUnavailable when none is freed in time
+  // or none can be made. Never call it while holding a lease of the same pool whose release this wait needs.
   Result<Lease> lease();
   const std::string& uri() const { return uri_; }
 
  private:
-  PgPool(std::string uri, size_t size) : uri_(std::move(uri)), size_(size) {}
+  PgPool(std::string uri, size_t size, double wait_s) : uri_(std::move(uri)), size_(size), wait_s_(wait_s) {}
   void give_back(std::unique_ptr<PgConnection> c);
   std::string uri_;
   size_t size_;
+  double wait_s_;
   std::mutex mutex_;
   std::condition_variable freed_;
   std::vector<std::unique_ptr<PgConnection>> idle_;

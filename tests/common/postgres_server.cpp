@@ -3,6 +3,7 @@
 #include <libpq-fe.h>
 #include <pwd.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -26,6 +27,10 @@ pid_t spawn(const std::vector<std::string>& argv, const std::string& log) {
     const passwd* pw = ::getpwnam("postgres");
     if (!pw || ::setgid(pw->pw_gid) != 0 || ::setuid(pw->pw_uid) != 0) ::_exit(126);
   }
+  // A test killed before it could stop the server takes the server with it: SIGQUIT (immediate shutdown, which
+  // ends the server's own children too) when the test's thread dies. Set after setuid, which clears it.
+  ::prctl(PR_SET_PDEATHSIG, SIGQUIT);
+  if (::getppid() == 1) ::_exit(125);  // the test died before the line above
   ::setsid();  // its own session: a terminal's Ctrl-C reaches the test, which then stops the server itself
   FILE* f = std::freopen(log.c_str(), "a", stdout);
   if (f) ::dup2(::fileno(stdout), 2);
@@ -92,7 +97,7 @@ Result<std::unique_ptr<PostgresServer>> PostgresServer::start() {
 
 Status PostgresServer::launch() {
   pid_ = spawn({postgres_bin_dir() + "/postgres", "-D", dir_ + "/data", "-k", dir_, "-c", "listen_addresses=",
-                "-c", "fsync=off", "-c", "synchronous_commit=off", "-c", "full_page_writes=off"},
+                "-c", "fsync=off", "-c", "full_page_writes=off"},
                dir_ + "/postgres.log");
   if (pid_ < 0) return make_error(ErrorCode::kUnavailable, "cannot start postgres");
   const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(30);

@@ -1,9 +1,10 @@
 #pragma once
 // A throwaway PostgreSQL 15 cluster for one test program: initdb into a fresh folder under /tmp, then the postmaster
-// listening only on a unix socket in that folder (no TCP port), without fsync. PostgreSQL refuses to run as root, so
-// when the tests run as root both run as the `postgres` user (the folder is given to it). Bounded: start() waits
-// at most 30 s for the server to answer; stop() ends exactly the postmaster it started (by its pid: SIGINT, a fast
-// shutdown, then SIGKILL after 10 s) and removes the folder.
+// listening only on a unix socket in that folder (no TCP port), without fsync (a killed server loses nothing the kernel
+// holds; commits stay synchronous, so a commit acknowledged before a kill -9 survives it). PostgreSQL refuses to run
+// as root, so when the tests run as root both run as the `postgres` user (the folder is given to it). Bounded:
+// start() waits at most 30 s for the server to answer; stop() ends exactly the postmaster it started (by its pid:
+// SIGINT, a fast shutdown, then SIGKILL after 10 s) and removes the folder; a test that dies takes its server along.
 #include <memory>
 #include <string>
 #include <sys/types.h>

@@ -102,9 +102,7 @@ class BackendNames {
     return std::is_same_v<T, DirectoryBackend> ? "Directory" : "Postgres";
   }
 };
-// PostgresBackend is left out until its cases stop hanging (they did not finish within 150 s): see the PostgresStores
-// cases, disabled for the same reason.
-using Backends = ::testing::Types<DirectoryBackend>;
+using Backends = ::testing::Types<DirectoryBackend, PostgresBackend>;
 TYPED_TEST_SUITE(StoreContract, Backends, BackendNames);
 
 std::vector<std::uint8_t> bytes(const std::string& s) { return {s.begin(), s.end()}; }
@@ -308,7 +306,7 @@ TYPED_TEST(StoreContract, EventsInArrivalOrderWithCursorsAndRemoval) {
 
 // Two replicas on one database: a keyframe stored and made available through one is an event on the other (its
 // listener applies the change), once; a put through the other of the same key is kSame.
-TEST(PostgresStores, DISABLED_AKeyframeStoredThroughOneReplicaIsAnEventOnTheOther) {
+TEST(PostgresStores, AKeyframeStoredThroughOneReplicaIsAnEventOnTheOther) {
   PostgresBackend backend;
   if (auto st = backend.prepare(); !st) RGBDCAST_MISSING_PREREQUISITE("postgres: " + st.error().message);
   auto a = pgstore::PgMissionStore::open(backend.uri, 2, 0.2);
@@ -347,7 +345,7 @@ TEST(PostgresStores, DISABLED_AKeyframeStoredThroughOneReplicaIsAnEventOnTheOthe
 
 // The database killed (-9) and started again under a replica: its writes fail while the database is down, then its
 // connections are made again; every keyframe acknowledged before is there once, and a retried post is kSame.
-TEST(PostgresStores, DISABLED_ADatabaseRestartLosesAndDuplicatesNothing) {
+TEST(PostgresStores, ADatabaseRestartLosesAndDuplicatesNothing) {
   PostgresBackend backend;
   if (auto st = backend.prepare(); !st) RGBDCAST_MISSING_PREREQUISITE("postgres: " + st.error().message);
   auto store = pgstore::PgMissionStore::open(backend.uri, 2, 0.2);
