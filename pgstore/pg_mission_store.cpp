@@ -124,12 +124,9 @@ void PgMissionStore::apply(std::int64_t change, const std::string& mission, cons
       if (k->available > 0) index().set_available(mission, seq, k->rev, k->available);
     }
   }
-  std::function<void(const std::string&)> f;
-  {
-    std::lock_guard lock(on_change_mutex_);
-    f = on_change_;
-  }
-  if (f) f(mission);
+  // Called under the lock, so that set_on_change() returns only once no call of the former function is under way.
+  std::lock_guard lock(on_change_mutex_);
+  if (on_change_) on_change_(mission);
 }
 
 Status PgMissionStore::catch_up(PgConnection& conn) {

@@ -11,7 +11,8 @@
 //   one it applied: NOTIFY is only the hint to look now; after a reconnect (or every poll interval) it catches up
 //   by change number, so a change is never missed and never applied twice.
 // - on_change (when set) is called with a mission's name after each change applied, whichever replica made it (the
-//   tile worker follows it; naming a mission twice is harmless).
+//   tile worker follows it; naming a mission twice is harmless). It must be quick and must not call set_on_change:
+//   it runs under the lock that set_on_change takes, so that clearing it waits for a call under way.
 #include <atomic>
 #include <functional>
 #include <map>
