@@ -183,6 +183,17 @@ void PgPool::give_back(std::unique_ptr<PgConnection> c) {
   freed_.notify_one();
 }
 
+Status PgPool::ping() {
+  Status st = ok_status();
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    auto conn = lease();
+    if (!conn) return conn.error();
+    st = (*conn)->run("SELECT 1");
+    if (st || st.error().code != ErrorCode::kUnavailable) return st;
+  }
+  return st;
+}
+
 bool is_postgres_uri(std::string_view text) {
   return text.rfind("postgresql://", 0) == 0 || text.rfind("postgres://", 0) == 0;
 }

@@ -118,6 +118,9 @@ class PgPool {
   // or none can be made. Never call it while holding a lease of the same pool whose release this wait needs.
   Result<Lease> lease();
   const std::string& uri() const { return uri_; }
+  // SELECT 1 on a pooled connection; a connection lost since its last use (the server restarted) is dropped and the
+  // check made once more on a new one, so a readiness probe says whether the database answers now.
+  Status ping();
 
  private:
   PgPool(std::string uri, size_t size, double wait_s) : uri_(std::move(uri)), size_(size), wait_s_(wait_s) {}

@@ -253,9 +253,7 @@ Status PgMissionStore::remove(const std::string& name) {
 }
 
 Status PgMissionStore::ping() const {
-  auto conn = pool_->lease();
-  if (!conn) return conn.error();
-  return (*conn)->run("SELECT 1");
+  return pool_->ping();
 }
 
 }  // namespace rgbdcast::pgstore

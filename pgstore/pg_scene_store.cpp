@@ -90,9 +90,7 @@ std::uint64_t PgSceneStore::total_bytes() const {
 }
 
 Status PgSceneStore::ping() const {
-  auto conn = pool_->lease();
-  if (!conn) return conn.error();
-  return (*conn)->run("SELECT 1");
+  return pool_->ping();
 }
 
 }  // namespace rgbdcast::pgstore

@@ -48,6 +48,18 @@ struct TestDir {
   }
 };
 
+// A PNG view of mission "shared" once it is drawn from its tileset alone (at most 30 s); empty when it never is.
+std::string tileset_view(httplib::Client& c) {
+  for (int i = 0; i < 300; ++i) {
+    auto v = c.Get("/v1/missions/shared/view?pose=capture&width=64&height=48&format=png");
+    if (v && v->status == 200 && v->get_header_value("X-Pending-Keyframes") == "0" &&
+        v->get_header_value("X-Tileset-Version") != "0")
+      return v->body;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return "";
+}
+
 // The PostgreSQL server of this program, started on first use; null (with the reason) when it cannot start.
 rgbdcast::test::PostgresServer* postgres(std::string* why) {
   static std::string reason;
@@ -141,8 +153,9 @@ TEST(Replicas, ABadOrUnreachableStoreIsAOneLineErrorAtStart) {
 
 // Two replicas on one database: a keyframe posted to A is an SSE event and a view on B (B's listener applied the
 // change, B's tile worker built the tileset from the rows), a re-post through B answers as a re-post (200), and
-// another body for the same (seq, rev) is a 409 whichever replica stored it.
-TEST(Replicas, AKeyframePostedToOneReplicaIsAnEventAndAViewOnTheOther) {
+// another body for the same (seq, rev) is a 409 whichever replica stored it. Then B restarted with an empty cache,
+// and the database restarted under both.
+TEST(Replicas, AKeyframePostedToOneReplicaIsAnEventAndAViewOnTheOtherAcrossRestarts) {
   REQUIRE_DATA(rgbdcast::test::kMissionExcerpt);
   ASSERT_EQ(rgbdcast::test::four_mission_keyframes().size(), 4u);
   std::string why;
@@ -191,14 +204,7 @@ TEST(Replicas, AKeyframePostedToOneReplicaIsAnEventAndAViewOnTheOther) {
   ASSERT_EQ(listed->status, 200) << listed->body;
   EXPECT_EQ(json::parse(listed->body)["keyframes"].size(), 2u) << listed->body;
   // B renders the mission from the rows (its own tile cache, built from what A stored).
-  bool viewed = false;
-  for (int i = 0; i < 300 && !viewed; ++i) {
-    auto v = cb->Get("/v1/missions/shared/view?pose=capture&width=64&height=48");
-    viewed = v && v->status == 200 && v->get_header_value("X-Pending-Keyframes") == "0" &&
-             v->get_header_value("X-Tileset-Version") != "0";
-    if (!viewed) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  EXPECT_TRUE(viewed) << "replica b never drew the mission from its tileset";
+  EXPECT_FALSE(tileset_view(*cb).empty()) << "replica b never drew the mission from its tileset";
   auto again = post_keyframe(*cb, "shared", 1, k[1], k[1].glb);
   ASSERT_TRUE(again);
   EXPECT_EQ(again->status, 200) << again->body;
@@ -206,4 +212,38 @@ TEST(Replicas, AKeyframePostedToOneReplicaIsAnEventAndAViewOnTheOther) {
   ASSERT_TRUE(conflict);
   EXPECT_EQ(conflict->status, 409) << conflict->body;
   EXPECT_EQ(conflict->get_header_value("X-Rgbdcast-Replica"), "b");
+
+  // B restarted with an empty tile cache draws what A draws (the same PNG), from the rows alone.
+  const std::string from_a = tileset_view(*ca);
+  ASSERT_FALSE(from_a.empty());
+  ASSERT_EQ(b.stop(), 0) << b.output();
+  rgbdcast::test::remove_tree_quietly(dir.path + "/b");
+  ASSERT_TRUE(b.start(dir.path + "/b", {"--store", *uri, "--replica", "b"}, &error)) << error;
+  cb = client(b.port());
+  EXPECT_EQ(tileset_view(*cb), from_a) << "replica b restarted with an empty cache draws another image";
+
+  // The database killed (-9) and started again: both replicas reconnect; a keyframe posted through A afterwards
+  // (retried while A's connections are made again) reaches B, and each replica holds every keyframe once.
+  ASSERT_TRUE(pg->restart());
+  int status = 0;
+  for (int attempt = 0; attempt < 20 && status != 201; ++attempt) {
+    auto r = post_keyframe(*ca, "shared", 2, k[2], k[2].glb);
+    status = r ? r->status : 0;
+    if (status != 201) std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  }
+  EXPECT_EQ(status, 201);
+  for (auto* c : {ca.get(), cb.get()}) {
+    std::vector<int> seqs;
+    for (int i = 0; i < 100 && seqs.size() < 3; ++i) {
+      auto r = c->Get("/v1/missions/shared");
+      seqs.clear();
+      if (r && r->status == 200) {
+        const json held = json::parse(r->body);
+        for (const auto& kf : held["keyframes"]) seqs.push_back(kf["seq"].get<int>());
+      }
+      if (seqs.size() < 3) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    EXPECT_EQ(seqs, (std::vector<int>{0, 1, 2}));
+  }
+  EXPECT_EQ(cb->Get("/readyz")->status, 200);
 }
