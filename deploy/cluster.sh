@@ -95,7 +95,11 @@ start_postgres() {
   local dir="$1" i
   [ -x "$pg_bin/postgres" ] || die "PostgreSQL 15 is not installed (scripts/setup.sh test)"
   mkdir -p "$dir/pg"
-  if [ "$(id -u)" = 0 ]; then chown postgres:postgres "$dir/pg"; fi
+  if [ "$(id -u)" = 0 ]; then
+    chown postgres:postgres "$dir/pg"
+    setpriv --reuid=postgres --regid=postgres --init-groups -- test -w "$dir/pg" ||
+      die "the postgres user cannot reach $dir/pg (a folder on the way is closed to it): use a folder under /tmp"
+  fi
   if [ ! -f "$dir/pg/data/PG_VERSION" ]; then
     (as_pg "$pg_bin/initdb" -D "$dir/pg/data" -A trust -U postgres -E UTF8 --no-instructions) \
       > "$dir/pg/initdb.log" 2>&1 || die "initdb failed: see $dir/pg/initdb.log"
