@@ -9,7 +9,8 @@ mission (keyframe i is frame 10 * (i mod 12) of lap i div 12, seq i). Two varian
   revisit      lap L is moved by (1 m * (L mod 2), 0, 0): the robot passes the same place again and again.
 For each size N, variant and binary, a fresh server on loopback (its own data dir, stopped by pid) gets, in order:
   1. N keyframes posted back to back over one keep-alive connection (POST p50/p95, client side);
-  2. the wait until the tile worker's committed hierarchy holds all N (its lag behind the last POST answer);
+  2. the wait until the tile worker's committed hierarchy holds all N (its lag behind the last POST answer), and the
+     server's CPU seconds (user + system) from its start to then, which a shared machine does not inflate;
   3. RSS (VmRSS, and VmHWM, the peak) after ingest;
   4. VIEWS robot views (pose=capture: the newest keyframe's camera) and VIEWS overviews (a camera that frames the
      whole mission from above and behind at 45 degrees, 60 degrees vertical fov), 640x480, sequential: p50;
@@ -245,6 +246,12 @@ class Server:
                 if key in ("VmRSS", "VmHWM"):
                     fields[key] = int(value.split()[0]) / 1024
         return fields["VmRSS"], fields["VmHWM"]
+
+    def cpu_s(self):
+        """CPU seconds (user + system) the server has used: unlike wall time, it holds on a shared machine."""
+        with open(f"/proc/{self.proc.pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
     def check_alive(self):
         code = self.proc.poll()
@@ -512,6 +519,7 @@ def run_one(name, binary, n, variant, workload, a, work):
                  post_p95_ms=pct(post_ms, 95))
         # The tile worker's lag: from the last POST's answer until the committed hierarchy holds every keyframe.
         r["tile_lag_s"] = None if wait_tiles(server, n, a.lag_timeout_s) is None else time.monotonic() - last_answer
+        r["ingest_cpu_s"] = server.cpu_s()
         r["rss_ingest_mb"], r["hwm_ingest_mb"] = server.memory_mb()
 
         robot, overview, orbit = view_paths(workload, variant, n, 640, 480, a.view_extra)
@@ -568,7 +576,7 @@ def cell(v, f="%.0f"):
     return "-" if v is None else f % v
 
 
-COLUMNS = ["N", "binary", "posted MB", "POST p50/p95 ms", "tile lag s", "RSS ingest MB (peak)", "RSS views MB (peak)",
+COLUMNS = ["N", "binary", "posted MB", "POST p50/p95 ms", "tile lag s", "ingest CPU s", "RSS ingest MB (peak)", "RSS views MB (peak)",
            "robot p50 ms", "overview p50 ms", "8 clients views/s (p99 ms)", "tileset p50/p95 ms", "late join MB (tiles)",
            "tiles/posted", "data/posted", "model.glb MB (s)"]
 
@@ -585,7 +593,7 @@ def row(r):
         live_cell += f" ({live['keyframes'] - live['seen']} unseen)"
     return [str(r["n"]), r["binary"], "%.1f" % (r["posted_bytes"] / mb),
             f"{cell(r['post_p50_ms'], '%.1f')}/{cell(r['post_p95_ms'], '%.1f')}", cell(r["tile_lag_s"], "%.1f"),
-            f"{r['rss_ingest_mb']:.0f} ({r['hwm_ingest_mb']:.0f})", f"{r['rss_views_mb']:.0f} ({r['hwm_views_mb']:.0f})",
+            cell(r.get("ingest_cpu_s"), "%.1f"), f"{r['rss_ingest_mb']:.0f} ({r['hwm_ingest_mb']:.0f})", f"{r['rss_views_mb']:.0f} ({r['hwm_views_mb']:.0f})",
             cell(r["robot_p50_ms"], "%.1f"), cell(r["overview_p50_ms"], "%.1f"),
             f"{t['views_per_s']:.1f} ({cell(t['p99_ms'])})" + (f" {t['failures']} failed" if t["failures"] else ""),
             live_cell, ("%.2f (%d)" % (lj["bytes"] / mb, lj["tiles"])) if "bytes" in lj else lj.get("error", "-"),
@@ -654,7 +662,10 @@ def main():
                         json.dump(results, open(a.json, "w"), indent=1)
             print_table(variant, rows)
     finally:
-        shutil.rmtree(work, ignore_errors=True)
+        if a.keep_data:
+            print(f"long_mission: data kept in {work}", file=sys.stderr, flush=True)
+        else:
+            shutil.rmtree(work, ignore_errors=True)
 
 
 if __name__ == "__main__":

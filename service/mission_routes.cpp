@@ -334,7 +334,9 @@ void MissionRoutes::get_view(const httplib::Request& req, httplib::Response& res
     capture = it->second == "capture";
   }
   // max-error=PX: the screen-space error the tiles may show (service/mission_view.h); the rest is the scene view's.
+  // Given, it is kept; by default it is coarsened until the view fits a renderer's share of the resident cap.
   double max_error_px = kDefaultMaxErrorPx;
+  size_t fit_bytes = pool_.part_cap_bytes();
   if (auto it = params.find("max-error"); it != params.end()) {
     if (params.count("max-error") > 1) return send_error(res, 400, "max-error: given more than once");
     auto v = parse_finite_double("max-error", it->second);
@@ -342,6 +344,7 @@ void MissionRoutes::get_view(const httplib::Request& req, httplib::Response& res
     if (*v < 0.0 || *v > kMaxMaxErrorPx)
       return send_error(res, 400, "max-error: pixels of screen-space error, 0 (full detail) .. 1000");
     max_error_px = *v;
+    fit_bytes = 0;
     params.erase(it);
   }
   auto request = parse_view_request(params);
@@ -378,9 +381,10 @@ void MissionRoutes::get_view(const httplib::Request& req, httplib::Response& res
   auto camera = make_view_camera(*request, {});
   if (!camera) return send_error(res, camera.error());
   auto plan = std::make_shared<MissionViewPlan>(
-      plan_mission_view(missions_, tiles_, *name, *keyframes, *camera, max_error_px));
+      plan_mission_view(missions_, tiles_, *name, *keyframes, *camera, max_error_px, fit_bytes));
   res.set_header("X-Tileset-Version", std::to_string(plan->tileset_version));
   res.set_header("X-Tiles", std::to_string(plan->tiles));
+  res.set_header("X-Max-Error", nlohmann::json(plan->max_error_px).dump());
   res.set_header("X-Pending-Keyframes", std::to_string(plan->pending));
   if (plan->pending_left_out > 0) res.set_header("X-Pending-Left-Out", std::to_string(plan->pending_left_out));
   render_view_(req, *request, [this, plan, request = *request] {

@@ -38,9 +38,10 @@ double farthest_corner(const Eigen::AlignedBox3d& box, const ViewCamera& camera)
 
 MissionViewPlan plan_mission_view(const MissionStore& store, const MissionTiles& tiles, const std::string& name,
                                   const std::vector<MissionKeyframe>& keyframes, const ViewCamera& camera,
-                                  double max_error_px, size_t max_pending) {
+                                  double max_error_px, size_t fit_bytes, size_t max_pending) {
   MissionViewPlan plan;
   plan.camera = camera;
+  plan.max_error_px = max_error_px;
   const std::string prefix = mission_scene_key(name) + "/";
   auto snapshot = tiles.snapshot(name);
   if (snapshot && snapshot->version > 0) {
@@ -48,8 +49,9 @@ MissionViewPlan plan_mission_view(const MissionStore& store, const MissionTiles&
     // The far plane first: tiles beyond the default far plane would be culled by the selection.
     for (const auto& [key, r] : snapshot->records)
       if (key.level == snapshot->top_level) plan.camera.far_m = std::max(plan.camera.far_m, farthest_corner(r.box, camera));
-    const tiles::TileSelection selection =
-        tiles::select_tiles(snapshot->records, snapshot->top_level, plan.camera, max_error_px);
+    const tiles::TileSelection selection = tiles::select_tiles_to_fit(
+        snapshot->records, snapshot->top_level, plan.camera, max_error_px, fit_bytes, kMaxMaxErrorPx,
+        &plan.max_error_px);
     const std::string dir = tiles.tile_dir(name);
     for (const tiles::TileRecord* r : selection.tiles) {
       const std::string file = r->file();
@@ -59,6 +61,7 @@ MissionViewPlan plan_mission_view(const MissionStore& store, const MissionTiles&
     }
     plan.tiles = selection.tiles.size();
     plan.tile_triangles = selection.triangles;
+    plan.tile_render_bytes = selection.render_bytes;
   }
   std::vector<const MissionKeyframe*> pending;
   for (const MissionKeyframe& k : keyframes) {

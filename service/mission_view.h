@@ -8,6 +8,10 @@
 //   restart with a long mission whose tileset is still being opened draws its newest keyframes, not all of them).
 // - The camera's far plane is pushed out to the farthest selected tile (overviews of a large floor).
 // - A tile file retired between the selection and its loading is left out of the view (RenderOutput::parts_missing).
+// - fit_bytes > 0 bounds the view: tiles that would take more than fit_bytes on a renderer are selected again at a
+//   coarser error (tiles::select_tiles_to_fit, up to kMaxMaxErrorPx), so a view of a long mission draws coarser
+//   tiles instead of loading its parts again for every view (a renderer keeps at most its share of the resident
+//   cap). The error used is reported (MissionViewPlan::max_error_px).
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -29,13 +33,15 @@ struct MissionViewPlan {
   std::vector<ViewPart> parts;
   ViewCamera camera;
   std::uint64_t tileset_version = 0;  // 0: no tileset yet
+  double max_error_px = 0.0;          // the screen-space error the tiles were selected at
   size_t tiles = 0, pending = 0, pending_left_out = 0;
-  std::uint64_t tile_triangles = 0;
+  std::uint64_t tile_triangles = 0, tile_render_bytes = 0;
 };
 
 // `keyframes` is the mission's current listing (MissionStore::keyframes), `camera` the view's.
 MissionViewPlan plan_mission_view(const MissionStore& store, const MissionTiles& tiles, const std::string& name,
                                   const std::vector<MissionKeyframe>& keyframes, const ViewCamera& camera,
-                                  double max_error_px, size_t max_pending = kMaxPendingKeyframes);
+                                  double max_error_px, size_t fit_bytes = 0,
+                                  size_t max_pending = kMaxPendingKeyframes);
 
 }  // namespace rgbdcast::service

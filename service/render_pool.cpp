@@ -8,7 +8,7 @@
 #include <unordered_map>
 #include <utility>
 
-#include "service/image_header.h"
+#include "scene/render_bytes.h"
 
 namespace rgbdcast::service {
 namespace {
@@ -16,22 +16,6 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// What uploading `scene` costs a renderer, as renderer/render_scene.h prepares it: 24-byte vertices, 4-byte indices,
-// RGBA8 textures (an encoded texture's size read from its header).
-size_t device_bytes(const Scene& scene) {
-  size_t bytes = 0;
-  for (const SceneNode& node : scene.nodes) {
-    bytes += (node.mesh.positions.size() + node.points.positions.size()) * 24 + node.mesh.indices.size() * 4;
-    const Image& t = node.mesh.texture;
-    if (!t.empty()) {
-      bytes += static_cast<size_t>(t.width) * t.height * 4;
-    } else if (!node.mesh.texture_encoded.empty()) {
-      auto size = peek_image_size(node.mesh.texture_encoded.data(), node.mesh.texture_encoded.size());
-      if (size) bytes += static_cast<size_t>(size->width) * size->height * 4;
-    }
-  }
-  return bytes;
-}
 }  // namespace
 
 struct RenderPool::Worker {
@@ -195,6 +179,8 @@ size_t RenderPool::renderer_resets() const {
   std::lock_guard lock(mutex_);
   return resets_;
 }
+
+size_t RenderPool::part_cap_bytes() const { return options_.resident_part_bytes / workers_.size(); }
 
 size_t RenderPool::resident_part_bytes() const {
   size_t bytes = 0;
@@ -375,7 +361,7 @@ Result<RenderOutput> RenderPool::render_scene_job(Worker* w, Job& job, RenderOut
 }
 
 Result<RenderOutput> RenderPool::render_parts_job(Worker* w, Job& job, RenderOutput out) {
-  const size_t cap = options_.resident_part_bytes / workers_.size();
+  const size_t cap = part_cap_bytes();
   std::vector<ResidentSceneId> ids;
   size_t touched = 0;  // this view's parts, at the front of w->parts
   for (const ViewPart& part : *job.parts) {
@@ -397,7 +383,7 @@ Result<RenderOutput> RenderPool::render_parts_job(Worker* w, Job& job, RenderOut
       if (!id) return id.error();
       out.upload_ms += upload_ms;
       ++out.parts_loaded;
-      const size_t bytes = device_bytes(**scene);
+      const size_t bytes = render_bytes(**scene);
       w->parts.push_front({part.key, *id, bytes});
       w->part_index[part.key] = w->parts.begin();
       w->part_bytes += bytes;

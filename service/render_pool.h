@@ -98,6 +98,7 @@ class RenderPool {
   size_t rejected() const;
   size_t renderer_resets() const;  // renderers replaced after idle (see idle_release_s)
   size_t resident_part_bytes() const;  // over all workers, as the cap counts them
+  size_t part_cap_bytes() const;       // one worker's share of the cap: the most one view keeps resident
   size_t resident_parts() const;
 
  private:

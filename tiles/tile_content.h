@@ -10,13 +10,17 @@
 //   borders are locked, so the finest inner tiles meet their neighbours exactly; above it they are not (a depth mesh
 //   is mostly border: locked, a level-2 tile kept 4x what it should), and a gap between two coarse tiles is within
 //   their geometric error, which is what a client's screen-space error bounds. Its texture is baked into one
-//   footprint atlas at the resolution its error needs: texel side = error / InnerBakeOptions::texels_per_error, never
-//   finer than the children's own texels (nothing to gain) and legs halved until the atlas fits its cap. Colour comes
+//   footprint atlas at the resolution its error needs: texel side = error / InnerBakeOptions::texels_per_error, and at
+//   least twice the children's own texel side (a level up halves the detail along each axis, as for the triangles, so
+//   a tile's texel count does not grow with its level), legs halved until the atlas fits its cap. Colour comes
 //   from the children's surface, not from the simplified one: each texel's point on a simplified triangle is
-//   projected to the nearest point of the children's (welded) triangles, and that triangle's texture (bilinear, at the
+//   projected along that triangle's normal onto the children's (welded) triangles, the nearest hit within the
+//   simplifier's error plus two texels (a texture baker's ray cast from the low-resolution surface), or where the
+//   line meets none (beyond a silhouette) onto their nearest point; that triangle's texture (bilinear, at the
 //   barycentric UV) or colours give it. Simplification moves no vertex (meshopt_simplify keeps a subset), but one
-//   simplified triangle spans many children's triangles, their cells and textures; the nearest point is exact
-//   whichever of them lies under it, and where two layers overlap (keyframes seen twice) it takes the nearer one.
+//   simplified triangle spans many children's triangles, their cells and textures; the projection finds whichever of
+//   them lies under it (a bounding volume hierarchy over the children's triangles), and where two layers overlap
+//   (keyframes seen twice) it takes the nearer one.
 // Positions are metres in the mission's world frame (scene/camera.h); the tile's one SceneNode has to_world identity.
 #include <cstdint>
 #include <functional>

@@ -10,6 +10,7 @@
 
 #include "gltf/atomic_file.h"
 #include "gltf/gltf_io.h"
+#include "scene/render_bytes.h"
 #include "tiles/tileset_json.h"
 
 namespace rgbdcast::tiles {
@@ -17,7 +18,8 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kManifest = "hierarchy.json";
-constexpr int kFormat = 2;  // 2: inner tiles are textured
+constexpr int kFormat = 4;  // 2: inner tiles are textured; 3: their texels at least twice their children's;
+                            // 4: records carry render bytes
 constexpr size_t kMaxManifestBytes = size_t(256) << 20;
 
 nlohmann::json options_json(const TilingOptions& o) {
@@ -127,6 +129,7 @@ Status TileHierarchy::load_committed() {
       r.geometric_error_m = t.at(8).get<double>();
       r.triangles = t.at(9).get<std::uint64_t>();
       r.bytes = t.at(10).get<std::uint64_t>();
+      r.render_bytes = t.at(11).get<std::uint64_t>();
       tiles_[r.key] = r;
     }
   } catch (const nlohmann::json::exception&) {
@@ -187,6 +190,7 @@ Status write_tile(const std::string& dir, Mesh mesh, TileRecord* r) {
   if (auto st = glb::write_file_atomically(dir + "/" + r->file(), *glb); !st) return st.error();
   r->bytes = glb->size();
   r->triangles = scene.triangle_count();
+  r->render_bytes = render_bytes(scene);
   const Eigen::AlignedBox3d box = mesh_box(scene.nodes.front().mesh, 0.0);
   r->box.extend(mesh_box(scene.nodes.front().mesh, position_pad_m(box)));
   return ok_status();
@@ -292,7 +296,7 @@ Status TileHierarchy::commit(Build& b) {
   }
   for (const auto& [key, r] : b.tiles)
     tiles.push_back({key.name(), r.version, r.box.min().x(), r.box.min().y(), r.box.min().z(), r.box.max().x(),
-                     r.box.max().y(), r.box.max().z(), r.geometric_error_m, r.triangles, r.bytes});
+                     r.box.max().y(), r.box.max().z(), r.geometric_error_m, r.triangles, r.bytes, r.render_bytes});
   const nlohmann::json manifest = {{"format", kFormat},      {"version", b.version}, {"options", options_json(options_)},
                                    {"keyframes", keyframes}, {"tiles", tiles}};
   const std::string text = manifest.dump();

@@ -54,6 +54,7 @@ struct TileRecord {
   Eigen::AlignedBox3d box;        // world frame (OpenCV axes): holds its content and its children's boxes
   double geometric_error_m = 0.0;
   std::uint64_t triangles = 0, bytes = 0;
+  std::uint64_t render_bytes = 0;  // what a renderer holds for it (scene/render_bytes.h)
   std::string file() const;       // "<name>.v<version>.glb"
 };
 

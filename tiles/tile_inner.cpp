@@ -6,6 +6,8 @@
 #include <cmath>
 #include <unordered_map>
 
+#include <unsupported/Eigen/BVH>
+
 #include "atlas/cell_fill.h"
 #include "tiles/tile_bake.h"
 #include "tiles/tile_content.h"
@@ -24,10 +26,6 @@ struct GridHash {
     return static_cast<size_t>(k.x * 73856093LL ^ k.y * 19349663LL ^ k.z * 83492791LL);
   }
 };
-GridKey grid_key(const Eigen::Vector3d& p, double step) {
-  return {static_cast<std::int64_t>(std::floor(p.x() / step)), static_cast<std::int64_t>(std::floor(p.y() / step)),
-          static_cast<std::int64_t>(std::floor(p.z() / step))};
-}
 
 // A child's triangle as it was before the weld: which child, its corners there.
 struct SourceTriangle {
@@ -91,83 +89,110 @@ double children_texel_m(const Welded& w, const std::vector<const Mesh*>& childre
   return texels > 0.0 ? std::sqrt(world / texels) : 0.0;
 }
 
-// The welded triangles on a uniform grid (a triangle in every cell its box meets), for nearest-point queries.
-class SurfaceGrid {
+// The welded triangles in a bounding volume hierarchy (Eigen's KdBVH), for exact nearest-point queries by branch and
+// bound (BVMinimize): a query visits only the volumes nearer than the best triangle found so far.
+class SurfaceTree {
  public:
-  explicit SurfaceGrid(const Welded& w) : w_(w), stamp_(w.sources.size(), 0) {
-    double extent = 0.0;
-    std::vector<Eigen::AlignedBox3d> boxes(w.sources.size());
-    for (size_t t = 0; t < boxes.size(); ++t) {
+  explicit SurfaceTree(const Welded& w) : w_(w) {
+    std::vector<std::uint32_t> ids(w.sources.size());
+    std::vector<Eigen::AlignedBox3d> boxes(ids.size());
+    for (size_t t = 0; t < ids.size(); ++t) {
+      ids[t] = static_cast<std::uint32_t>(t);
       for (int k = 0; k < 3; ++k) boxes[t].extend(w.corner(t, k));
-      extent += boxes[t].sizes().maxCoeff();
-      bounds_.extend(boxes[t]);
     }
-    cell_m_ = std::max(kWeldStepM, extent / static_cast<double>(std::max<size_t>(1, boxes.size())));
-    for (size_t t = 0; t < boxes.size(); ++t)
-      for_cells(boxes[t], [&](const GridKey& k) { cells_[k].push_back(static_cast<std::uint32_t>(t)); });
+    tree_.init(ids.begin(), ids.end(), boxes.begin(), boxes.end());
   }
 
-  // The welded triangle nearest to p among those whose box meets p's box of half-side radius_m (growing it until
-  // one is within it, so the answer is the nearest of all), and its barycentric weights. Ties go to the lower index.
-  std::uint32_t nearest(const Eigen::Vector3d& p, double radius_m, Eigen::Vector3d* weights) const {
-    std::vector<std::uint32_t> found;
-    for (;;) {
-      query(Eigen::AlignedBox3d(p.array() - radius_m, p.array() + radius_m), &found);
-      double best_d2 = INFINITY;
-      std::uint32_t best = 0;
-      nearest_of(p, found, &best, &best_d2, weights);
-      if (best_d2 <= radius_m * radius_m) return best;
-      radius_m = std::max(2.0 * radius_m, std::sqrt(best_d2));
-    }
+  // The welded triangle nearest to p (closest point on a triangle: Ericson, Real-Time Collision Detection, 5.1.5),
+  // and its barycentric weights; of equally near ones, the same one for the same inputs. `hint`, when given, is a triangle likely to
+  // be near (the previous texel's answer): its distance bounds the search from the start.
+  std::uint32_t nearest(const Eigen::Vector3d& p, const std::uint32_t* hint, Eigen::Vector3d* weights) const {
+    Search s{this, p};
+    if (hint) s.minimumOnObject(*hint);
+    Eigen::BVMinimize(tree_, s);
+    *weights = s.weights;
+    return s.best;
   }
 
-  // Triangles whose box meets `box`, each once, in ascending order.
-  void query(const Eigen::AlignedBox3d& box, std::vector<std::uint32_t>* out) const {
-    out->clear();
-    ++epoch_;
-    const Eigen::AlignedBox3d q = box.intersection(bounds_);
-    if (q.isEmpty()) return;  // every triangle lies inside bounds_
-    const Eigen::Array3d cells = (q.sizes() / cell_m_).array() + 2.0;
-    if (cells.prod() > static_cast<double>(cells_.size())) {
-      for (const auto& [key, list] : cells_) collect(list, q, out);
-    } else {
-      for_cells(q, [&](const GridKey& k) {
-        if (auto it = cells_.find(k); it != cells_.end()) collect(it->second, q, out);
-      });
-    }
-    std::sort(out->begin(), out->end());
-  }
-
-  // The nearest point of the candidates to p (closest point on a triangle: Ericson, Real-Time Collision Detection,
-  // 5.1.5), keeping *best when none is nearer than *best_d2.
-  void nearest_of(const Eigen::Vector3d& p, const std::vector<std::uint32_t>& candidates, std::uint32_t* best,
-                  double* best_d2, Eigen::Vector3d* weights) const {
-    for (std::uint32_t t : candidates) {
-      const Eigen::Vector3d bary = closest_weights(p, w_.corner(t, 0), w_.corner(t, 1), w_.corner(t, 2));
-      const Eigen::Vector3d q = bary.x() * w_.corner(t, 0) + bary.y() * w_.corner(t, 1) + bary.z() * w_.corner(t, 2);
-      const double d2 = (q - p).squaredNorm();
-      if (d2 < *best_d2) *best_d2 = d2, *best = t, *weights = bary;
-    }
+  // The child triangle that the line p + s n (n unit) meets nearest to p within |s| <= max_s (texture baking's ray
+  // cast along the low-resolution surface's normal), and the barycentric weights of the hit; false when none does.
+  // Of equally near hits, the same one for the same inputs.
+  bool along(const Eigen::Vector3d& p, const Eigen::Vector3d& n, double max_s, std::uint32_t* triangle,
+             Eigen::Vector3d* weights) const {
+    Cast c{this, p, n, max_s};
+    Eigen::BVIntersect(tree_, c);
+    if (!c.hit) return false;
+    *triangle = c.best;
+    *weights = c.weights;
+    return true;
   }
 
  private:
-  template <class F>
-  void for_cells(const Eigen::AlignedBox3d& box, F&& f) const {
-    const GridKey lo = grid_key(box.min(), cell_m_), hi = grid_key(box.max(), cell_m_);
-    for (std::int64_t x = lo.x; x <= hi.x; ++x)
-      for (std::int64_t y = lo.y; y <= hi.y; ++y)
-        for (std::int64_t z = lo.z; z <= hi.z; ++z) f(GridKey{x, y, z});
-  }
-  void collect(const std::vector<std::uint32_t>& list, const Eigen::AlignedBox3d& q,
-               std::vector<std::uint32_t>* out) const {
-    for (std::uint32_t t : list) {
-      if (stamp_[t] == epoch_) continue;
-      stamp_[t] = epoch_;
-      Eigen::AlignedBox3d b;
-      for (int k = 0; k < 3; ++k) b.extend(w_.corner(t, k));
-      if (b.intersects(q)) out->push_back(t);
+  // BVMinimize's minimizer: squared distances; a volume no nearer than the best so far returns infinity, which
+  // BVMinimize never expands.
+  struct Search {
+    using Scalar = double;
+    const SurfaceTree* tree;
+    Eigen::Vector3d p;
+    double best_d2 = INFINITY;
+    std::uint32_t best = 0;
+    Eigen::Vector3d weights = Eigen::Vector3d(1, 0, 0);
+    double minimumOnVolume(const Eigen::AlignedBox3d& box) const {
+      const double d2 = box.squaredExteriorDistance(p);
+      return d2 > best_d2 ? INFINITY : d2;
     }
-  }
+    double minimumOnObject(std::uint32_t t) {
+      const Welded& w = tree->w_;
+      const Eigen::Vector3d a = w.corner(t, 0), b = w.corner(t, 1), c = w.corner(t, 2);
+      const Eigen::Vector3d bary = closest_weights(p, a, b, c);
+      const double d2 = (bary.x() * a + bary.y() * b + bary.z() * c - p).squaredNorm();
+      if (d2 < best_d2 || (d2 == best_d2 && t < best)) best_d2 = d2, best = t, weights = bary;
+      return best_d2;
+    }
+  };
+
+  // BVIntersect's intersector for along(): the segment shrinks to the nearest hit so far.
+  struct Cast {
+    const SurfaceTree* tree;
+    Eigen::Vector3d p, n;
+    double reach;  // |s| of the nearest hit so far, or max_s
+    bool hit = false;
+    std::uint32_t best = 0;
+    Eigen::Vector3d weights = Eigen::Vector3d(1, 0, 0);
+    bool intersectVolume(const Eigen::AlignedBox3d& box) const {  // slabs, s in [-reach, reach]
+      double lo = -reach, hi = reach;
+      for (int a = 0; a < 3; ++a) {
+        if (std::abs(n[a]) < 1e-12) {
+          if (p[a] < box.min()[a] || p[a] > box.max()[a]) return false;
+          continue;
+        }
+        double s0 = (box.min()[a] - p[a]) / n[a], s1 = (box.max()[a] - p[a]) / n[a];
+        if (s0 > s1) std::swap(s0, s1);
+        lo = std::max(lo, s0);
+        hi = std::min(hi, s1);
+        if (lo > hi) return false;
+      }
+      return true;
+    }
+    bool intersectObject(std::uint32_t t) {  // Moller-Trumbore, both sides
+      const Welded& w = tree->w_;
+      const Eigen::Vector3d a = w.corner(t, 0), e1 = w.corner(t, 1) - a, e2 = w.corner(t, 2) - a;
+      const Eigen::Vector3d q = n.cross(e2);
+      const double det = e1.dot(q);
+      if (std::abs(det) < 1e-18) return false;  // the line runs along the triangle
+      const Eigen::Vector3d d = p - a;
+      const double u = d.dot(q) / det;
+      if (u < 0.0 || u > 1.0) return false;
+      const Eigen::Vector3d r = d.cross(e1);
+      const double v = n.dot(r) / det;
+      if (v < 0.0 || u + v > 1.0) return false;
+      const double s = std::abs(e2.dot(r) / det);
+      if (s > reach || (hit && s == reach && t > best)) return false;
+      reach = s, hit = true, best = t, weights = Eigen::Vector3d(1.0 - u - v, u, v);
+      return false;  // keep looking for a nearer one
+    }
+  };
+
   static Eigen::Vector3d closest_weights(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                                          const Eigen::Vector3d& c) {
     const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
@@ -201,11 +226,7 @@ class SurfaceGrid {
   }
 
   const Welded& w_;
-  double cell_m_ = 1.0;
-  Eigen::AlignedBox3d bounds_;
-  std::unordered_map<GridKey, std::vector<std::uint32_t>, GridHash> cells_;
-  mutable std::vector<std::uint32_t> stamp_;
-  mutable std::uint32_t epoch_ = 0;
+  Eigen::KdBVH<double, 3, std::uint32_t> tree_;
 };
 
 // The colour of the children's surface at welded triangle t, barycentric weights `bary`: its child's texture
@@ -269,7 +290,10 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double c
   if (simplified.empty()) return make_error(ErrorCode::kEmpty, "inner tile: nothing left after simplification");
 
   const double error_m = children_error_m + out.simplify_error_m;
-  const double texel_m = std::max({error_m / options.texels_per_error, children_texel_m(w, children), kWeldStepM});
+  // A level up halves the detail along each axis, as for the triangles: texels at least twice the children's side,
+  // so an inner tile holds about as many texels as one child, whatever its level.
+  const double texel_m =
+      std::max({error_m / options.texels_per_error, 2.0 * children_texel_m(w, children), kWeldStepM});
   std::vector<BakeTriangle> tris(simplified.size() / 3);
   for (size_t i = 0; i < tris.size(); ++i)
     tris[i] = bake_triangle({w.positions[simplified[3 * i]].cast<double>(),
@@ -279,32 +303,33 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double c
   std::vector<CellSource> textures(children.size());
   for (size_t c = 0; c < children.size(); ++c)
     if (has_texture(*children[c])) textures[c] = cell_source(children[c]->texture);
-  const SurfaceGrid grid(w);
-  // Candidates per triangle: the children's triangles within the simplifier's error (or two texels) of its box; a
-  // texel whose nearest candidate is farther than that asks the grid again (SurfaceGrid::nearest), so it stays exact.
-  const double margin_m = std::max(out.simplify_error_m, 2.0 * texel_m);
-  std::vector<std::uint32_t> candidates;
+  const SurfaceTree surface(w);
+  // Each texel takes the children's surface where the simplified triangle's normal through it meets them nearest
+  // (within the simplifier's error and two texels), as texture bakers cast rays from a low-resolution mesh: a line
+  // crosses a few layers of a surface where a sphere of the same radius would hold thousands of its triangles. A texel
+  // whose line meets nothing (beyond a silhouette) takes the nearest point, searched from its neighbour's answer.
+  const double reach_m = out.simplify_error_m + 2.0 * texel_m;
   auto mesh = bake_atlas_mesh(tris, options.atlas, [&](size_t i, const FootprintSlot& slot,
                                                        const std::array<Eigen::Vector2d, 3>& corners, Image* atlas,
                                                        std::uint8_t* sampled) {
     const BakeTriangle& t = tris[i];
     Eigen::Matrix3d A, W;
-    Eigen::AlignedBox3d box;
     for (int k = 0; k < 3; ++k) {
       A.col(k) << corners[k], 1.0;
       W.col(k) = t.world[k];
-      box.extend(t.world[k]);
     }
     const Eigen::Matrix3d world_from_atlas = W * A.inverse();  // barycentric weights of the texel, then the point
-    grid.query(Eigen::AlignedBox3d(box.min().array() - margin_m, box.max().array() + margin_m), &candidates);
+    const Eigen::Vector3d normal = (t.world[1] - t.world[0]).cross(t.world[2] - t.world[0]).normalized();
+    const bool flat = normal.allFinite();
+    bool have_hint = false;
+    std::uint32_t hint = 0;
     fill_cell_texels(slot, atlas, sampled, [&](double x, double y, std::uint8_t* rgb) {
       const Eigen::Vector3d p = world_from_atlas * Eigen::Vector3d(x, y, 1.0);
       Eigen::Vector3d bary;
-      std::uint32_t best = 0;
-      double best_d2 = INFINITY;
-      grid.nearest_of(p, candidates, &best, &best_d2, &bary);
-      if (!(best_d2 <= margin_m * margin_m)) best = grid.nearest(p, margin_m, &bary);
-      source_colour(w, children, textures, best, bary, rgb);
+      if (!flat || !surface.along(p, normal, reach_m, &hint, &bary))
+        hint = surface.nearest(p, have_hint ? &hint : nullptr, &bary);
+      have_hint = true;
+      source_colour(w, children, textures, hint, bary, rgb);
     });
   });
   if (!mesh) return make_error(mesh.error().code, "inner tile: " + mesh.error().message);

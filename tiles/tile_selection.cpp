@@ -50,6 +50,7 @@ struct Traversal {
     out.tiles.push_back(&r);
     out.triangles += r.triangles;
     out.bytes += r.bytes;
+    out.render_bytes += r.render_bytes;
   }
 
   void visit(const TileRecord& r) {
@@ -81,6 +82,18 @@ TileSelection select_tiles(const std::map<TileKey, TileRecord>& records, int top
   for (const auto& [key, r] : records)
     if (key.level == top_level) t.visit(r);
   return std::move(t.out);
+}
+
+TileSelection select_tiles_to_fit(const std::map<TileKey, TileRecord>& records, int top_level,
+                                  const ViewCamera& camera, double max_error_px, size_t fit_bytes, double limit_px,
+                                  double* used_px) {
+  *used_px = max_error_px;
+  TileSelection s = select_tiles(records, top_level, camera, *used_px);
+  while (fit_bytes > 0 && s.render_bytes > fit_bytes && *used_px < limit_px) {
+    *used_px = std::min(limit_px, std::max(1.0, 2.0 * *used_px));
+    s = select_tiles(records, top_level, camera, *used_px);
+  }
+  return s;
 }
 
 }  // namespace rgbdcast::tiles

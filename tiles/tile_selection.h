@@ -21,12 +21,20 @@ struct TileSelection {
   std::vector<const TileRecord*> tiles;  // to draw, pointing into the records given
   size_t visited = 0, culled = 0;
   std::uint64_t triangles = 0, bytes = 0;  // of the tiles to draw (bytes: their GLB files)
+  std::uint64_t render_bytes = 0;          // of the tiles to draw, as a renderer holds them
 };
 
 // The tiles `camera` draws at max_error_px (>= 0, finite). `records` is a committed hierarchy's (tile -> record),
 // its top tiles at `top_level`.
 TileSelection select_tiles(const std::map<TileKey, TileRecord>& records, int top_level, const ViewCamera& camera,
                            double max_error_px);
+
+// The tiles `camera` draws at max_error_px, or coarser when they would take more than fit_bytes on a renderer (their
+// records' render_bytes): the error is doubled (from at least 1 px, up to limit_px) and the tiles selected again
+// until they fit or the limit is reached. *used_px gets the error of the selection returned. fit_bytes 0: no bound.
+TileSelection select_tiles_to_fit(const std::map<TileKey, TileRecord>& records, int top_level,
+                                  const ViewCamera& camera, double max_error_px, size_t fit_bytes, double limit_px,
+                                  double* used_px);
 
 // Whether an axis-aligned world box can be seen by `camera` (some part of it inside the frustum, near to far), by the
 // plane test: false only when all eight corners lie outside one plane. Conservative: may say true for a box beside

@@ -873,6 +873,20 @@ TEST(Missions, ViewsDrawTheTilesetByScreenSpaceErrorUnderTheResidentCap) {
               << " (default), " << coarse_tiles << " (64 px); default vs full detail " << db << " dB\n";
     EXPECT_GE(db, 32.0) << view;
   }
+  // By default a view fits a renderer's share of the resident cap: its error is coarsened until its tiles fit, so the
+  // same view again loads nothing (a view over the cap would load its parts again every time). A given max-error is
+  // kept as given.
+  for (const std::string& view : {robot, overview}) {
+    auto first = c->Get(view.c_str());
+    auto again = c->Get(view.c_str());
+    auto given = c->Get((view + "&max-error=0.5").c_str());
+    ASSERT_TRUE(first && again && given && first->status == 200 && again->status == 200 && given->status == 200);
+    EXPECT_GE(std::stod(first->get_header_value("X-Max-Error")), 1.0) << view;
+    EXPECT_EQ(again->get_header_value("X-Max-Error"), first->get_header_value("X-Max-Error")) << view;
+    EXPECT_EQ(again->get_header_value("X-Parts-Loaded"), "0") << view;
+    EXPECT_EQ(std::stod(given->get_header_value("X-Max-Error")), 0.5) << view;
+    std::cout << view << ": default error " << first->get_header_value("X-Max-Error") << " px at a 16 MiB cap\n";
+  }
   // The cap holds after every view, and the renderer keeps something resident.
   for (const char* eye : {"0,-0.3,-1.2", "2,-1,-2", "-1,-3,0", "0.5,-12,-3", "4,-0.5,6"}) {
     auto v = c->Get(("/v1/missions/hall/view?eye=" + std::string(eye) + "&target=0.5,0,1.5&fov=70&max-error=0").c_str());

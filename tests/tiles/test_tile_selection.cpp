@@ -2,6 +2,7 @@
 // definition: a row of leaves under one inner tile, cameras near, far, and looking away.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <set>
 
 #include "tiles/tile_selection.h"
@@ -72,6 +73,36 @@ TEST(TileSelection, ErrorDecidesTheLevelAndZeroMeansLeaves) {
       previous = s.triangles;
     }
   }
+}
+
+TEST(TileSelection, AViewOverTheRendererBudgetIsCoarsenedUntilItFits) {
+  auto records = row_of_leaves(8, 3, 0.05);
+  for (auto& [key, r] : records) r.render_bytes = key.level == 0 ? 4000 : 1000;
+  const ViewCamera near = camera_at(8.0, 5.0);
+  const TileSelection full = select_tiles(records, 3, near, 1.0);
+  ASSERT_GT(full.render_bytes, 8000u);  // near: mostly leaves
+  double used = -1.0;
+  // A budget the selection fits: the error asked for, the same tiles.
+  const TileSelection same = select_tiles_to_fit(records, 3, near, 1.0, full.render_bytes, 1000.0, &used);
+  EXPECT_EQ(used, 1.0);
+  EXPECT_EQ(keys(same), keys(full));
+  // No budget: the same.
+  EXPECT_EQ(keys(select_tiles_to_fit(records, 3, near, 0.0, 0, 1000.0, &used)), keys(select_tiles(records, 3, near, 0.0)));
+  EXPECT_EQ(used, 0.0);
+  // Smaller budgets: a coarser error, a power of two times 1 px, under the budget, and the smallest such error (half
+  // of it does not fit).
+  for (size_t budget : {8000u, 4000u, 2000u, 1000u}) {
+    const TileSelection fit = select_tiles_to_fit(records, 3, near, 1.0, budget, 1000.0, &used);
+    EXPECT_LE(fit.render_bytes, budget) << budget;
+    EXPECT_GT(used, 1.0) << budget;
+    EXPECT_EQ(std::exp2(std::round(std::log2(used))), used) << budget;
+    EXPECT_GT(select_tiles(records, 3, near, used / 2.0).render_bytes, budget) << budget;
+    EXPECT_EQ(keys(fit), keys(select_tiles(records, 3, near, used))) << budget;
+  }
+  // A budget below the top tile: the limit, and what it selects.
+  const TileSelection floor = select_tiles_to_fit(records, 3, near, 1.0, 10, 1000.0, &used);
+  EXPECT_EQ(used, 1000.0);
+  EXPECT_EQ(keys(floor), keys(select_tiles(records, 3, near, 1000.0)));
 }
 
 TEST(TileSelection, TheSelectionCoversTheViewOnceAndCullsWhatIsBehind) {
