@@ -1,5 +1,6 @@
 // rgbdcast serve: the HTTP view service (service/view_service.h). Loopback unless --bind says otherwise; SIGINT or
-// SIGTERM stop it cleanly (in-flight requests finish, the store needs no cleanup: every write is atomic).
+// SIGTERM stop it cleanly: it drains (/readyz 503 for --drain-s), then in-flight requests finish; the store needs no
+// cleanup (every write is atomic, or one transaction).
 #include <pthread.h>
 #include <signal.h>
 
@@ -23,6 +24,15 @@ void register_serve(CLI::App& app) {
   auto imports = std::make_shared<std::vector<std::string>>();
   cmd->add_option("--data-dir", opts->data_dir, "Folder of the scene store (created when missing)")
       ->capture_default_str();
+  cmd->add_option("--store", opts->store,
+                  "Where scenes and missions live: \"directory\" (--data-dir) or a PostgreSQL URI "
+                  "(postgresql://...) shared by replicas; --data-dir then holds this replica's tile cache")
+      ->default_str("directory");
+  cmd->add_option("--replica", opts->replica, "This replica's name, sent as X-Rgbdcast-Replica (default: host name)");
+  cmd->add_option("--drain-s", opts->drain_s,
+                  "On SIGTERM: seconds /readyz answers 503 while requests are still served, before the stop")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 3600.0));
   cmd->add_option("--bind", opts->bind, "Address to listen on (0.0.0.0 for every interface)")->capture_default_str();
   cmd->add_option("--port", opts->port, "TCP port; 0 picks a free one")->capture_default_str()->check(CLI::Range(0, 65535));
   cmd->add_option("--threads", opts->threads, "HTTP worker threads")->capture_default_str()->check(CLI::Range(1, 1024));
@@ -137,7 +147,9 @@ void register_serve(CLI::App& app) {
       std::printf("rgbdcast serve: %s is scene %s\n  view:  %s/v1/scenes/%s/view?pose=capture\n  model: %s/v1/scenes/%s/model.glb\n",
                   path.c_str(), id.c_str(), base.c_str(), id.c_str(), base.c_str(), id.c_str());
     }
-    std::printf("rgbdcast serve: %zu scenes in %s\n", svc->scene_count(), opts->data_dir.c_str());
+    const bool directory = opts->store.empty() || opts->store == "directory";
+    std::printf("rgbdcast serve: replica %s, %zu scenes in %s\n", svc->replica().c_str(), svc->scene_count(),
+                directory ? opts->data_dir.c_str() : "PostgreSQL");
     if (svc->web_modules_present())
       std::printf("rgbdcast serve: operator page renders in the browser (WebGL), modules from %s\n",
                   svc->web_modules_dir().c_str());

@@ -1,6 +1,7 @@
 -- wrk script for bench/load.sh: GET views of one scene from a ring of viewpoints around its centre (so every request
 -- renders a different image), then print p50/p99 latency, views/s and errors in a form load.sh reads.
--- Arguments (after --): scene_id cx cy cz radius width height
+-- Arguments (after --): scene_ids cx cy cz radius width height; scene_ids is one id or several joined by commas
+-- (scenes of the same frame: one orbit serves all; bench/cluster_load.sh spreads views over replicas that way).
 local scene, cx, cy, cz, radius, width, height
 local paths = {}
 local counter = 0
@@ -14,11 +15,13 @@ function init(args)
   for i = 0, 35 do
     local a = math.rad(i * 10 - 180)
     local ex, ez = cx + radius * math.sin(a), cz - radius * math.cos(a)
-    paths[#paths + 1] = string.format(
-      "/v1/scenes/%s/view?eye=%.4f,%.4f,%.4f&target=%.4f,%.4f,%.4f&up=0,-1,0&fov=55&width=%s&height=%s&format=jpeg&quality=85",
-      scene, ex, cy, ez, cx, cy, cz, width, height)
+    for id in string.gmatch(scene, "[^,]+") do
+      paths[#paths + 1] = string.format(
+        "/v1/scenes/%s/view?eye=%.4f,%.4f,%.4f&target=%.4f,%.4f,%.4f&up=0,-1,0&fov=55&width=%s&height=%s&format=jpeg&quality=85",
+        id, ex, cy, ez, cx, cy, cz, width, height)
+    end
   end
-  counter = math.random(0, 35)
+  counter = math.random(0, #paths - 1)
 end
 
 function request()

@@ -7,7 +7,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 layer="${1:-test}"
 
-# Build and runtime: the compiler and CMake, the libraries the build links, the renderers' drivers (lavapipe for
+# Build and runtime: the compiler and CMake, the libraries the build links (libpq for the PostgreSQL store), the renderers' drivers (lavapipe for
 # Vulkan, OSMesa) and glslangValidator, which compiles the shaders at build time.
 DEMO_PACKAGES=(
   build-essential cmake pkg-config
@@ -15,17 +15,20 @@ DEMO_PACKAGES=(
   libosmesa6-dev mesa-vulkan-drivers libvulkan-dev glslang-tools
   libtinygltf-dev nlohmann-json3-dev libstb-dev libcpp-httplib-dev libcli11-dev
   libmeshoptimizer-dev libdraco-dev libturbojpeg0-dev
+  libpq-dev
 )
 # Tests only: GoogleTest, the Vulkan validation layers, ROS 1 bag reading and writing, clang-16 with libFuzzer and
 # the sanitizers' runtime, headless Chromium (the page tests), wrk (load benchmarks), curl and jq (scripts),
 # promtool (the /metrics check), git (tests that read the tree), and the external glTF viewers (Blender, whose glTF
-# importer needs numpy, and Assimp).
+# importer needs numpy, and Assimp), the PostgreSQL server the store tests start, and nginx in front of the replicas
+# that deploy/cluster.sh starts.
 TEST_PACKAGES=(
   git ca-certificates libgtest-dev vulkan-tools vulkan-validationlayers glslang-dev
   librosbag-storage-dev libsensor-msgs-dev python3-rosbag python3-sensor-msgs
   clang-16 libfuzzer-16-dev libclang-rt-16-dev
   chromium wrk curl jq prometheus
   blender python3-numpy assimp-utils
+  postgresql-15 nginx
 )
 
 case "$layer" in

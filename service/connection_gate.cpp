@@ -47,14 +47,15 @@ bool wait_fd(int fd, short events, int timeout_ms) {
 }
 
 // Best effort, never blocks: the connection is closed right after.
-void send_and_forget(int fd, int status, const char* reason, const char* detail) {
+void send_and_forget(int fd, int status, const char* reason, const char* detail, const std::string& header) {
   char body[256];
   std::snprintf(body, sizeof body, "{\"error\":\"%s\",\"detail\":\"%s\"}\n", reason, detail);
-  char msg[512];
+  char msg[768];
+  const std::string extra = header.empty() || header.size() > 200 ? "" : header + "\r\n";
   const int n = std::snprintf(msg, sizeof msg,
                               "HTTP/1.1 %d %s\r\nContent-Type: application/json\r\nContent-Length: %zu\r\n"
-                              "Connection: close\r\n\r\n%s",
-                              status, reason, std::strlen(body), body);
+                              "%sConnection: close\r\n\r\n%s",
+                              status, reason, std::strlen(body), extra.c_str(), body);
   if (n > 0) (void)::send(fd, msg, static_cast<size_t>(n), MSG_NOSIGNAL | MSG_DONTWAIT);
 }
 
@@ -233,7 +234,8 @@ struct GatedServer::Impl {
         const size_t end = c.pending.find("\r\n\r\n");
         if (end != std::string::npos && end + 4 <= options.max_header_bytes) return make_ready(fd);
         if (end != std::string::npos || c.pending.size() > options.max_header_bytes) {
-          send_and_forget(fd, 431, "request_header_fields_too_large", "request line and headers over the limit");
+          send_and_forget(fd, 431, "request_header_fields_too_large", "request line and headers over the limit",
+                          options.response_header);
           return drop(fd);
         }
         continue;
@@ -256,7 +258,7 @@ struct GatedServer::Impl {
         continue;
       }
       if (!waiting[fd]->pending.empty())
-        send_and_forget(fd, 408, "request_timeout", "request headers not received in time");
+        send_and_forget(fd, 408, "request_timeout", "request headers not received in time", options.response_header);
       ++timed_out;
       drop(fd);
     }
@@ -391,7 +393,7 @@ bool GatedServer::serve_request(httplib::Stream& stream, bool last, bool& closed
 bool GatedServer::process_and_close_socket(socket_t sock) {
   // fds past FD_SETSIZE would make httplib answer 500 (it checks them for select()); refuse well before that.
   if (impl_->stopping || impl_->open >= static_cast<size_t>(impl_->options.max_connections) || sock >= 1000) {
-    send_and_forget(sock, 503, "unavailable", "too many connections; retry later");
+    send_and_forget(sock, 503, "unavailable", "too many connections; retry later", impl_->options.response_header);
     ::shutdown(sock, SHUT_RDWR);
     ::close(sock);
     ++impl_->refused;

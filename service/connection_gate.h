@@ -16,6 +16,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <string>
 
 namespace rgbdcast::service {
 
@@ -29,6 +30,7 @@ struct GateOptions {
   double io_timeout_s = 10.0;          // one read or write while a worker serves the request
   double body_grace_s = 3.0;
   double body_min_bytes_per_s = 4096.0;
+  std::string response_header;  // "Name: value" added to the gate's own answers (408, 431, 503), or empty
 };
 
 struct GateStats {

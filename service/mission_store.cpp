@@ -6,6 +6,7 @@
 #include <fstream>
 #include <random>
 
+#include "service/mission_index.h"
 #include "service/scene_store.h"  // write_file_atomic, fsync_dir, read_text, quarantine, etag_of
 
 namespace fs = std::filesystem;
@@ -40,7 +41,9 @@ std::optional<std::pair<std::int64_t, std::int64_t>> parse_glb_name(const std::s
   return std::make_pair(std::stoll(seq), std::stoll(rev));
 }
 
-nlohmann::json stored_json(const MissionKeyframe& k) {
+}  // namespace
+
+nlohmann::json stored_keyframe_json(const MissionKeyframe& k) {
   nlohmann::json j = k.entry();
   j["mission"] = k.mission;
   j["etag"] = k.etag;
@@ -51,7 +54,7 @@ nlohmann::json stored_json(const MissionKeyframe& k) {
 }
 
 // A keyframe JSON file: every field present with its type, or kInvalidInput with the reason.
-Result<MissionKeyframe> parse_stored(const std::string& name, std::int64_t seq, const std::string& text) {
+Result<MissionKeyframe> parse_stored_keyframe(const std::string& name, std::int64_t seq, const std::string& text) {
   nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   auto bad = [](const std::string& why) { return make_error(ErrorCode::kInvalidInput, why); };
   if (j.is_discarded() || !j.is_object()) return bad("keyframe metadata is not a JSON object");
@@ -93,12 +96,14 @@ Result<MissionKeyframe> parse_stored(const std::string& name, std::int64_t seq, 
   return k;
 }
 
+namespace {
+
 double now_unix_s() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 Status write_json(const std::string& dir, std::int64_t seq, const MissionKeyframe& k) {
-  const std::string text = stored_json(k).dump(2);
+  const std::string text = stored_keyframe_json(k).dump(2);
   return write_file_atomic(dir, std::to_string(seq) + ".json", text.data(), text.size());
 }
 
@@ -148,13 +153,55 @@ std::optional<MissionEventId> parse_event_id(const std::string& text) {
   return id;
 }
 
+MissionStore::MissionStore() : index_(std::make_unique<MissionIndex>()) {}
+MissionStore::~MissionStore() = default;
+
 Result<std::unique_ptr<MissionStore>> MissionStore::open(const std::string& data_dir) {
+  auto store = DirectoryMissionStore::open(data_dir);
+  if (!store) return store.error();
+  return std::unique_ptr<MissionStore>(std::move(*store));
+}
+
+void MissionStore::set_tileset_version(const std::string& name, std::uint64_t version) {
+  index_->set_tileset_version(name, version);
+}
+std::vector<MissionSummary> MissionStore::list() const { return index_->list(); }
+std::optional<std::vector<MissionKeyframe>> MissionStore::keyframes(const std::string& name) const {
+  return index_->keyframes(name);
+}
+std::optional<std::vector<MissionKeyframe>> MissionStore::arrivals(const std::string& name) const {
+  return index_->arrivals(name);
+}
+std::optional<EventCursor> MissionStore::cursor_after(const std::string& name,
+                                                      std::optional<MissionEventId> last_event_id) const {
+  return index_->cursor_after(name, last_event_id);
+}
+EventBatch MissionStore::wait_events(const std::string& name, EventCursor& cursor, std::chrono::milliseconds timeout) {
+  return index_->wait_events(name, cursor, timeout);
+}
+void MissionStore::wake_all() { index_->wake_all(); }
+size_t MissionStore::count() const { return index_->count(); }
+
+Status check_keyframe_key(const MissionKeyframe& k) {
+  if (!is_valid_mission_name(k.mission))
+    return make_error(ErrorCode::kInvalidArgument, "mission name must be 1..64 of A-Z a-z 0-9 _ -");
+  if (k.seq < 0 || k.seq > kMaxKeyframeSeq) return make_error(ErrorCode::kInvalidArgument, "seq must be 0..2^31-1");
+  if (k.rev < 0 || k.rev > kMaxKeyframeSeq) return make_error(ErrorCode::kInvalidArgument, "rev must be 0..2^31-1");
+  return ok_status();
+}
+
+PutOutcome repeat_outcome(const MissionKeyframe& stored, const MissionKeyframe& k, bool same_bytes) {
+  if (k.rev < stored.rev) return PutOutcome::kStale;
+  return same_bytes && stored.etag == k.etag && stored.pose == k.pose ? PutOutcome::kSame : PutOutcome::kConflict;
+}
+
+Result<std::unique_ptr<DirectoryMissionStore>> DirectoryMissionStore::open(const std::string& data_dir) {
   if (data_dir.empty()) return make_error(ErrorCode::kInvalidArgument, "data dir is empty");
   const std::string dir = (fs::path(data_dir) / "missions").string();
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) return make_error(ErrorCode::kIo, "cannot create " + dir + ": " + ec.message());
-  std::unique_ptr<MissionStore> store(new MissionStore(data_dir, dir));
+  std::unique_ptr<DirectoryMissionStore> store(new DirectoryMissionStore(data_dir, dir));
   std::vector<std::string> names;
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
     const std::string name = entry.path().filename().string();
@@ -171,12 +218,12 @@ Result<std::unique_ptr<MissionStore>> MissionStore::open(const std::string& data
   return store;
 }
 
-Status MissionStore::load_mission(const std::string& name) {
+Status DirectoryMissionStore::load_mission(const std::string& name) {
   const std::string dir = mission_dir(name);
   std::error_code ec;
   std::vector<fs::path> glbs;
   std::vector<std::pair<std::string, std::string>> bad;  // stem, why
-  Mission m;
+  std::map<std::int64_t, MissionKeyframe> by_seq;
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
     const std::string file = entry.path().filename().string();
     if (file.rfind(kTempFilePrefix, 0) == 0) {
@@ -193,12 +240,12 @@ Status MissionStore::load_mission(const std::string& name) {
     if (ext == ".json") {
       auto text = read_text(entry.path().string());
       if (!text) return text.error();
-      auto k = parse_stored(name, std::stoll(stem), *text);
+      auto k = parse_stored_keyframe(name, std::stoll(stem), *text);
       if (!k) {
         bad.emplace_back(stem, k.error().message);
         continue;
       }
-      m.by_seq.emplace(k->seq, std::move(*k));
+      by_seq.emplace(k->seq, std::move(*k));
     }
   }
   if (ec) return make_error(ErrorCode::kIo, "cannot list mission " + name + ": " + ec.message());
@@ -210,18 +257,18 @@ Status MissionStore::load_mission(const std::string& name) {
   // was replaced (a replacement cut short before the old GLB was removed).
   for (const auto& glb : glbs) {
     const auto key = parse_glb_name(glb.filename().string());
-    auto it = m.by_seq.find(key->first);
-    if ((it == m.by_seq.end() || it->second.rev != key->second) && fs::exists(glb, ec)) {
+    auto it = by_seq.find(key->first);
+    if ((it == by_seq.end() || it->second.rev != key->second) && fs::exists(glb, ec)) {
       fs::remove(glb, ec);
       cleaned_.push_back(name + "/" + glb.filename().string());
     }
   }
-  for (auto it = m.by_seq.begin(); it != m.by_seq.end();) {  // nor is a JSON without its GLB
+  for (auto it = by_seq.begin(); it != by_seq.end();) {  // nor is a JSON without its GLB
     const std::string stem = std::to_string(it->first);
     if (!fs::exists(dir + "/" + glb_name(it->first, it->second.rev), ec)) {
       fs::remove(dir + "/" + stem + ".json", ec);
       cleaned_.push_back(name + "/" + stem + ".json");
-      it = m.by_seq.erase(it);
+      it = by_seq.erase(it);
     } else {
       ++it;
     }
@@ -229,58 +276,31 @@ Status MissionStore::load_mission(const std::string& name) {
   if (!cleaned_.empty()) {
     if (auto st = fsync_dir(dir); !st) return st;
   }
-  // Arrival order from the stored times. A keyframe whose "available" was not written (a crash between its commit
-  // and that write) is available from now on: views include it as soon as the server serves again.
-  const double now = now_unix_s();
-  std::vector<const MissionKeyframe*> order;
-  for (auto& [seq, k] : m.by_seq) {
-    if (k.available <= 0) k.available = now;
-    if (k.first_available <= 0) k.first_available = k.available;
-    order.push_back(&k);
-  }
-  std::stable_sort(order.begin(), order.end(), [](const MissionKeyframe* a, const MissionKeyframe* b) {
-    return a->available < b->available;
-  });
-  for (const auto* k : order) m.arrival.push_back(*k);
-  if (m.by_seq.empty()) {  // an empty folder: what a remove() or a first put() cut short leaves
+  if (by_seq.empty()) {  // an empty folder: what a remove() or a first put() cut short leaves
     fs::remove_all(dir, ec);
     return ok_status();
   }
-  std::lock_guard lock(mutex_);
-  m.generation = next_generation_++;
-  missions_.emplace(name, std::move(m));
+  index().load(name, std::move(by_seq), now_unix_s());
   return ok_status();
 }
 
-MissionStore::~MissionStore() { wake_all(); }
+DirectoryMissionStore::~DirectoryMissionStore() { wake_all(); }
 
-Result<PutResult> MissionStore::put(MissionKeyframe k, const std::vector<std::uint8_t>& glb) {
-  if (!is_valid_mission_name(k.mission))
-    return make_error(ErrorCode::kInvalidArgument, "mission name must be 1..64 of A-Z a-z 0-9 _ -");
-  if (k.seq < 0 || k.seq > kMaxKeyframeSeq) return make_error(ErrorCode::kInvalidArgument, "seq must be 0..2^31-1");
-  if (k.rev < 0 || k.rev > kMaxKeyframeSeq) return make_error(ErrorCode::kInvalidArgument, "rev must be 0..2^31-1");
+Result<PutResult> DirectoryMissionStore::put(MissionKeyframe k, const std::vector<std::uint8_t>& glb) {
+  if (auto st = check_keyframe_key(k); !st) return st.error();
   k.bytes = glb.size();
   k.etag = etag_of(glb.data(), glb.size());
   k.available = 0.0;
   k.first_available = 0.0;
   std::lock_guard writer(write_mutex_);
-  std::optional<MissionKeyframe> existing;
-  {
-    std::lock_guard lock(mutex_);
-    auto m = missions_.find(k.mission);
-    if (m != missions_.end()) {
-      auto it = m->second.by_seq.find(k.seq);
-      if (it != m->second.by_seq.end()) existing = it->second;
-    }
-  }
-  if (existing && k.rev < existing->rev) return PutResult{PutOutcome::kStale, *existing};
-  if (existing && k.rev == existing->rev) {
-    bool same = existing->etag == k.etag && existing->pose == k.pose;
+  const std::optional<MissionKeyframe> existing = index().find(k.mission, k.seq);
+  if (existing && k.rev <= existing->rev) {
+    bool same = k.rev == existing->rev && existing->etag == k.etag && existing->pose == k.pose;
     if (same) {  // the ETag is a 64-bit hash: the bytes decide
       auto stored = read_glb(k.mission, k.seq, k.rev);
       same = stored && *stored == glb;
     }
-    return PutResult{same ? PutOutcome::kSame : PutOutcome::kConflict, *existing};
+    return PutResult{repeat_outcome(*existing, k, same), *existing};
   }
   if (existing) k.first_available = existing->first_available;  // a revision: the seq was viewable since then
   const std::string dir = mission_dir(k.mission);
@@ -297,82 +317,29 @@ Result<PutResult> MissionStore::put(MissionKeyframe k, const std::vector<std::ui
     fs::remove(dir + "/" + name, ec);
     return st.error();
   }
-  {
-    std::lock_guard lock(mutex_);
-    auto [m, created] = missions_.try_emplace(k.mission);
-    if (created) m->second.generation = next_generation_++;
-    m->second.by_seq[k.seq] = k;
-  }
+  index().upsert(k);
   if (!existing) return PutResult{PutOutcome::kCreated, k};
   // The replaced revision's GLB: the JSON no longer names it (open() would remove it, should this fail).
   fs::remove(dir + "/" + glb_name(k.seq, existing->rev), ec);
   return PutResult{PutOutcome::kReplaced, k};
 }
 
-Status MissionStore::mark_available(const std::string& name, std::int64_t seq, double available_unix_s) {
+Status DirectoryMissionStore::mark_available(const std::string& name, std::int64_t seq, double available_unix_s) {
   std::lock_guard writer(write_mutex_);
-  MissionKeyframe k;
-  {
-    std::lock_guard lock(mutex_);
-    auto m = missions_.find(name);
-    if (m == missions_.end() || !m->second.by_seq.count(seq))
-      return make_error(ErrorCode::kNotFound, "no keyframe " + std::to_string(seq) + " in mission " + name);
-    k = m->second.by_seq[seq];
-  }
+  std::optional<MissionKeyframe> held = index().find(name, seq);
+  if (!held) return make_error(ErrorCode::kNotFound, "no keyframe " + std::to_string(seq) + " in mission " + name);
+  MissionKeyframe k = *held;
   if (k.available > 0) return ok_status();
   k.available = available_unix_s;
   if (k.first_available <= 0) k.first_available = available_unix_s;
   // The time is kept in memory and in the events even if this write fails: the keyframe is stored either way.
   Status st = write_json(mission_dir(name), seq, k);
-  {
-    std::lock_guard lock(mutex_);
-    auto m = missions_.find(name);
-    if (m != missions_.end()) {
-      m->second.by_seq[seq].available = k.available;
-      m->second.by_seq[seq].first_available = k.first_available;
-      m->second.arrival.push_back(m->second.by_seq[seq]);
-    }
-  }
-  changed_.notify_all();
+  index().set_available(name, seq, k.rev, available_unix_s);
   return st;
 }
 
-std::vector<MissionSummary> MissionStore::list() const {
-  std::vector<MissionSummary> out;
-  std::lock_guard lock(mutex_);
-  for (const auto& [name, m] : missions_) {
-    MissionSummary s;
-    s.name = name;
-    s.keyframes = m.by_seq.size();
-    for (const auto& [seq, k] : m.by_seq) {
-      s.bytes += k.bytes;
-      s.updated = std::max(s.updated, k.received);
-    }
-    out.push_back(s);
-  }
-  return out;
-}
-
-std::optional<std::vector<MissionKeyframe>> MissionStore::keyframes(const std::string& name) const {
-  std::lock_guard lock(mutex_);
-  auto m = missions_.find(name);
-  if (m == missions_.end()) return std::nullopt;
-  std::vector<MissionKeyframe> out;
-  for (const auto& [seq, k] : m->second.by_seq) out.push_back(k);
-  return out;
-}
-
-std::optional<std::vector<MissionKeyframe>> MissionStore::arrivals(const std::string& name) const {
-  std::lock_guard lock(mutex_);
-  auto m = missions_.find(name);
-  if (m == missions_.end()) return std::nullopt;
-  std::vector<MissionKeyframe> out;
-  for (const MissionKeyframe& k : m->second.arrival) out.push_back(k);
-  return out;
-}
-
-Result<std::vector<std::uint8_t>> MissionStore::read_glb(const std::string& name, std::int64_t seq,
-                                                         std::int64_t rev) const {
+Result<std::vector<std::uint8_t>> DirectoryMissionStore::read_glb(const std::string& name, std::int64_t seq,
+                                                                  std::int64_t rev) const {
   auto missing = [&] {
     return make_error(ErrorCode::kNotFound, "no keyframe " + std::to_string(seq) + " revision " + std::to_string(rev) +
                                                 " in mission " + name);
@@ -384,13 +351,10 @@ Result<std::vector<std::uint8_t>> MissionStore::read_glb(const std::string& name
   return std::vector<std::uint8_t>((std::istreambuf_iterator<char>(in)), {});
 }
 
-Status MissionStore::remove(const std::string& name) {
+Status DirectoryMissionStore::remove(const std::string& name) {
   if (!is_valid_mission_name(name)) return make_error(ErrorCode::kNotFound, "no mission " + name);
   std::lock_guard writer(write_mutex_);
-  {
-    std::lock_guard lock(mutex_);
-    if (!missions_.count(name)) return make_error(ErrorCode::kNotFound, "no mission " + name);
-  }
+  if (!index().contains(name)) return make_error(ErrorCode::kNotFound, "no mission " + name);
   // One rename takes the whole mission away; what follows only frees the space.
   static thread_local std::mt19937_64 rng{std::random_device{}()};
   const std::string gone = dir_ + "/" + kDeletingPrefix + name + "-" + std::to_string(rng() % 1000000000);
@@ -398,76 +362,9 @@ Status MissionStore::remove(const std::string& name) {
   fs::rename(mission_dir(name), gone, ec);
   if (ec) return make_error(ErrorCode::kIo, "cannot delete mission " + name + ": " + ec.message());
   if (auto st = fsync_dir(dir_); !st) return st;
-  {
-    std::lock_guard lock(mutex_);
-    missions_.erase(name);
-  }
-  changed_.notify_all();
+  index().erase(name);
   fs::remove_all(gone, ec);
   return ok_status();
-}
-
-std::optional<EventCursor> MissionStore::cursor_after(const std::string& name,
-                                                      std::optional<MissionEventId> last_event_id) const {
-  std::lock_guard lock(mutex_);
-  auto m = missions_.find(name);
-  if (m == missions_.end()) return std::nullopt;
-  EventCursor c;
-  c.generation = m->second.generation;
-  if (last_event_id) {
-    const auto& a = m->second.arrival;
-    auto it = std::find_if(a.begin(), a.end(), [&](const MissionKeyframe& k) {
-      return k.seq == last_event_id->seq && k.rev == last_event_id->rev;
-    });
-    if (it != a.end()) c.next = static_cast<size_t>(it - a.begin()) + 1;
-  }
-  return c;
-}
-
-EventBatch MissionStore::wait_events(const std::string& name, EventCursor& cursor,
-                                     std::chrono::milliseconds timeout) {
-  std::unique_lock lock(mutex_);
-  EventBatch batch;
-  auto ready = [&] {
-    auto m = missions_.find(name);
-    if (m == missions_.end() || m->second.generation != cursor.generation) return true;
-    return m->second.arrival.size() > cursor.next || m->second.tileset_version != cursor.tileset_version ||
-           stopped_;
-  };
-  changed_.wait_for(lock, timeout, ready);
-  auto m = missions_.find(name);
-  if (m == missions_.end() || m->second.generation != cursor.generation) return batch;
-  batch.exists = true;
-  for (; cursor.next < m->second.arrival.size(); ++cursor.next)
-    batch.events.push_back(m->second.arrival[cursor.next]);
-  if (m->second.tileset_version != cursor.tileset_version) {
-    cursor.tileset_version = m->second.tileset_version;
-    batch.tileset_version = cursor.tileset_version;
-  }
-  return batch;
-}
-
-void MissionStore::set_tileset_version(const std::string& name, std::uint64_t version) {
-  {
-    std::lock_guard lock(mutex_);
-    auto m = missions_.find(name);
-    if (m == missions_.end()) return;
-    m->second.tileset_version = version;
-  }
-  changed_.notify_all();
-}
-
-void MissionStore::wake_all() {
-  {
-    std::lock_guard lock(mutex_);
-    stopped_ = true;
-  }
-  changed_.notify_all();
-}
-
-size_t MissionStore::count() const {
-  std::lock_guard lock(mutex_);
-  return missions_.size();
 }
 
 }  // namespace rgbdcast::service

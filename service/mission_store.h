@@ -1,26 +1,6 @@
 #pragma once
-// Live missions on disk: <data_dir>/missions/<name>/<seq>.glb (the keyframe GLB as the robot sent it;
-// <seq>.r<rev>.glb for a revision rev > 0) and <seq>.json (its pose, sizes, times and rev). Contract:
-// - put() writes the GLB, then the JSON, each with write_file_atomic (service/scene_store.h: temporary name, fsync,
-//   rename, fsync of the folder); the JSON is the commit marker, so a crash leaves a whole keyframe or none.
-// - Idempotency key (name, seq, rev): a put() of the stored (seq, rev) with the same GLB bytes and the same pose is
-//   kSame (nothing written, the stored keyframe returned); with other bytes or another pose kConflict (nothing
-//   written).
-// - Revisions: a put() of a stored seq with a higher rev REPLACES that keyframe (kReplaced): the new GLB is written
-//   under its own name, then the JSON (the commit: from then on the new rev is the keyframe), then the old GLB is
-//   removed; a crash leaves the old revision or the new one, never both and never neither. A lower rev than the
-//   stored one is kStale (nothing written). The mission holds one keyframe (one surface) per seq, always.
-//   "first_available" keeps when the seq's first revision became viewable (the capture-to-view latency is that).
-// - A keyframe is put() first and mark_available() once views include it; only available keyframes are events.
-//   Events are in arrival order (the order keyframes became available), which is seq order only when the sender sends
-//   in seq order; a revision is an event of its own (the same seq with a higher rev); after a restart the order is
-//   rebuilt from the stored "available" times, one event per keyframe (its current revision).
-// - open() deletes what an interrupted put() or remove() left (temporary files, a GLB without its JSON, a mission
-//   folder being deleted), and moves a keyframe JSON that does not parse or has a field of the wrong type, with its
-//   GLB, to <data_dir>/quarantine/mission-<name>-<seq>.json|.glb (one line each in quarantined()); the rest is served.
-// - remove() renames the mission folder to a hidden name first (one atomic step), then deletes it.
-// - Names are [A-Za-z0-9_-]{1,64} and seqs 0..2^31-1, checked before they reach a path.
-// Thread-safe: every method may be called from any thread; writes are serialized inside.
+// Live missions: the MissionStore interface and its embedded default, the directory store.
+// Names are [A-Za-z0-9_-]{1,64} and seqs 0..2^31-1, checked before they reach a path or a query.
 #include <array>
 #include <chrono>
 #include <condition_variable>
@@ -100,29 +80,47 @@ struct EventBatch {
   std::optional<std::uint64_t> tileset_version;  // set when the tileset changed since the cursor's
 };
 
+class MissionIndex;
+
+// Where live missions live: the interface every store implements (the directory below, PostgreSQL in pgstore/),
+// tested by one contract suite (tests/service/test_store_contract.cpp). Contract of every implementation:
+// - Idempotency key (name, seq, rev): a put() of the stored (seq, rev) with the same GLB bytes and the same pose is
+//   kSame (nothing written, the stored keyframe returned); with other bytes or another pose kConflict (nothing
+//   written). A higher rev of a stored seq REPLACES that keyframe (kReplaced), atomically: readers see the old
+//   revision or the new one, never both and never neither. A lower rev is kStale (nothing written). The mission
+//   holds one keyframe (one surface) per seq, always. "first_available" keeps when the seq's first revision became
+//   viewable (the capture-to-view latency is that).
+// - A keyframe is put() first and mark_available() once views include it; only available keyframes are events.
+//   Events are in arrival order (the order keyframes became available); a revision is an event of its own (the same
+//   seq with a higher rev); after a restart the order is rebuilt from the stored "available" times, one event per
+//   keyframe (its current revision).
+// - Names are [A-Za-z0-9_-]{1,64} and seqs and revs 0..2^31-1 (else kInvalidArgument); kIo when storage fails
+//   (nothing is left behind).
+// Thread-safe: every method may be called from any thread.
 class MissionStore {
  public:
+  virtual ~MissionStore();
+  // The embedded default: the directory store in <data_dir>/missions (DirectoryMissionStore).
   static Result<std::unique_ptr<MissionStore>> open(const std::string& data_dir);
-  ~MissionStore();
 
   // `keyframe` carries mission, seq, rev, pose, triangles, captured, received and camera; bytes and etag are taken
-  // from `glb`. kInvalidArgument for a bad name, seq or rev, kIo when a write fails (nothing is left behind).
-  Result<PutResult> put(MissionKeyframe keyframe, const std::vector<std::uint8_t>& glb);
-  // Records when views include the keyframe (rewrites its JSON atomically) and wakes the event streams.
-  Status mark_available(const std::string& name, std::int64_t seq, double available_unix_s);
+  // from `glb`.
+  virtual Result<PutResult> put(MissionKeyframe keyframe, const std::vector<std::uint8_t>& glb) = 0;
+  // Records when views include the keyframe and wakes the event streams.
+  virtual Status mark_available(const std::string& name, std::int64_t seq, double available_unix_s) = 0;
+  // The GLB of (seq, rev): kNotFound when that revision is not (or no longer) stored.
+  virtual Result<std::vector<std::uint8_t>> read_glb(const std::string& name, std::int64_t seq,
+                                                     std::int64_t rev = 0) const = 0;
+  virtual Status remove(const std::string& name) = 0;  // kNotFound when unknown
+
   // The mission's tile hierarchy (service/mission_tiles.h) committed `version`: wakes the event streams, which report
   // it once. Kept in memory only (the hierarchy holds its own version); ignored for an unknown mission.
   void set_tileset_version(const std::string& name, std::uint64_t version);
-
   std::vector<MissionSummary> list() const;  // by name
   // Keyframes by seq; nullopt for an unknown mission.
   std::optional<std::vector<MissionKeyframe>> keyframes(const std::string& name) const;
   // Available keyframes in arrival order.
   std::optional<std::vector<MissionKeyframe>> arrivals(const std::string& name) const;
-  // The GLB of (seq, rev): kNotFound when that revision is not (or no longer) stored.
-  Result<std::vector<std::uint8_t>> read_glb(const std::string& name, std::int64_t seq, std::int64_t rev = 0) const;
-  Status remove(const std::string& name);  // kNotFound when unknown
-
   // A cursor just after the event with id `last_event_id` (that (seq, rev) in arrival order), or at the start when
   // the id is absent or not an event of the mission (e.g. a revision from before a restart). nullopt for an unknown
   // mission.
@@ -131,30 +129,67 @@ class MissionStore {
   // exists = false, when the mission goes away; returns at once once wake_all() was called.
   EventBatch wait_events(const std::string& name, EventCursor& cursor, std::chrono::milliseconds timeout);
   void wake_all();  // the server is stopping: every wait_events returns, now and from now on
-
   size_t count() const;
-  const std::vector<std::string>& cleaned_on_open() const { return cleaned_; }
-  const std::vector<std::string>& quarantined() const { return quarantined_; }
+
+  // What opening the store removed (what a crash left) and set aside (damaged records), one line each.
+  virtual const std::vector<std::string>& cleaned_on_open() const { return none_; }
+  virtual const std::vector<std::string>& quarantined() const { return none_; }
+  // Whether the store answers now (a database may be unreachable for a while): /readyz.
+  virtual Status ping() const { return ok_status(); }
+
+ protected:
+  MissionStore();
+  // What every implementation reads and waits on; it persists first, then tells the index.
+  MissionIndex& index() const { return *index_; }
 
  private:
-  struct Mission {
-    std::uint64_t generation = 0;
-    std::map<std::int64_t, MissionKeyframe> by_seq;
-    std::vector<MissionKeyframe> arrival;  // available keyframes (each revision as it became available)
-    std::uint64_t tileset_version = 0;
-  };
-  explicit MissionStore(std::string data_dir, std::string missions_dir)
+  std::unique_ptr<MissionIndex> index_;
+  std::vector<std::string> none_;
+};
+
+// A keyframe's stored record (entry() with mission, etag and camera; available and first_available only once set),
+// and the record read back: every field present with its type, or kInvalidInput with the reason.
+nlohmann::json stored_keyframe_json(const MissionKeyframe& k);
+Result<MissionKeyframe> parse_stored_keyframe(const std::string& name, std::int64_t seq, const std::string& text);
+// Checks a put()'s key; kInvalidArgument with the reason.
+Status check_keyframe_key(const MissionKeyframe& k);
+// The outcome of a put() of `k` against the stored revision of its seq, when the rev is not higher (kStale, or kSame
+// / kConflict as `same_bytes` says about the stored GLB of that rev).
+PutOutcome repeat_outcome(const MissionKeyframe& stored, const MissionKeyframe& k, bool same_bytes);
+
+// Live missions on disk: <data_dir>/missions/<name>/<seq>.glb (the keyframe GLB as the robot sent it;
+// <seq>.r<rev>.glb for a revision rev > 0) and <seq>.json (its pose, sizes, times and rev). Besides MissionStore's
+// contract:
+// - put() writes the GLB, then the JSON, each with write_file_atomic (service/scene_store.h: temporary name, fsync,
+//   rename, fsync of the folder); the JSON is the commit marker, so a crash leaves a whole keyframe or none.
+// - A revision's new GLB is written under its own name, then the JSON (the commit: from then on the new rev is the
+//   keyframe), then the old GLB is removed.
+// - open() deletes what an interrupted put() or remove() left (temporary files, a GLB without its JSON, a mission
+//   folder being deleted), and moves a keyframe JSON that does not parse or has a field of the wrong type, with its
+//   GLB, to <data_dir>/quarantine/mission-<name>-<seq>.json|.glb (one line each in quarantined()); the rest is served.
+// - remove() renames the mission folder to a hidden name first (one atomic step), then deletes it.
+// - Writes are serialized inside.
+class DirectoryMissionStore final : public MissionStore {
+ public:
+  static Result<std::unique_ptr<DirectoryMissionStore>> open(const std::string& data_dir);
+  ~DirectoryMissionStore() override;
+
+  Result<PutResult> put(MissionKeyframe keyframe, const std::vector<std::uint8_t>& glb) override;
+  Status mark_available(const std::string& name, std::int64_t seq, double available_unix_s) override;
+  Result<std::vector<std::uint8_t>> read_glb(const std::string& name, std::int64_t seq,
+                                             std::int64_t rev = 0) const override;
+  Status remove(const std::string& name) override;
+  const std::vector<std::string>& cleaned_on_open() const override { return cleaned_; }
+  const std::vector<std::string>& quarantined() const override { return quarantined_; }
+
+ private:
+  DirectoryMissionStore(std::string data_dir, std::string missions_dir)
       : data_dir_(std::move(data_dir)), dir_(std::move(missions_dir)) {}
   std::string mission_dir(const std::string& name) const { return dir_ + "/" + name; }
   Status load_mission(const std::string& name);
 
   std::string data_dir_, dir_;
   std::mutex write_mutex_;  // one writer at a time (put, mark_available, remove)
-  mutable std::mutex mutex_;  // the maps below
-  std::condition_variable changed_;
-  std::map<std::string, Mission> missions_;
-  std::uint64_t next_generation_ = 1;
-  bool stopped_ = false;  // wake_all() was called
   std::vector<std::string> cleaned_;
   std::vector<std::string> quarantined_;
 };

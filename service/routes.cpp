@@ -26,6 +26,8 @@ bool RouteMatch::allows(std::string_view method) const {
 RouteMatch match_route(std::string_view path) {
   if (path == "/") return route("/", "GET, HEAD");
   if (path == "/healthz") return route("/healthz", "GET, HEAD");
+  if (path == "/livez") return route("/livez", "GET, HEAD");
+  if (path == "/readyz") return route("/readyz", "GET, HEAD");
   if (path == "/metrics") return route("/metrics", "GET, HEAD");
   if (path == "/v1/scenes") return route("/v1/scenes", "GET, HEAD, POST");
   if (path == "/v1/missions") return route("/v1/missions", "GET, HEAD");

@@ -77,7 +77,9 @@ void keep_metadata(StoredScene& s, const nlohmann::json& meta) {
 
 // The metadata of one stored scene: a JSON object whose bookkeeping fields have their types. Anything else is
 // kInvalidInput with the reason (nlohmann's type errors are caught here, never thrown further).
-Result<StoredScene> parse_metadata(const std::string& id, const std::string& text) {
+}  // namespace
+
+Result<StoredScene> parse_scene_metadata(const std::string& id, const std::string& text) {
   const nlohmann::json meta = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (meta.is_discarded() || !meta.is_object())
     return make_error(ErrorCode::kInvalidInput, "metadata is not a JSON object");
@@ -94,8 +96,6 @@ Result<StoredScene> parse_metadata(const std::string& id, const std::string& tex
     return make_error(ErrorCode::kInvalidInput, std::string("metadata field of the wrong type (") + e.what() + ")");
   }
 }
-
-}  // namespace
 
 Status quarantine(const std::string& data_dir, const std::string& from_dir, const std::string& stem,
                   const std::string& prefix) {
@@ -168,12 +168,18 @@ Status write_file_atomic(const std::string& dir, const std::string& name, const 
 }
 
 Result<std::unique_ptr<SceneStore>> SceneStore::open(const std::string& data_dir) {
+  auto store = DirectorySceneStore::open(data_dir);
+  if (!store) return store.error();
+  return std::unique_ptr<SceneStore>(std::move(*store));
+}
+
+Result<std::unique_ptr<DirectorySceneStore>> DirectorySceneStore::open(const std::string& data_dir) {
   if (data_dir.empty()) return make_error(ErrorCode::kInvalidArgument, "data dir is empty");
   const std::string dir = (fs::path(data_dir) / "scenes").string();
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) return make_error(ErrorCode::kIo, "cannot create " + dir + ": " + ec.message());
-  std::unique_ptr<SceneStore> store(new SceneStore(dir));
+  std::unique_ptr<DirectorySceneStore> store(new DirectorySceneStore(dir));
 
   // First pass: temporary files of interrupted writes go; committed metadata is loaded.
   std::vector<fs::path> glbs;
@@ -192,7 +198,7 @@ Result<std::unique_ptr<SceneStore>> SceneStore::open(const std::string& data_dir
     } else if (ext == ".json") {
       auto text = read_text(entry.path().string());
       if (!text) return text.error();
-      auto scene = parse_metadata(stem, *text);
+      auto scene = parse_scene_metadata(stem, *text);
       if (!scene) {
         bad.emplace_back(stem, scene.error().message);
         continue;
@@ -230,7 +236,7 @@ Result<std::unique_ptr<SceneStore>> SceneStore::open(const std::string& data_dir
   return store;
 }
 
-Result<StoredScene> SceneStore::put(const std::vector<std::uint8_t>& glb, nlohmann::json metadata) {
+StoredScene new_stored_scene(const std::vector<std::uint8_t>& glb, nlohmann::json& metadata) {
   if (!metadata.is_object()) metadata = nlohmann::json::object();
   StoredScene s;
   s.id = new_scene_id();
@@ -243,6 +249,11 @@ Result<StoredScene> SceneStore::put(const std::vector<std::uint8_t>& glb, nlohma
   metadata["etag"] = s.etag;
   metadata["created_unix_s"] = s.created_unix_s;
   keep_metadata(s, metadata);
+  return s;
+}
+
+Result<StoredScene> DirectorySceneStore::put(const std::vector<std::uint8_t>& glb, nlohmann::json metadata) {
+  StoredScene s = new_stored_scene(glb, metadata);
 
   auto st = write_file_atomic(dir_, s.id + ".glb", glb.data(), glb.size());
   if (!st) return st.error();
@@ -258,7 +269,7 @@ Result<StoredScene> SceneStore::put(const std::vector<std::uint8_t>& glb, nlohma
   return s;
 }
 
-std::optional<StoredScene> SceneStore::get(const std::string& id) const {
+std::optional<StoredScene> DirectorySceneStore::get(const std::string& id) const {
   if (!is_valid_scene_id(id)) return std::nullopt;
   std::lock_guard lock(mutex_);
   auto it = scenes_.find(id);
@@ -266,7 +277,7 @@ std::optional<StoredScene> SceneStore::get(const std::string& id) const {
   return it->second;
 }
 
-std::vector<StoredScene> SceneStore::list() const {
+std::vector<StoredScene> DirectorySceneStore::list() const {
   std::vector<StoredScene> out;
   {
     std::lock_guard lock(mutex_);
@@ -278,7 +289,7 @@ std::vector<StoredScene> SceneStore::list() const {
   return out;
 }
 
-void SceneStore::for_each(const std::function<void(const StoredScene&)>& f) const {
+void DirectorySceneStore::for_each(const std::function<void(const StoredScene&)>& f) const {
   std::lock_guard lock(mutex_);
   std::vector<const StoredScene*> order;
   order.reserve(scenes_.size());
@@ -289,7 +300,7 @@ void SceneStore::for_each(const std::function<void(const StoredScene&)>& f) cons
   for (const StoredScene* s : order) f(*s);
 }
 
-Status SceneStore::remove(const std::string& id) {
+Status DirectorySceneStore::remove(const std::string& id) {
   if (!is_valid_scene_id(id)) return make_error(ErrorCode::kNotFound, "no scene " + id);
   {
     std::lock_guard lock(mutex_);
@@ -303,7 +314,7 @@ Status SceneStore::remove(const std::string& id) {
   return fsync_dir(dir_);
 }
 
-Result<std::vector<std::uint8_t>> SceneStore::read_glb(const std::string& id) const {
+Result<std::vector<std::uint8_t>> DirectorySceneStore::read_glb(const std::string& id) const {
   if (!get(id)) return make_error(ErrorCode::kNotFound, "no scene " + id);
   std::ifstream in(glb_path(id), std::ios::binary);
   if (!in) return make_error(ErrorCode::kNotFound, "no scene " + id);
@@ -311,14 +322,14 @@ Result<std::vector<std::uint8_t>> SceneStore::read_glb(const std::string& id) co
   return bytes;
 }
 
-std::string SceneStore::glb_path(const std::string& id) const { return dir_ + "/" + id + ".glb"; }
+std::string DirectorySceneStore::glb_path(const std::string& id) const { return dir_ + "/" + id + ".glb"; }
 
-size_t SceneStore::count() const {
+size_t DirectorySceneStore::count() const {
   std::lock_guard lock(mutex_);
   return scenes_.size();
 }
 
-std::uint64_t SceneStore::total_bytes() const {
+std::uint64_t DirectorySceneStore::total_bytes() const {
   std::lock_guard lock(mutex_);
   std::uint64_t n = 0;
   for (const auto& [id, s] : scenes_) n += s.bytes;

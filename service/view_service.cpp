@@ -1,13 +1,16 @@
 #include "service/view_service.h"
 
 #include <malloc.h>
+#include <unistd.h>
 
 #include <atomic>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <future>
 #include <set>
 #include <thread>
@@ -31,6 +34,7 @@
 #include "service/routes.h"
 #include "service/scene_ingest.h"
 #include "service/scene_store.h"
+#include "service/store_open.h"
 #include "service/view_params.h"
 #include "service/web_assets.h"
 
@@ -75,6 +79,10 @@ int reduce_threads(const ServeOptions& o) {
 
 struct ViewService::Impl {
   ServeOptions options;
+  std::string replica;     // the name sent as X-Rgbdcast-Replica
+  std::string store_kind;  // "directory" or "postgresql"
+  std::function<void(std::function<void(const std::string&)>)> follow_changes;  // OpenedStores::follow_changes
+  std::atomic<bool> draining{false};
   std::unique_ptr<SceneStore> store;
   std::unique_ptr<RenderPool> pool;
   std::unique_ptr<JobQueue> reducers;
@@ -127,6 +135,7 @@ struct ViewService::Impl {
     return s;
   }
   httplib::Server::HandlerResponse pre_route(const httplib::Request& req, httplib::Response& res);
+  void get_readyz(httplib::Response& res);
   void post_scene(const httplib::Request& req, httplib::Response& res, const httplib::ContentReader& reader);
   Result<IngestedScene> reduce_frame_upload(FrameUpload upload, httplib::Response& res, bool* busy);
   void get_view(const httplib::Request& req, httplib::Response& res);
@@ -303,8 +312,24 @@ void ViewService::Impl::get_glb(const httplib::Request& req, httplib::Response& 
   res.set_header("Content-Disposition", "attachment; filename=\"" + scene->id + ".glb\"");
 }
 
+void ViewService::Impl::get_readyz(httplib::Response& res) {
+  nlohmann::json checks = nlohmann::json::object();
+  bool ready = true;
+  auto check = [&](const char* name, const Status& st) {
+    checks[name] = st ? "ok" : st.error().message;
+    ready = ready && static_cast<bool>(st);
+  };
+  check("scenes", store->ping());
+  check("missions", missions->ping());
+  check("renderer", pool->backend().empty() ? make_error(ErrorCode::kUnavailable, "no renderer") : ok_status());
+  check("draining", draining ? make_error(ErrorCode::kUnavailable, "stopping: no new work") : ok_status());
+  send_json(res, ready ? 200 : 503,
+            {{"status", ready ? "ready" : "not ready"}, {"replica", replica}, {"store", store_kind}, {"checks", checks}});
+}
+
 void ViewService::Impl::routes() {
   server->set_payload_max_length(options.max_body_bytes);
+  server->set_default_headers({{"X-Rgbdcast-Replica", replica}});
   server->set_pre_routing_handler(
       [this](const httplib::Request& req, httplib::Response& res) { return pre_route(req, res); });
   // Called for every response >= 400, ours included: only fills a body when there is none (404 of an unknown
@@ -363,6 +388,12 @@ void ViewService::Impl::routes() {
   using Req = const httplib::Request&;
   using Res = httplib::Response&;
   server->Get("/", guarded([](Req, Res res) { res.set_content(operator_page_html(), "text/html; charset=utf-8"); }));
+  // Liveness: the process answers. Readiness: its stores answer, its renderers are up, and it is not draining; a
+  // balancer sends work only to a ready replica.
+  server->Get("/livez", guarded([this](Req, Res res) {
+    send_json(res, 200, {{"status", "alive"}, {"replica", replica}});
+  }));
+  server->Get("/readyz", guarded([this](Req, Res res) { get_readyz(res); }));
   server->Get("/healthz", guarded([this](Req, Res res) {
     send_json(res, 200, {{"status", "ok"}, {"backend", pool->backend()}, {"device", pool->device()},
                          {"scenes", store->count()}, {"missions", missions->count()},
@@ -415,6 +446,7 @@ void ViewService::Impl::routes() {
 
 ViewService::ViewService(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 ViewService::~ViewService() {
+  if (impl_ && impl_->follow_changes) impl_->follow_changes(nullptr);  // first: changes name missions to the tiles
   if (impl_ && impl_->mission_routes) impl_->mission_routes->stop();
   if (impl_ && impl_->server) {
     impl_->server->stop();
@@ -444,10 +476,25 @@ Status check_options(const ServeOptions& o) {
                "--max-uploads + --max-event-streams + 2 = " + std::to_string(needed) +
                ": the queues could never answer 503");
   if (o.max_frame_width < 1 || o.max_frame_height < 1) return bad("frame limit must be positive");
+  if (!(o.drain_s >= 0 && o.drain_s <= 3600)) return bad("drain time must be 0..3600 s");
+  if (o.replica.size() > 64 ||
+      o.replica.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789._-") !=
+          std::string::npos)
+    return bad("replica name must be up to 64 of A-Z a-z 0-9 . _ -");
   if (!is_loopback_address(o.bind) && o.token.empty() && !o.insecure_no_auth)
     return bad("binding to " + o.bind + " (not loopback) without --token-file would let anyone on the network "
                "upload and delete; give --token-file, or --insecure-no-auth to accept that");
   return ok_status();
+}
+
+// The default replica name: the host's (a container's is its id), cut to what a replica name may hold.
+std::string host_name() {
+  char buf[256] = {0};
+  if (::gethostname(buf, sizeof buf - 1) != 0) return "replica";
+  std::string name;
+  for (const char* p = buf; *p && name.size() < 64; ++p)
+    if (std::isalnum(static_cast<unsigned char>(*p)) || *p == '.' || *p == '_' || *p == '-') name += *p;
+  return name.empty() ? "replica" : name;
 }
 
 // Each renderer gets its share of the cores (llvmpipe and lavapipe otherwise start a thread per core each).
@@ -467,14 +514,15 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   impl->options = options;
   if (options.web_modules_dir.empty()) impl->options.web_modules_dir = RGBDCAST_WEB_MODULES_DIR;
   impl->web = std::make_unique<WebAssets>(impl->options.web_modules_dir);
-  auto store = SceneStore::open(options.data_dir);
-  if (!store) return store.error();
-  impl->store = std::move(*store);
+  impl->replica = options.replica.empty() ? host_name() : options.replica;
+  auto stores = open_stores(options.store, options.data_dir);
+  if (!stores) return stores.error();
+  impl->store = std::move(stores->scenes);
+  impl->missions = std::move(stores->missions);
+  impl->store_kind = stores->kind;
+  impl->follow_changes = std::move(stores->follow_changes);
   for (const auto& q : impl->store->quarantined())
     std::fprintf(stderr, "rgbdcast serve: warning: %s\n", q.c_str());
-  auto missions = MissionStore::open(options.data_dir);
-  if (!missions) return missions.error();
-  impl->missions = std::move(*missions);
   for (const auto& q : impl->missions->quarantined())
     std::fprintf(stderr, "rgbdcast serve: warning: %s\n", q.c_str());
 
@@ -534,6 +582,13 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   Impl* raw = impl.get();
   impl->tiles = std::make_unique<MissionTiles>(options.data_dir, *impl->missions);
   impl->tiles->start();
+  // Keyframes and removals made through other replicas (a shared store) bring this replica's tiles up to date too.
+  MissionTiles* tiles = impl->tiles.get();
+  MissionStore* mission_store = impl->missions.get();
+  impl->follow_changes([tiles, mission_store](const std::string& name) {
+    if (mission_store->keyframes(name)) tiles->enqueue(name);
+    else tiles->forget(name);
+  });
   impl->mission_routes = std::make_unique<MissionRoutes>(
       mission_options, *impl->missions, *impl->tiles, *impl->pool, *impl->uploads,
       [raw](const httplib::Request& req, const ViewRequest& request,
@@ -545,6 +600,7 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   gate.header_timeout_s = options.header_timeout_s;
   gate.idle_timeout_s = options.idle_timeout_s;
   gate.max_connections = options.max_connections;
+  gate.response_header = "X-Rgbdcast-Replica: " + impl->replica;
   impl->server = std::make_unique<GatedServer>(gate);
   if (options.port == 0) {
     const int p = impl->server->bind_to_any_port(options.bind);
@@ -590,6 +646,7 @@ std::string ViewService::device() const { return impl_->pool->device(); }
 std::string ViewService::web_modules_dir() const { return impl_->options.web_modules_dir; }
 bool ViewService::web_modules_present() const { return impl_->web->modules_present(); }
 size_t ViewService::scene_count() const { return impl_->store->count(); }
+const std::string& ViewService::replica() const { return impl_->replica; }
 
 Status ViewService::run() {
   if (!impl_->server->listen_after_bind()) return make_error(ErrorCode::kIo, "the listener stopped with an error");
@@ -597,6 +654,8 @@ Status ViewService::run() {
 }
 
 void ViewService::stop() {
+  impl_->draining = true;
+  if (impl_->options.drain_s > 0) std::this_thread::sleep_for(std::chrono::duration<double>(impl_->options.drain_s));
   impl_->mission_routes->stop();
   impl_->tiles->stop();
   impl_->server->stop();

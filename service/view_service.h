@@ -21,6 +21,11 @@ namespace rgbdcast::service {
 
 struct ServeOptions {
   std::string data_dir = "rgbdcast-data";
+  // Where scenes and missions live: empty (or "directory") for the folder data_dir, or a libpq URI
+  // (postgresql://...) for a database shared by replicas (pgstore/); data_dir then holds this replica's tile cache.
+  std::string store;
+  std::string replica;  // this replica's name, sent as X-Rgbdcast-Replica on every response; empty: the host name
+  double drain_s = 0.0;  // on stop(): seconds /readyz answers 503 while requests are still served, then the stop
   std::string bind = "127.0.0.1";  // loopback unless asked
   int port = 8080;                 // 0: any free port (the bound port is printed)
   int threads = 32;                // HTTP worker threads; a connection holds one only while a request is served
@@ -76,7 +81,10 @@ class ViewService {
   Result<nlohmann::json> import_glb_file(const std::string& path);
   // Serves until stop() is called (from another thread). Returns an error if the listener failed.
   Status run();
+  // Drains, then stops: /readyz answers 503 from now on (a balancer sends new work elsewhere), requests are still
+  // served for drain_s, then the listener closes and the requests under way finish.
   void stop();
+  const std::string& replica() const;
 
  private:
   struct Impl;

@@ -1,5 +1,7 @@
 #include "tests/service/mission_keyframes.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -99,6 +101,13 @@ std::vector<MissionKeyframeFile> mission_keyframes(const std::vector<int>& frame
     out.push_back(std::move(k));
   }
   return out;
+}
+
+const std::vector<MissionKeyframeFile>& four_mission_keyframes() {
+  static std::string error;
+  static const auto k = mission_keyframes({0, 40, 80, 119}, &error);
+  if (k.empty()) ADD_FAILURE() << error;
+  return k;
 }
 
 }  // namespace rgbdcast::test

@@ -21,5 +21,8 @@ struct MissionKeyframeFile {
 
 // The keyframes of `frames` (indices into the excerpt); empty with *error set when the data or the CLI fails.
 std::vector<MissionKeyframeFile> mission_keyframes(const std::vector<int>& frames, std::string* error);
+// Frames 0, 40, 80 and 119, made on first use and kept for the program; empty (with a test failure saying why)
+// when they cannot be made.
+const std::vector<MissionKeyframeFile>& four_mission_keyframes();
 
 }  // namespace rgbdcast::test

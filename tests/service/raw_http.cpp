@@ -97,4 +97,25 @@ RawResponse raw_request(int port, const std::string& request, double timeout_s) 
   return r;
 }
 
+std::string read_event_stream_until(int port, const std::string& path, const std::string& needle, double timeout_s) {
+  const int fd = connect_loopback(port);
+  if (fd < 0) return "";
+  send_all(fd, "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+                   "\r\nAccept: text/event-stream\r\n\r\n");
+  std::string text;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (text.find(needle) == std::string::npos) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now());
+    if (left.count() <= 0) break;
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, static_cast<int>(left.count())) <= 0) break;
+    char buf[8192];
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    text.append(buf, static_cast<size_t>(n));
+  }
+  ::close(fd);
+  return text;
+}
+
 }  // namespace rgbdcast::test

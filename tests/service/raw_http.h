@@ -20,5 +20,8 @@ bool send_all(int fd, const std::string& bytes);  // false when the peer closed 
 RawResponse raw_request(int port, const std::string& request, double timeout_s = 10.0);
 // Reads one response from a connected socket within timeout_s.
 RawResponse read_response(int fd, double timeout_s);
+// Opens an event stream (GET path, Accept: text/event-stream) and reads until `needle` arrived, the server closed or
+// timeout_s passed; returns the raw bytes that arrived (status line and headers included).
+std::string read_event_stream_until(int port, const std::string& path, const std::string& needle, double timeout_s);
 
 }  // namespace rgbdcast::test

@@ -1,0 +1,22 @@
+#pragma once
+// The PostgreSQL schema, as numbered migrations applied in order at start (migrate()). Contract:
+// - Each migration runs once, in its own transaction with its row in rgbdcast_migrations, under an advisory lock, so
+//   replicas starting together apply it once; a database newer than this program (a version it does not know) is
+//   refused with kInvalidInput, never written to.
+// - Tables: scenes (metadata in columns, the GLB as bytea); missions; keyframes, one row per (mission, seq, rev),
+//   unique on it (the idempotency key) and on (mission, seq) (one revision per seq); change_clock, a one-row counter
+//   that every mission write increments first (so writes of missions are serialized and their change numbers commit
+//   in order); mission_changes, the log replicas catch up from; tiles and tile_hierarchies (per-mission 3D Tiles).
+#include <string>
+
+#include "pgstore/pg_connection.h"
+
+namespace rgbdcast::pgstore {
+
+inline constexpr const char* kMissionChannel = "rgbdcast_missions";  // NOTIFY channel: payload "<change>"
+
+// Applies what is missing; returns the schema version now in place.
+Result<int> migrate(PgConnection& conn);
+int latest_schema_version();
+
+}  // namespace rgbdcast::pgstore
