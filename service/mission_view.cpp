@@ -61,7 +61,6 @@ MissionViewPlan plan_mission_view(const MissionStore& store, const MissionTiles&
     }
     plan.tiles = selection.tiles.size();
     plan.tile_triangles = selection.triangles;
-    plan.tile_render_bytes = selection.render_bytes;
   }
   std::vector<const MissionKeyframe*> pending;
   for (const MissionKeyframe& k : keyframes) {
