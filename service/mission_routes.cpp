@@ -84,10 +84,11 @@ std::string tileset_event_text(std::uint64_t version, const std::shared_ptr<cons
   return "event: tileset\ndata: " + data.dump() + "\n\n";
 }
 
-// A tile file name as TileRecord::file() makes it: "<level>_<x>_<z>.v<version>.glb".
+// A tile file name as TileRecord::file() makes it: "<level>_<x>_<z>.v<version>.glb", a leaf's
+// "0_<x>_<z>_<keyframe>.v<version>.glb".
 bool is_tile_file_name(const std::string& f) {
-  static const std::regex kTile(R"(\d{1,2}_-?\d{1,13}_-?\d{1,13}\.v\d{1,19}\.glb)");
-  return f.size() <= 64 && std::regex_match(f, kTile);
+  static const std::regex kTile(R"(\d{1,2}_-?\d{1,13}_-?\d{1,13}(_\d{1,16})?\.v\d{1,19}\.glb)");
+  return f.size() <= 80 && std::regex_match(f, kTile);
 }
 
 }  // namespace

@@ -45,7 +45,7 @@ void MissionTiles::stop() {
 void MissionTiles::enqueue(const std::string& mission) {
   {
     std::lock_guard lock(mutex_);
-    queue_.insert(mission);
+    if (queue_.insert(mission).second) order_.push_back(mission);
   }
   cv_.notify_all();
 }
@@ -53,6 +53,7 @@ void MissionTiles::enqueue(const std::string& mission) {
 void MissionTiles::forget(const std::string& mission) {
   std::unique_lock lock(mutex_);
   queue_.erase(mission);
+  std::erase(order_, mission);
   cv_.wait(lock, [&] { return busy_ != mission; });  // an update under way finishes first
   hierarchies_.erase(mission);
   snapshots_.erase(mission);
@@ -84,8 +85,9 @@ void MissionTiles::run() {
   while (true) {
     cv_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
     if (stopping_) return;
-    busy_ = *queue_.begin();
-    queue_.erase(queue_.begin());
+    busy_ = order_.front();
+    order_.pop_front();
+    queue_.erase(busy_);
     const std::string mission = busy_;
     lock.unlock();
     update_one(mission);
@@ -122,11 +124,20 @@ void MissionTiles::update_one(const std::string& mission) {
     wanted.push_back({k.seq, k.rev});
     by_seq[k.seq] = &k;
   }
-  auto updated = hierarchy->update(wanted, [&](const tiles::KeyframeId& id) -> Result<Scene> {
-    auto it = by_seq.find(id.seq);
-    if (it == by_seq.end()) return make_error(ErrorCode::kNotFound, "not stored");
-    return load_placed_keyframe(missions_, *it->second);
-  }, &stop_update_);
+  // One step: new keyframes' leaves, else a sweep over stale tiles that yields as soon as this mission has new
+  // keyframes waiting (a POST enqueued it again), so a keyframe reaches the tileset after at most one tile's build.
+  auto updated = hierarchy->step(
+      wanted,
+      [&](const tiles::KeyframeId& id) -> Result<Scene> {
+        auto it = by_seq.find(id.seq);
+        if (it == by_seq.end()) return make_error(ErrorCode::kNotFound, "not stored");
+        return load_placed_keyframe(missions_, *it->second);
+      },
+      &stop_update_,
+      [&] {
+        std::lock_guard lock(mutex_);
+        return queue_.count(mission) > 0;
+      });
   if (!updated && stop_update_) return;  // stopped: uncommitted, not a failure
   {
     std::lock_guard lock(mutex_);
@@ -142,6 +153,7 @@ void MissionTiles::update_one(const std::string& mission) {
     stats_.update_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   missions_.set_tileset_version(mission, hierarchy->version());
+  if (updated->stale > 0) enqueue(mission);  // the sweep goes on, after whatever else waits
 }
 
 }  // namespace rgbdcast::service

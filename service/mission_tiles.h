@@ -1,11 +1,13 @@
 #pragma once
 // Keeps each live mission's tile hierarchy (tiles/tile_hierarchy.h) up to date, off the keyframe POST's path: a POST
-// only names its mission to a background worker, which brings the mission's hierarchy to the keyframes the store
-// holds (so several keyframes posted meanwhile make one update) and then tells the event streams the new version
-// (MissionStore::set_tileset_version). Contract:
+// only names its mission to a background worker, which steps the mission's hierarchy (TileHierarchy::step): first the
+// leaves of the keyframes the store holds (so several keyframes posted meanwhile make one commit), then sweeps over
+// the stale inner tiles, one commit each, that give way as soon as the mission has new keyframes again. Each commit
+// tells the event streams the new version (MissionStore::set_tileset_version). Contract:
 // - Hierarchies live in <data_dir>/tiles/<mission>/ and survive restarts: start() names every stored mission to the
 //   worker, which builds only what the committed hierarchy lacks.
-// - The queue holds each mission at most once (a set), so it is bounded by the number of missions; one worker thread.
+// - The queue holds each mission at most once, so it is bounded by the number of missions, and serves them in turn;
+//   one worker thread.
 // - A keyframe that fails to build leaves the mission's last committed tileset served; the error is counted and kept
 //   (last_error), and the next keyframe of the mission tries again.
 // - forget() (the mission was deleted) drops the hierarchy and its folder.
@@ -15,6 +17,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -62,7 +65,8 @@ class MissionTiles {
   tiles::TilingOptions options_;
   mutable std::mutex mutex_;
   mutable std::condition_variable cv_;
-  std::set<std::string> queue_;
+  std::set<std::string> queue_;    // the missions waiting, each once
+  std::deque<std::string> order_;  // the same, first come first served (a mission that steps again goes last)
   std::string busy_;  // the mission being updated, or empty
   bool stopping_ = false;
   std::atomic<bool> stop_update_{false};  // set by stop(), read by the update under way

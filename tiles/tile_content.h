@@ -1,16 +1,16 @@
 #pragma once
 // What one tile draws, built from what it covers:
-// - a leaf: the keyframes' own triangles whose centroid falls in its cell, whole (not split at the cell border, so
-//   neighbouring leaves meet without a crack: a triangle is in exactly one leaf, and the leaf's bounding volume grows
-//   to hold it). Its texture is baked into one footprint atlas (atlas/footprint_layout.h: a cell per triangle, about
-//   one texel per source texel along each leg) from the keyframes' own textures, through each triangle's UVs: an
-//   affine copy of what the keyframe GLB shows, whichever keyframes the leaf merges.
+// - a leaf: one keyframe's surface, whole, as its GLB shows it (its texture bytes kept), placed in the world. Leaves
+//   are not split at cell borders, so they never crack: every triangle is in exactly one leaf, and a leaf is built
+//   once per keyframe revision, whatever else the mission holds (no leaf grows with revisits, and storing the leaves
+//   costs about the posted bytes). A leaf's cell (tiles/tile_key.h) is where its surface's centroid lies; its
+//   bounding volume is its own.
 // - an inner tile: the merged surface of its children, welded on a 1 mm grid and simplified with meshoptimizer
-//   (meshopt_simplify). Its error is the simplifier's, in metres, plus the largest of its children's. At level 1 open
-//   borders are locked, so the finest inner tiles meet their neighbours exactly; above it they are not (a depth mesh
-//   is mostly border: locked, a level-2 tile kept 4x what it should), and a gap between two coarse tiles is within
-//   their geometric error, which is what a client's screen-space error bounds. Its texture is baked into one
-//   footprint atlas at the resolution its error needs: texel side = error / InnerBakeOptions::texels_per_error, and at
+//   (meshopt_simplify). Its error is the simplifier's, in metres, plus the largest of its children's. Open borders
+//   are not locked (a depth mesh is mostly border: locked, a level-2 tile kept 4x what it should; and the leaves,
+//   whole keyframes, overlap rather than meet at cell borders), so a gap between two inner tiles is within their
+//   geometric error, which is what a client's screen-space error bounds. Its texture is baked into one footprint
+//   atlas at the resolution its error needs: texel side = error / InnerBakeOptions::texels_per_error, and at
 //   least twice the children's own texel side (a level up halves the detail along each axis, as for the triangles, so
 //   a tile's texel count does not grow with its level), legs halved until the atlas fits its cap. Colour comes
 //   from the children's surface, not from the simplified one: each texel's point on a simplified triangle is
@@ -21,9 +21,13 @@
 //   simplified triangle spans many children's triangles, their cells and textures; the projection finds whichever of
 //   them lies under it (a bounding volume hierarchy over the children's triangles), and where two layers overlap
 //   (keyframes seen twice) it takes the nearer one.
-// Positions are metres in the mission's world frame (scene/camera.h); the tile's one SceneNode has to_world identity.
+// A tile GLB holds one SceneNode. An inner tile's positions are metres in the mission's world frame (scene/camera.h),
+// its node's to_world identity; a leaf keeps its keyframe's node: positions in the keyframe's frame, to_world its pose
+// (the geometry encodes as compactly as the keyframe GLB did).
 #include <cstdint>
 #include <functional>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -52,18 +56,15 @@ struct InnerBakeOptions {
   double texels_per_error = 2.0;
 };
 
-// The triangles of a placed keyframe (its nodes' to_world applied) whose centroid lies in the leaf `key`, as pairs
-// (node index, triangle index), in node then triangle order.
-std::vector<std::pair<std::uint32_t, std::uint32_t>> leaf_triangles(const Scene& placed, const TileKey& key,
-                                                                     double leaf_size_m);
-// The leaves (level 0) that some triangle of the placed keyframe falls in, in key order.
-std::vector<TileKey> leaves_touched(const Scene& placed, double leaf_size_m);
+// The leaf that holds a placed keyframe (its nodes' to_world applied): the level-0 cell where the mean of its
+// triangles' centroids lies, with keyframe = seq. nullopt when it has no triangle.
+std::optional<TileKey> keyframe_leaf(const Scene& placed, std::int64_t seq, double leaf_size_m);
 
-// A leaf's content from the given placed keyframes (in the order given; each contributes the triangles leaf_triangles
-// names): one textured mesh in world coordinates, its triangles in input order. kEmpty when no triangle falls in
-// the leaf; kInvalidInput for a mesh whose indices or uvs are inconsistent.
-Result<Mesh> build_leaf(const std::vector<const Scene*>& keyframes, const TileKey& key, double leaf_size_m,
-                        const LeafBakeOptions& options);
+// A leaf's content, the placed keyframe's whole surface. A keyframe with one meshed node (what the reduction makes) is
+// that node as it is: triangles, uvs and stored texture bytes in its own frame, placed by its to_world; several
+// meshed nodes are baked into one footprint atlas in world coordinates. kEmpty when it has no triangle; kInvalidInput
+// for a mesh whose indices, uvs or colours are inconsistent. `name` names the leaf in errors.
+Result<SceneNode> build_leaf(const Scene& placed, const std::string& name, const LeafBakeOptions& options);
 
 struct InnerTile {
   Mesh mesh;               // textured (tiles/tile_bake.h), world coordinates

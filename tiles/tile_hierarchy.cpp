@@ -18,8 +18,8 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kManifest = "hierarchy.json";
-constexpr int kFormat = 4;  // 2: inner tiles are textured; 3: their texels at least twice their children's;
-                            // 4: records carry render bytes
+constexpr int kFormat = 5;  // 2: inner tiles are textured; 3: their texels at least twice their children's;
+                            // 4: records carry render bytes; 5: keyframes are the leaves, inner tiles can be stale
 constexpr size_t kMaxManifestBytes = size_t(256) << 20;
 
 nlohmann::json options_json(const TilingOptions& o) {
@@ -27,7 +27,8 @@ nlohmann::json options_json(const TilingOptions& o) {
           {"inner_triangles", o.inner_triangles}, {"leaf_max_atlas_side_px", o.leaf.max_atlas_side_px},
           {"leaf_gutter_px", o.leaf.gutter_px}, {"leaf_jpeg_quality", o.leaf.jpeg_quality},
           {"inner_max_atlas_side_px", o.inner.atlas.max_atlas_side_px}, {"inner_gutter_px", o.inner.atlas.gutter_px},
-          {"inner_jpeg_quality", o.inner.atlas.jpeg_quality}, {"inner_texels_per_error", o.inner.texels_per_error}};
+          {"inner_jpeg_quality", o.inner.atlas.jpeg_quality}, {"inner_texels_per_error", o.inner.texels_per_error},
+          {"geometry", to_string(o.geometry)}};
 }
 
 // The quantization step of a tile's positions bounds how far its stored vertices are from the exact ones: the box
@@ -66,12 +67,25 @@ class TileHierarchy::SceneCache {
 
 std::string TileRecord::file() const { return key.name() + ".v" + std::to_string(version) + ".glb"; }
 
-// One update in the making: the new state, built beside the committed one.
+std::vector<const TileRecord*> children_of(const std::map<TileKey, TileRecord>& tiles, const TileKey& key) {
+  std::vector<const TileRecord*> out;
+  if (key.level == 0) return out;
+  for (std::int64_t dx = 0; dx < 2; ++dx)
+    for (std::int64_t dz = 0; dz < 2; ++dz) {
+      const TileKey cell{key.level - 1, 2 * key.x + dx, 2 * key.z + dz, INT64_MIN};
+      for (auto it = tiles.lower_bound(cell);
+           it != tiles.end() && it->first.level == cell.level && it->first.x == cell.x && it->first.z == cell.z; ++it)
+        out.push_back(&it->second);
+    }
+  return out;
+}
+
+// One commit in the making: the new state, built beside the committed one.
 struct TileHierarchy::Build {
   std::uint64_t version = 0;
   std::map<TileKey, TileRecord> tiles;
   std::map<std::int64_t, KeyframeEntry> keyframes;
-  std::set<TileKey> dirty;  // tiles to build again (leaves first, then each level's parents)
+  std::set<TileKey> leaves;  // leaves to build again or remove
   UpdateStats stats;
 };
 
@@ -89,7 +103,8 @@ Result<std::unique_ptr<TileHierarchy>> TileHierarchy::open(const std::string& di
   }
   // Whatever the committed records do not name is a cut update's (or an older version's): delete it.
   std::set<std::string> named = {kManifest};
-  for (const auto& [key, r] : h->tiles_) named.insert(r.file());
+  for (const auto& [key, r] : h->tiles_)
+    if (r.has_content()) named.insert(r.file());
   for (const auto& entry : fs::directory_iterator(dir, ec))
     if (!named.count(entry.path().filename().string())) fs::remove_all(entry.path(), ec);
   h->publish();
@@ -130,6 +145,7 @@ Status TileHierarchy::load_committed() {
       r.triangles = t.at(9).get<std::uint64_t>();
       r.bytes = t.at(10).get<std::uint64_t>();
       r.render_bytes = t.at(11).get<std::uint64_t>();
+      r.stale = t.at(12).get<bool>();
       tiles_[r.key] = r;
     }
   } catch (const nlohmann::json::exception&) {
@@ -138,39 +154,78 @@ Status TileHierarchy::load_committed() {
   return ok_status();
 }
 
-Result<UpdateStats> TileHierarchy::update(const std::vector<KeyframeId>& wanted, const KeyframeLoader& load,
-                                          const std::atomic<bool>* stop) {
+TileHierarchy::Build TileHierarchy::begin_build() const {
   Build b;
   b.version = version_ + 1;
   b.tiles = tiles_;
   b.keyframes = keyframes_;
+  b.stats.version = version_;
+  return b;
+}
+
+namespace {
+size_t count_stale(const std::map<TileKey, TileRecord>& tiles) {
+  return std::count_if(tiles.begin(), tiles.end(), [](const auto& kv) { return kv.second.stale; });
+}
+}  // namespace
+
+Status TileHierarchy::apply_keyframes(Build& b, const std::vector<KeyframeId>& wanted, SceneCache& scenes) {
   std::map<std::int64_t, std::int64_t> want;
   for (const auto& k : wanted) want[k.seq] = k.rev;
-  // Keyframes gone or replaced: the leaves they touched are built again without them.
+  // Keyframes gone or replaced: their leaves go (a replacement's is built again below).
   for (auto it = b.keyframes.begin(); it != b.keyframes.end();) {
     auto w = want.find(it->first);
     if (w != want.end() && w->second == it->second.rev) {
       ++it;
       continue;
     }
-    b.dirty.insert(it->second.leaves.begin(), it->second.leaves.end());
+    b.leaves.insert(it->second.leaves.begin(), it->second.leaves.end());
     ++b.stats.keyframes_changed;
     it = b.keyframes.erase(it);
   }
-  SceneCache scenes(load, 16);
   for (const auto& [seq, rev] : want) {
     if (b.keyframes.count(seq)) continue;
     auto scene = scenes.get({seq, rev});
     if (!scene) return scene.error();
-    KeyframeEntry e{rev, leaves_touched(**scene, options_.leaf_size_m)};
-    b.dirty.insert(e.leaves.begin(), e.leaves.end());
+    KeyframeEntry e{rev, {}};
+    if (auto leaf = keyframe_leaf(**scene, seq, options_.leaf_size_m)) e.leaves.push_back(*leaf);
+    b.leaves.insert(e.leaves.begin(), e.leaves.end());
     if (!keyframes_.count(seq)) ++b.stats.keyframes_changed;
     b.keyframes[seq] = std::move(e);
   }
-  b.stats.version = version_;
-  if (b.dirty.empty() && b.stats.keyframes_changed == 0) return b.stats;
+  return ok_status();
+}
+
+Result<UpdateStats> TileHierarchy::update(const std::vector<KeyframeId>& wanted, const KeyframeLoader& load,
+                                          const std::atomic<bool>* stop) {
+  Build b = begin_build();
+  SceneCache scenes(load, 16);
+  if (auto st = apply_keyframes(b, wanted, scenes); !st) return st.error();
+  if (b.stats.keyframes_changed == 0 && count_stale(b.tiles) == 0) return b.stats;
   if (auto st = build_leaves(b, scenes, stop); !st) return st.error();
-  if (auto st = build_inner_levels(b, stop); !st) return st.error();
+  if (auto st = sweep_stale(b, stop, nullptr); !st) return st.error();
+  b.stats.stale = count_stale(b.tiles);
+  if (auto st = commit(b); !st) return st.error();
+  b.stats.version = version_;
+  return b.stats;
+}
+
+Result<UpdateStats> TileHierarchy::step(const std::vector<KeyframeId>& wanted, const KeyframeLoader& load,
+                                        const std::atomic<bool>* stop, const std::function<bool()>& yield) {
+  Build b = begin_build();
+  SceneCache scenes(load, 16);
+  if (auto st = apply_keyframes(b, wanted, scenes); !st) return st.error();
+  if (b.stats.keyframes_changed > 0) {
+    if (auto st = build_leaves(b, scenes, stop); !st) return st.error();
+  } else {
+    if (count_stale(b.tiles) == 0) return b.stats;
+    const std::function<bool()> never = [] { return false; };
+    if (auto st = sweep_stale(b, stop, yield ? yield : never); !st) return st.error();
+    // A sweep that went on from a higher level may find nothing to build there: the lowest stale tiles always can be.
+    if (b.stats.inner_built + b.stats.tiles_removed == 0)
+      if (auto st = sweep_stale(b, stop, yield ? yield : never); !st) return st.error();
+  }
+  b.stats.stale = count_stale(b.tiles);
   if (auto st = commit(b); !st) return st.error();
   b.stats.version = version_;
   return b.stats;
@@ -178,34 +233,40 @@ Result<UpdateStats> TileHierarchy::update(const std::vector<KeyframeId>& wanted,
 
 namespace {
 
-// Encodes a tile's mesh as its GLB (compact: quantized, meshopt-compressed; its texture as the mesh holds it) and
+// Encodes a tile's node as its GLB (compact: quantized, meshopt-compressed; its texture as the mesh holds it) and
 // writes it; the record gets its size and triangle count, and its box grows to hold the GLB's positions.
-Status write_tile(const std::string& dir, Mesh mesh, TileRecord* r) {
+Status write_tile(const std::string& dir, SceneNode node, GeometryCodec codec, TileRecord* r) {
   Scene scene;
-  SceneNode node;
   node.name = "tile_" + r->key.name();
-  node.mesh = std::move(mesh);
   scene.nodes.push_back(std::move(node));
-  auto glb = encode_glb(scene);
+  GlbWriteOptions options;
+  options.geometry_codec = codec;
+  auto glb = encode_glb(scene, options);
   if (!glb) return make_error(glb.error().code, "tile " + r->key.name() + ": " + glb.error().message);
   if (auto st = glb::write_file_atomically(dir + "/" + r->file(), *glb); !st) return st.error();
   r->bytes = glb->size();
   r->triangles = scene.triangle_count();
   r->render_bytes = render_bytes(scene);
-  const Eigen::AlignedBox3d box = mesh_box(scene.nodes.front().mesh, 0.0);
-  r->box.extend(mesh_box(scene.nodes.front().mesh, position_pad_m(box)));
+  const SceneNode& n = scene.nodes.front();
+  const Eigen::AlignedBox3d local = mesh_box(n.mesh, 0.0);
+  const Eigen::AlignedBox3d padded = mesh_box(n.mesh, position_pad_m(local));
+  for (int c = 0; c < 8; ++c)  // the world box of the node's (padded) box
+    r->box.extend((n.to_world * padded.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c)).homogeneous()).head<3>());
   return ok_status();
 }
 
-// A tile's content as its parent reads it: the stored GLB decoded, whether it was written in this update or an
-// earlier one, so that a parent's input does not depend on which.
+// A tile's content as its parent reads it, in world coordinates: the stored GLB decoded, whether it was written in
+// this update or an earlier one, so that a parent's input does not depend on which.
 Result<Mesh> read_tile(const std::string& dir, const TileRecord& r) {
   auto bytes = glb::read_file_bytes(dir + "/" + r.file(), size_t(512) << 20);
   if (!bytes) return bytes.error();
   auto scene = decode_glb(bytes->data(), bytes->size());
   if (!scene || scene->nodes.empty())
     return make_error(ErrorCode::kInvalidInput, "tile " + r.key.name() + ": stored GLB does not decode");
-  return std::move(scene->nodes.front().mesh);
+  SceneNode& node = scene->nodes.front();
+  if (!node.to_world.isIdentity())
+    for (auto& p : node.mesh.positions) p = (node.to_world * p.cast<double>().homogeneous()).head<3>().cast<float>();
+  return std::move(node.mesh);
 }
 
 Status stopped(const std::atomic<bool>* stop) {
@@ -216,71 +277,84 @@ Status stopped(const std::atomic<bool>* stop) {
 }  // namespace
 
 Status TileHierarchy::build_leaves(Build& b, SceneCache& scenes, const std::atomic<bool>* stop) {
-  // Which keyframes each dirty leaf holds, in seq order.
-  std::map<TileKey, std::vector<KeyframeId>> holders;
-  for (const auto& [seq, e] : b.keyframes)
-    for (const auto& leaf : e.leaves)
-      if (b.dirty.count(leaf)) holders[leaf].push_back({seq, e.rev});
-  std::set<TileKey> parents;
-  for (const TileKey& leaf : b.dirty) {
+  for (const TileKey& leaf : b.leaves) {
     if (auto st = stopped(stop); !st) return st;
-    parents.insert(leaf.parent());
-    std::vector<std::shared_ptr<const Scene>> held;  // alive while the leaf is built, whatever the cache drops
-    std::vector<const Scene*> keyframes;
-    for (const auto& id : holders[leaf]) {
-      auto scene = scenes.get(id);
+    auto holder = b.keyframes.find(leaf.keyframe);
+    const bool held = holder != b.keyframes.end() && !holder->second.leaves.empty() &&
+                      holder->second.leaves.front() == leaf;
+    Result<SceneNode> content = make_error(ErrorCode::kEmpty, "no keyframe");
+    if (held) {
+      auto scene = scenes.get({leaf.keyframe, holder->second.rev});
       if (!scene) return scene.error();
-      held.push_back(*scene);
-      keyframes.push_back(held.back().get());
+      content = build_leaf(**scene, leaf.name(), options_.leaf);
     }
-    auto mesh = keyframes.empty() ? Result<Mesh>(make_error(ErrorCode::kEmpty, "no keyframe"))
-                                  : build_leaf(keyframes, leaf, options_.leaf_size_m, options_.leaf);
-    if (auto st = store_tile(b, leaf, std::move(mesh), TileRecord{}, &b.stats.leaves_built); !st) return st;
+    if (auto st = store_tile(b, leaf, std::move(content), TileRecord{}, &b.stats.leaves_built); !st) return st;
+    mark_ancestors_stale(b, leaf);
   }
-  b.dirty = std::move(parents);
+  b.leaves.clear();
   return ok_status();
 }
 
-Status TileHierarchy::build_inner_levels(Build& b, const std::atomic<bool>* stop) {
-  for (int level = 1; level <= options_.top_level; ++level) {
-    std::set<TileKey> parents;
-    for (const TileKey& key : b.dirty) {
-      if (auto st = stopped(stop); !st) return st;
-      parents.insert(key.parent());
-      std::vector<Mesh> children;
-      std::vector<const TileRecord*> child_records;
-      for (std::int64_t dx = 0; dx < 2; ++dx)
-        for (std::int64_t dz = 0; dz < 2; ++dz) {
-          auto it = b.tiles.find(TileKey{level - 1, 2 * key.x + dx, 2 * key.z + dz});
-          if (it == b.tiles.end()) continue;
-          auto mesh = read_tile(dir_, it->second);
-          if (!mesh) return mesh.error();
-          children.push_back(std::move(*mesh));
-          child_records.push_back(&it->second);
-        }
-      TileRecord r;  // holds its children's boxes, and its error covers theirs
-      double child_error = 0.0;
-      for (const TileRecord* c : child_records) {
-        child_error = std::max(child_error, c->geometric_error_m);
-        r.box.extend(c->box);
-      }
-      std::vector<const Mesh*> inputs;
-      for (const auto& m : children) inputs.push_back(&m);
-      auto inner = inputs.empty() ? Result<InnerTile>(make_error(ErrorCode::kEmpty, "no child"))
-                                  : build_inner(inputs, child_error, options_.inner_triangles, level == 1,
-                                                options_.inner);
-      r.geometric_error_m = child_error + (inner ? inner->simplify_error_m : 0.0);
-      auto mesh = inner ? Result<Mesh>(std::move(inner->mesh)) : Result<Mesh>(inner.error());
-      if (auto st = store_tile(b, key, std::move(mesh), r, &b.stats.inner_built); !st) return st;
-    }
-    b.dirty = std::move(parents);
+void TileHierarchy::mark_ancestors_stale(Build& b, const TileKey& leaf) {
+  auto it = b.tiles.find(leaf);
+  for (TileKey key = leaf.parent(); key.level <= options_.top_level; key = key.parent()) {
+    TileRecord& r = b.tiles[key];  // a new one: no content yet (version 0)
+    r.key = key;
+    r.stale = true;
+    if (it != b.tiles.end()) r.box.extend(it->second.box);
   }
+}
+
+// Builds `key` again from its children (or removes it when none is left). Its children are fresh.
+Status TileHierarchy::build_inner(Build& b, const TileKey& key) {
+  const auto child_records = children_of(b.tiles, key);
+  std::vector<Mesh> children;
+  TileRecord r;  // holds its children's boxes, and its error covers theirs
+  double child_error = 0.0;
+  for (const TileRecord* c : child_records) {
+    auto mesh = read_tile(dir_, *c);
+    if (!mesh) return mesh.error();
+    children.push_back(std::move(*mesh));
+    child_error = std::max(child_error, c->geometric_error_m);
+    r.box.extend(c->box);
+  }
+  std::vector<const Mesh*> inputs;
+  for (const auto& m : children) inputs.push_back(&m);
+  auto inner = inputs.empty() ? Result<InnerTile>(make_error(ErrorCode::kEmpty, "no child"))
+                              : tiles::build_inner(inputs, child_error, options_.inner_triangles, false,
+                                                   options_.inner);
+  r.geometric_error_m = child_error + (inner ? inner->simplify_error_m : 0.0);
+  SceneNode node;
+  if (inner) node.mesh = std::move(inner->mesh);
+  Result<SceneNode> content = inner ? Result<SceneNode>(std::move(node)) : Result<SceneNode>(inner.error());
+  return store_tile(b, key, std::move(content), r, &b.stats.inner_built);
+}
+
+Status TileHierarchy::sweep_stale(Build& b, const std::atomic<bool>* stop, const std::function<bool()>& yield) {
+  for (int level = yield ? sweep_level_ : 1; level <= options_.top_level; ++level) {
+    std::vector<TileKey> stale;
+    for (auto it = b.tiles.lower_bound(TileKey{level, INT64_MIN, INT64_MIN, INT64_MIN});
+         it != b.tiles.end() && it->first.level == level; ++it)
+      if (it->second.stale) stale.push_back(it->first);
+    for (const TileKey& key : stale) {
+      const auto children = children_of(b.tiles, key);
+      if (std::any_of(children.begin(), children.end(), [](const TileRecord* c) { return c->stale; })) continue;
+      if (auto st = stopped(stop); !st) return st;
+      if (auto st = build_inner(b, key); !st) return st;
+      if (yield && yield()) {
+        sweep_level_ = level;
+        return ok_status();
+      }
+    }
+  }
+  sweep_level_ = 1;
   return ok_status();
 }
 
 // Tile `key` of this build: `content` written as its GLB and recorded (record's version, size, triangles set here,
 // its box grown to hold the content; ++*built), or the tile removed when content is kEmpty.
-Status TileHierarchy::store_tile(Build& b, const TileKey& key, Result<Mesh> content, TileRecord record, size_t* built) {
+Status TileHierarchy::store_tile(Build& b, const TileKey& key, Result<SceneNode> content, TileRecord record,
+                                 size_t* built) {
   if (!content && content.error().code == ErrorCode::kEmpty) {
     b.stats.tiles_removed += b.tiles.erase(key);
     return ok_status();
@@ -288,7 +362,7 @@ Status TileHierarchy::store_tile(Build& b, const TileKey& key, Result<Mesh> cont
   if (!content) return make_error(content.error().code, "tile " + key.name() + ": " + content.error().message);
   record.key = key;
   record.version = b.version;
-  if (auto st = write_tile(dir_, std::move(*content), &record); !st) return st;
+  if (auto st = write_tile(dir_, std::move(*content), options_.geometry, &record); !st) return st;
   b.stats.bytes_written += record.bytes;
   b.tiles[key] = record;
   ++*built;
@@ -304,7 +378,8 @@ Status TileHierarchy::commit(Build& b) {
   }
   for (const auto& [key, r] : b.tiles)
     tiles.push_back({key.name(), r.version, r.box.min().x(), r.box.min().y(), r.box.min().z(), r.box.max().x(),
-                     r.box.max().y(), r.box.max().z(), r.geometric_error_m, r.triangles, r.bytes, r.render_bytes});
+                     r.box.max().y(), r.box.max().z(), r.geometric_error_m, r.triangles, r.bytes, r.render_bytes,
+                     r.stale});
   const nlohmann::json manifest = {{"format", kFormat},      {"version", b.version}, {"options", options_json(options_)},
                                    {"keyframes", keyframes}, {"tiles", tiles}};
   const std::string text = manifest.dump();
@@ -313,13 +388,14 @@ Status TileHierarchy::commit(Build& b) {
     return st;
   // Committed. The previous version's files stay for clients that read its tileset; the ones before it go.
   std::set<std::string> now;
-  for (const auto& [key, r] : b.tiles) now.insert(r.file());
+  for (const auto& [key, r] : b.tiles)
+    if (r.has_content()) now.insert(r.file());
   std::error_code ec;
   for (const auto& f : retired_)
     if (!now.count(f)) fs::remove(dir_ + "/" + f, ec);
   retired_.clear();
   for (const auto& [key, r] : tiles_)
-    if (!now.count(r.file())) retired_.insert(r.file());
+    if (r.has_content() && !now.count(r.file())) retired_.insert(r.file());
   version_ = b.version;
   tiles_ = std::move(b.tiles);
   keyframes_ = std::move(b.keyframes);
@@ -335,7 +411,9 @@ void TileHierarchy::publish() {
   for (const auto& [seq, k] : keyframes_) s->keyframes.emplace(seq, k.rev);
   s->top_level = options_.top_level;
   for (const auto& [key, r] : tiles_) {
-    s->files[r.file()] = r.bytes;
+    if (!r.has_content()) continue;
+    s->files[r.file()] = r.bytes;  // a stale tile's too: a client may hold the tileset that named it
+    if (r.stale) continue;
     ++s->tiles;
     s->triangles += r.triangles;
     s->bytes += r.bytes;

@@ -1,22 +1,25 @@
 #pragma once
-// A mission's live level-of-detail hierarchy: a quadtree of tiles over the floor (tiles/tile_key.h) whose leaves hold
+// A mission's live level-of-detail hierarchy: a quadtree of tiles over the floor (tiles/tile_key.h) whose leaves are
 // the keyframes' surfaces and whose inner tiles hold their children's, simplified (tiles/tile_content.h), served as
 // an OGC 3D Tiles 1.1 tileset (tiles/tileset_json.h) with GLB content and REPLACE refinement.
 //
-// On disk, in its own folder: one GLB per tile version, "<level>_<x>_<z>.v<version>.glb" (immutable: a tile that
-// changes is written under the new version's name), and hierarchy.json, the commit marker: the version, the options,
-// every tile's record and the leaves each keyframe touches. Contract:
-// - update() writes the changed tiles' files first (each atomically: temporary name, fsync, rename, fsync of the
+// On disk, in its own folder: one GLB per tile version, "<name>.v<version>.glb" (immutable: a tile that changes is
+// written under the new version's name), and hierarchy.json, the commit marker: the version, the options, every
+// tile's record and the leaf of each keyframe. Contract:
+// - Each commit writes the changed tiles' files first (each atomically: temporary name, fsync, rename, fsync of the
 //   folder), then hierarchy.json atomically. A crash (kill -9) at any point leaves the last committed hierarchy whole:
 //   open() serves it and deletes what a cut update left (files no committed record names).
 // - After a commit, the files of the version before it stay (a client that read the previous tileset can still fetch
 //   its tiles); older ones are deleted.
-// - Incremental: a new keyframe, a revision that replaces one (a higher rev of a seq), or a keyframe gone, rebuilds
-//   only the leaves it touches (before and after) and their ancestors. Every build is a function of its inputs (a
-//   leaf: its keyframes in seq order; an inner tile: its children's stored GLBs), so an incremental hierarchy has the
-//   same tile contents as one built from scratch.
+// - Incremental: a new keyframe, a revision that replaces one (a higher rev of a seq), or a keyframe gone, builds or
+//   removes its own leaf only; every ancestor of a changed leaf becomes stale (its box grown to hold the leaf) until
+//   it is built again from its children. A stale tile is drawn by nobody: views and clients refine through it
+//   (tiles/tile_selection.h, tiles/tileset_json.h), so a keyframe is in the tileset as soon as its leaf is committed,
+//   and no view shows a coarse tile that lacks it.
+// - Every build is a function of its inputs (a leaf: its keyframe; an inner tile: its children's stored GLBs, built
+//   only once none of them is stale), so a hierarchy with no stale tile has the same contents however it was reached.
 // - Every tile's geometric error is in metres and at least each of its children's; leaves' is 0.
-// Not thread-safe, except snapshot(), which any thread may call while update() runs.
+// Not thread-safe, except snapshot(), which any thread may call while update() or step() runs.
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -29,6 +32,7 @@
 
 #include <Eigen/Geometry>
 
+#include "gltf/gltf_io.h"
 #include "scene/result.h"
 #include "scene/scene.h"
 #include "tiles/tile_content.h"
@@ -42,6 +46,9 @@ struct TilingOptions {
   size_t inner_triangles = 20000;  // an inner tile keeps at most this many (and a quarter of its children's)
   LeafBakeOptions leaf;
   InnerBakeOptions inner;
+  // Draco, the keyframes' own codec: a leaf's geometry then takes what its keyframe GLB took (meshopt: 2.4x more on
+  // TUM keyframes); three.js (DRACOLoader) and decode_glb read it.
+  GeometryCodec geometry = GeometryCodec::kDraco;
 };
 
 struct KeyframeId {
@@ -56,8 +63,16 @@ struct TileRecord {
   double geometric_error_m = 0.0;
   std::uint64_t triangles = 0, bytes = 0;
   std::uint64_t render_bytes = 0;  // what a renderer holds for it (scene/render_bytes.h)
+  // An inner tile whose children changed since its content was built, or that has none yet (version 0): its content
+  // is not drawn, and its box and error are only bounds.
+  bool stale = false;
+  bool has_content() const { return version > 0; }
   std::string file() const;       // "<name>.v<version>.glb"
 };
+
+// The records of `key`'s children in `tiles`, in key order: for a level-1 tile the leaves in its four cells, above it
+// the four tiles below that are present.
+std::vector<const TileRecord*> children_of(const std::map<TileKey, TileRecord>& tiles, const TileKey& key);
 
 // What clients read, made at each commit.
 struct TilesetSnapshot {
@@ -78,6 +93,7 @@ struct UpdateStats {
   size_t keyframes_changed = 0;   // added, replaced or removed
   size_t leaves_built = 0, inner_built = 0, tiles_removed = 0;
   std::uint64_t bytes_written = 0;
+  size_t stale = 0;  // inner tiles still stale when the call returned
 };
 
 class TileHierarchy {
@@ -87,20 +103,29 @@ class TileHierarchy {
   static Result<std::unique_ptr<TileHierarchy>> open(const std::string& dir, const TilingOptions& options);
   ~TileHierarchy();
 
-  // Brings the hierarchy to `keyframes` (the mission's current keyframes, one rev per seq) and commits a new version
-  // when anything changed (else returns the current version and changes nothing). A keyframe that fails to load or
-  // build fails the update (kept uncommitted: the previous version stays served), naming the keyframe or tile.
-  // `stop`, when given and set, ends the update between two tiles (kUnavailable, uncommitted, as a crash would leave
-  // it): a server shutting down does not wait for a long update.
+  // Brings the hierarchy to `keyframes` (the mission's current keyframes, one rev per seq) and builds every stale
+  // tile, in one commit when anything changed (else returns the current version and changes nothing). A keyframe
+  // that fails to load or build fails the update (kept uncommitted: the previous version stays served), naming the
+  // keyframe or tile. `stop`, when given and set, ends the update between two tiles (kUnavailable, uncommitted, as a
+  // crash would leave it): a server shutting down does not wait for a long update.
   Result<UpdateStats> update(const std::vector<KeyframeId>& keyframes, const KeyframeLoader& load,
                              const std::atomic<bool>* stop = nullptr);
 
+  // One step of a live hierarchy, at most one commit, for a server that must show new keyframes at once:
+  // - when `keyframes` differ from the committed ones, their leaves only (their ancestors made stale);
+  // - else a sweep over the stale tiles, lowest level first, each built once its children are all fresh, until none
+  //   is left or `yield` (when given) returns true after a tile: new keyframes wait. The next sweep goes on from the
+  //   level where this one yielded, so every level is reached however often keyframes arrive.
+  // UpdateStats::stale says how many stale tiles remain: step again while it is not 0. Errors as update()'s.
+  Result<UpdateStats> step(const std::vector<KeyframeId>& keyframes, const KeyframeLoader& load,
+                           const std::atomic<bool>* stop = nullptr, const std::function<bool()>& yield = nullptr);
+
   std::uint64_t version() const { return version_; }
   const std::map<TileKey, TileRecord>& tiles() const { return tiles_; }
-  // seq -> (rev, the leaves it touches), as committed.
+  // seq -> (rev, its leaf), as committed.
   struct KeyframeEntry {
     std::int64_t rev = 0;
-    std::vector<TileKey> leaves;
+    std::vector<TileKey> leaves;  // its one leaf; none for a keyframe without triangles
   };
   const std::map<std::int64_t, KeyframeEntry>& keyframes() const { return keyframes_; }
   const std::string& dir() const { return dir_; }
@@ -112,9 +137,13 @@ class TileHierarchy {
   struct Build;
   class SceneCache;
   Status load_committed();
+  Build begin_build() const;
+  Status apply_keyframes(Build& b, const std::vector<KeyframeId>& wanted, SceneCache& scenes);
   Status build_leaves(Build& b, SceneCache& scenes, const std::atomic<bool>* stop);
-  Status build_inner_levels(Build& b, const std::atomic<bool>* stop);
-  Status store_tile(Build& b, const TileKey& key, Result<Mesh> content, TileRecord record, size_t* built);
+  void mark_ancestors_stale(Build& b, const TileKey& leaf);
+  Status sweep_stale(Build& b, const std::atomic<bool>* stop, const std::function<bool()>& yield);
+  Status build_inner(Build& b, const TileKey& key);
+  Status store_tile(Build& b, const TileKey& key, Result<SceneNode> content, TileRecord record, size_t* built);
   Status commit(Build& b);
   void publish();
 
@@ -124,6 +153,7 @@ class TileHierarchy {
   std::map<TileKey, TileRecord> tiles_;
   std::map<std::int64_t, KeyframeEntry> keyframes_;
   std::set<std::string> retired_;  // files of the previous version that the current one no longer names
+  int sweep_level_ = 1;            // where step()'s next sweep starts
   mutable std::mutex snapshot_mutex_;
   std::shared_ptr<const TilesetSnapshot> snapshot_;
 };

@@ -1,8 +1,8 @@
-// A leaf's content: the keyframes' triangles in its cell, textured through one baked footprint atlas.
+// A leaf's content: one keyframe's surface in world coordinates.
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <set>
+#include <optional>
 
 #include "atlas/cell_fill.h"
 #include "atlas/footprint_layout.h"
@@ -73,37 +73,32 @@ Rgb8 mean_color(const LeafTriangle& t) {
 
 }  // namespace
 
-std::vector<std::pair<std::uint32_t, std::uint32_t>> leaf_triangles(const Scene& placed, const TileKey& key,
-                                                                     double leaf_size_m) {
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> out;
-  for (size_t n = 0; n < placed.nodes.size(); ++n) {
-    const SceneNode& node = placed.nodes[n];
-    if (!mesh_consistent(node.mesh)) continue;
-    for (size_t t = 0; t < node.mesh.triangle_count(); ++t)
-      if (centroid_leaf(world_triangle(node, t), leaf_size_m) == key)
-        out.emplace_back(static_cast<std::uint32_t>(n), static_cast<std::uint32_t>(t));
-  }
-  return out;
-}
-
-std::vector<TileKey> leaves_touched(const Scene& placed, double leaf_size_m) {
-  std::set<TileKey> keys;
+std::optional<TileKey> keyframe_leaf(const Scene& placed, std::int64_t seq, double leaf_size_m) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  size_t n = 0;
   for (const SceneNode& node : placed.nodes) {
     if (!mesh_consistent(node.mesh)) continue;
-    for (size_t t = 0; t < node.mesh.triangle_count(); ++t)
-      keys.insert(centroid_leaf(world_triangle(node, t), leaf_size_m));
+    for (size_t t = 0; t < node.mesh.triangle_count(); ++t) {
+      const auto v = world_triangle(node, t);
+      sum += (v[0] + v[1] + v[2]) / 3.0;
+      ++n;
+    }
   }
-  return {keys.begin(), keys.end()};
+  if (n == 0) return std::nullopt;
+  const Eigen::Vector3d c = sum / double(n);
+  TileKey key = leaf_key(c.x(), c.z(), leaf_size_m);
+  key.keyframe = seq;
+  return key;
 }
 
-Result<Mesh> build_leaf(const std::vector<const Scene*>& keyframes, const TileKey& key, double leaf_size_m,
-                        const LeafBakeOptions& options) {
+namespace {
+
+// Several meshed nodes (a keyframe GLB may hold more than one): their triangles in one footprint atlas.
+Result<Mesh> bake_nodes(const Scene& placed, const std::string& name, const LeafBakeOptions& options) {
   std::vector<LeafTriangle> tris;
-  for (const Scene* scene : keyframes) {
-    for (const auto& [n, t] : leaf_triangles(*scene, key, leaf_size_m)) {
-      const SceneNode& node = scene->nodes[n];
-      if (!node.mesh.uvs.empty() && node.mesh.uvs.size() != node.mesh.positions.size())
-        return make_error(ErrorCode::kInvalidInput, "leaf " + key.name() + ": uvs do not match positions");
+  for (const SceneNode& node : placed.nodes) {
+    if (!mesh_consistent(node.mesh)) continue;
+    for (size_t t = 0; t < node.mesh.triangle_count(); ++t) {
       LeafTriangle lt;
       lt.node = &node;
       const auto world = world_triangle(node, t);
@@ -124,7 +119,7 @@ Result<Mesh> build_leaf(const std::vector<const Scene*>& keyframes, const TileKe
       tris.push_back(lt);
     }
   }
-  if (tris.empty()) return make_error(ErrorCode::kEmpty, "leaf " + key.name() + ": no triangle");
+  if (tris.empty()) return make_error(ErrorCode::kEmpty, "leaf " + name + ": no triangle");
   std::vector<BakeTriangle> cells(tris.size());
   for (size_t i = 0; i < tris.size(); ++i) cells[i] = {tris[i].world, tris[i].leg};
   auto mesh = bake_atlas_mesh(cells, options, [&](size_t i, const FootprintSlot& slot,
@@ -145,8 +140,34 @@ Result<Mesh> build_leaf(const std::vector<const Scene*>& keyframes, const TileKe
     }
   });
   if (!mesh && mesh.error().code != ErrorCode::kEmpty)
-    return make_error(mesh.error().code, "leaf " + key.name() + ": " + mesh.error().message);
+    return make_error(mesh.error().code, "leaf " + name + ": " + mesh.error().message);
   return mesh;
+}
+
+}  // namespace
+
+Result<SceneNode> build_leaf(const Scene& placed, const std::string& name, const LeafBakeOptions& options) {
+  const SceneNode* meshed = nullptr;
+  size_t count = 0;
+  for (const SceneNode& node : placed.nodes) {
+    if (node.mesh.triangle_count() == 0) continue;
+    if (!mesh_consistent(node.mesh))
+      return make_error(ErrorCode::kInvalidInput, "leaf " + name + ": indices, uvs or colours do not match positions");
+    meshed = &node;
+    ++count;
+  }
+  if (count == 0) return make_error(ErrorCode::kEmpty, "leaf " + name + ": no triangle");
+  SceneNode leaf;
+  leaf.name = "tile_" + name;
+  if (count == 1) {  // as it is: the leaf shows exactly what the keyframe GLB shows, its texture not encoded again
+    leaf.mesh = meshed->mesh;
+    leaf.to_world = meshed->to_world;
+    return leaf;
+  }
+  auto baked = bake_nodes(placed, name, options);
+  if (!baked) return baked.error();
+  leaf.mesh = std::move(*baked);
+  return leaf;
 }
 
 Eigen::AlignedBox3d mesh_box(const Mesh& mesh, double pad_m) {

@@ -60,16 +60,13 @@ struct Traversal {
       return;
     }
     if (r.key.level == 0) return draw(r);
-    const double d = distance_to_box(r.box, camera);
-    const double sse_px = d > 0.0 ? r.geometric_error_m * camera.fy / d : INFINITY;
-    if (sse_px <= max_error_px) return draw(r);
-    std::vector<const TileRecord*> children;
-    for (int i = 0; i < 2; ++i)
-      for (int j = 0; j < 2; ++j) {
-        auto it = records.find(TileKey{r.key.level - 1, 2 * r.key.x + i, 2 * r.key.z + j});
-        if (it != records.end()) children.push_back(&it->second);
-      }
-    if (children.empty()) return draw(r);
+    if (!r.stale) {  // a stale tile's content lacks what changed below it: its fresh descendants are drawn instead
+      const double d = distance_to_box(r.box, camera);
+      const double sse_px = d > 0.0 ? r.geometric_error_m * camera.fy / d : INFINITY;
+      if (sse_px <= max_error_px) return draw(r);
+    }
+    const auto children = children_of(records, r.key);
+    if (children.empty() && !r.stale) return draw(r);
     for (const TileRecord* c : children) visit(*c);
   }
 };

@@ -7,6 +7,7 @@
 //   one of the frustum's planes); a visible tile whose error is at most max_error_px, or a leaf, is drawn; any other
 //   is replaced by its children. max_error_px = 0 draws the visible leaves: full detail.
 // - A tile whose children are all absent is drawn itself (REPLACE needs something to replace it with).
+// - A stale tile (tiles/tile_hierarchy.h) is never drawn: its children are visited instead.
 // - A camera inside a tile's box has distance 0: that tile always refines.
 #include <cstddef>
 #include <map>

@@ -16,11 +16,14 @@ namespace rgbdcast::tiles {
 
 struct TileRecord;
 
-// A 3D Tiles "box" (centre, then the three half-axes) of a world-frame box.
+// A 3D Tiles "box" (centre, then the three half-axes) of a world-frame box, in millimetres' precision: the centre
+// rounded, the half-axes grown to still hold the box (a tileset of thousands of leaves is mostly boxes, and a full
+// double takes 17 digits).
 nlohmann::json tileset_box(const Eigen::AlignedBox3d& world_box);
 
 // The tileset JSON: asset.version "1.1", asset.tilesetVersion the hierarchy version, content URIs
-// content_prefix + TileRecord::file(). top_level: the level of the tiles under the root.
+// content_prefix + TileRecord::file(). top_level: the level of the tiles under the root. Geometric errors are rounded
+// up to 0.1 mm (rounding up keeps their order). A stale tile has no content and its parent's error.
 nlohmann::json make_tileset(const std::map<TileKey, TileRecord>& tiles, int top_level, std::uint64_t version,
                             const std::string& content_prefix);
 
