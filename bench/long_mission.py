@@ -9,8 +9,9 @@ mission (keyframe i is frame 10 * (i mod 12) of lap i div 12, seq i). Two varian
   revisit      lap L is moved by (1 m * (L mod 2), 0, 0): the robot passes the same place again and again.
 For each size N, variant and binary, a fresh server on loopback (its own data dir, stopped by pid) gets, in order:
   1. N keyframes posted back to back over one keep-alive connection (POST p50/p95, client side);
-  2. the wait until the tile worker's committed hierarchy holds all N (its lag behind the last POST answer), and the
-     server's CPU seconds (user + system) from its start to then, which a shared machine does not inflate;
+  2. the wait until the tile worker's committed hierarchy holds all N (its lag behind the last POST answer), then
+     until it has no stale inner tile ("settled", the same moment for a hierarchy committed whole), and the server's
+     CPU seconds (user + system) from its start to then, which a shared machine does not inflate;
   3. RSS (VmRSS, and VmHWM, the peak) after ingest;
   4. VIEWS robot views (pose=capture: the newest keyframe's camera) and VIEWS overviews (a camera that frames the
      whole mission from above and behind at 45 degrees, 60 degrees vertical fov), 640x480, sequential: p50;
@@ -266,6 +267,14 @@ class Server:
             return 0, set()
         return j["version"], {k[0] for k in j["keyframes"]}
 
+    def stale_tiles(self):
+        """Stale tiles in the committed hierarchy (records' 13th field, where the format has one), or None unread."""
+        try:
+            j = json.load(open(os.path.join(self.data, "tiles", MISSION, "hierarchy.json")))
+        except (OSError, ValueError):
+            return None
+        return sum(1 for t in j["tiles"] if len(t) > 12 and t[12])
+
     def stop(self):
         self._stopping.set()
         self._watchdog.join()
@@ -322,6 +331,18 @@ def wait_tiles(server, n, timeout_s):
     while time.monotonic() - t0 < timeout_s:
         _, seqs = server.hierarchy()
         if len(seqs) >= n and all(s in seqs for s in range(n)):
+            return time.monotonic() - t0
+        server.check_alive()
+        time.sleep(0.2)
+    return None
+
+
+def wait_settled(server, timeout_s):
+    """Seconds until the committed hierarchy has no stale tile (every inner tile built from its children's current
+    content), or None after timeout_s."""
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout_s:
+        if server.stale_tiles() == 0:
             return time.monotonic() - t0
         server.check_alive()
         time.sleep(0.2)
@@ -519,6 +540,8 @@ def run_one(name, binary, n, variant, workload, a, work):
                  post_p95_ms=pct(post_ms, 95))
         # The tile worker's lag: from the last POST's answer until the committed hierarchy holds every keyframe.
         r["tile_lag_s"] = None if wait_tiles(server, n, a.lag_timeout_s) is None else time.monotonic() - last_answer
+        # ... and until no inner tile is stale any more (the same moment for a hierarchy built in one commit).
+        r["settled_s"] = None if wait_settled(server, a.lag_timeout_s) is None else time.monotonic() - last_answer
         r["ingest_cpu_s"] = server.cpu_s()
         r["rss_ingest_mb"], r["hwm_ingest_mb"] = server.memory_mb()
 
@@ -576,7 +599,7 @@ def cell(v, f="%.0f"):
     return "-" if v is None else f % v
 
 
-COLUMNS = ["N", "binary", "posted MB", "POST p50/p95 ms", "tile lag s", "ingest CPU s", "RSS ingest MB (peak)", "RSS views MB (peak)",
+COLUMNS = ["N", "binary", "posted MB", "POST p50/p95 ms", "tile lag s", "settled s", "ingest CPU s", "RSS ingest MB (peak)", "RSS views MB (peak)",
            "robot p50 ms", "overview p50 ms", "8 clients views/s (p99 ms)", "tileset p50/p95 ms", "late join MB (tiles)",
            "tiles/posted", "data/posted", "model.glb MB (s)"]
 
@@ -593,6 +616,7 @@ def row(r):
         live_cell += f" ({live['keyframes'] - live['seen']} unseen)"
     return [str(r["n"]), r["binary"], "%.1f" % (r["posted_bytes"] / mb),
             f"{cell(r['post_p50_ms'], '%.1f')}/{cell(r['post_p95_ms'], '%.1f')}", cell(r["tile_lag_s"], "%.1f"),
+            cell(r.get("settled_s"), "%.1f"),
             cell(r.get("ingest_cpu_s"), "%.1f"), f"{r['rss_ingest_mb']:.0f} ({r['hwm_ingest_mb']:.0f})", f"{r['rss_views_mb']:.0f} ({r['hwm_views_mb']:.0f})",
             cell(r["robot_p50_ms"], "%.1f"), cell(r["overview_p50_ms"], "%.1f"),
             f"{t['views_per_s']:.1f} ({cell(t['p99_ms'])})" + (f" {t['failures']} failed" if t["failures"] else ""),

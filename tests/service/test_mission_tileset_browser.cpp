@@ -36,6 +36,14 @@ void content_uris(const json& tile, std::vector<std::string>* uris) {
   for (const auto& child : tile.value("children", json::array())) content_uris(child, uris);
 }
 
+// Whether every tile below the root has content (none is stale).
+bool all_fresh(const json& tile, bool root) {
+  if (!root && !tile.contains("content")) return false;
+  for (const auto& child : tile.value("children", json::array()))
+    if (!all_fresh(child, false)) return false;
+  return true;
+}
+
 // Triangles in the tileset's leaves (level 0 tiles), or 0 when a tile was replaced between the two reads.
 size_t leaf_triangles(httplib::Client& c, const std::string& mission, const json& tileset) {
   std::vector<std::string> uris;
@@ -102,7 +110,8 @@ TEST(MissionTilesetBrowser, TilesRendererLoadsTheTilesetAndDrawsIt) {
     posted_bytes += f.glb.size();
   }
 
-  // The tileset is built in the background: wait (60 s at most) until its leaves hold every posted triangle.
+  // The tileset is built in the background: wait (60 s at most) until its leaves hold every posted triangle and no
+  // tile is stale (every tile below the root has content), so the browser reads this version.
   json tileset;
   size_t in_leaves = 0;
   const auto t0 = std::chrono::steady_clock::now();
@@ -110,10 +119,11 @@ TEST(MissionTilesetBrowser, TilesRendererLoadsTheTilesetAndDrawsIt) {
     auto r = c.Get("/v1/missions/floor/tileset.json");
     ASSERT_TRUE(r && r->status == 200);
     tileset = json::parse(r->body);
-    if ((in_leaves = leaf_triangles(c, "floor", tileset)) == posted) break;
+    if ((in_leaves = leaf_triangles(c, "floor", tileset)) == posted && all_fresh(tileset["root"], true)) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
   ASSERT_EQ(in_leaves, posted) << "the tileset did not take every posted triangle within 60 s: " << tileset.dump();
+  ASSERT_TRUE(all_fresh(tileset["root"], true)) << "stale tiles after 60 s: " << tileset.dump();
   const double built_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::vector<std::string> uris;
   content_uris(tileset["root"], &uris);
