@@ -9,8 +9,17 @@
 namespace rgbdcast::service {
 namespace fs = std::filesystem;
 
+namespace {
+double seconds_since(std::chrono::steady_clock::time_point epoch, std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(t - epoch).count();
+}
+}  // namespace
+
 MissionTiles::MissionTiles(std::string data_dir, MissionStore& missions, tiles::TilingOptions options)
-    : root_((fs::path(data_dir) / "tiles").string()), missions_(missions), options_(std::move(options)) {}
+    : root_((fs::path(data_dir) / "tiles").string()),
+      missions_(missions),
+      options_(std::move(options)),
+      epoch_(std::chrono::steady_clock::now()) {}
 
 MissionTiles::~MissionTiles() { stop(); }
 
@@ -50,10 +59,20 @@ void MissionTiles::enqueue(const std::string& mission) {
   cv_.notify_all();
 }
 
+void MissionTiles::enqueue_at(const std::string& mission, std::chrono::steady_clock::time_point due) {
+  {
+    std::lock_guard lock(mutex_);
+    auto [it, added] = delayed_.emplace(mission, due);
+    if (!added) it->second = std::min(it->second, due);
+  }
+  cv_.notify_all();
+}
+
 void MissionTiles::forget(const std::string& mission) {
   std::unique_lock lock(mutex_);
   queue_.erase(mission);
   std::erase(order_, mission);
+  delayed_.erase(mission);
   cv_.wait(lock, [&] { return busy_ != mission; });  // an update under way finishes first
   hierarchies_.erase(mission);
   snapshots_.erase(mission);
@@ -72,7 +91,7 @@ std::string MissionTiles::tile_dir(const std::string& mission) const { return ro
 bool MissionTiles::wait_idle(double timeout_s) const {
   std::unique_lock lock(mutex_);
   return cv_.wait_for(lock, std::chrono::duration<double>(timeout_s),
-                      [&] { return (queue_.empty() && busy_.empty()) || stopping_; });
+                      [&] { return (queue_.empty() && delayed_.empty() && busy_.empty()) || stopping_; });
 }
 
 MissionTilesStats MissionTiles::stats() const {
@@ -83,8 +102,26 @@ MissionTilesStats MissionTiles::stats() const {
 void MissionTiles::run() {
   std::unique_lock lock(mutex_);
   while (true) {
-    cv_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
+    // Missions whose stale tiles are due join the queue.
+    const auto now = std::chrono::steady_clock::now();
+    auto next = std::chrono::steady_clock::time_point::max();
+    for (auto it = delayed_.begin(); it != delayed_.end();) {
+      if (it->second > now) {
+        next = std::min(next, it->second);
+        ++it;
+        continue;
+      }
+      if (queue_.insert(it->first).second) order_.push_back(it->first);
+      it = delayed_.erase(it);
+    }
     if (stopping_) return;
+    if (queue_.empty()) {
+      if (next == std::chrono::steady_clock::time_point::max())
+        cv_.wait(lock);
+      else
+        cv_.wait_until(lock, next);
+      continue;  // woken early, late or for nothing: look again
+    }
     busy_ = order_.front();
     order_.pop_front();
     queue_.erase(busy_);
@@ -133,7 +170,7 @@ void MissionTiles::update_one(const std::string& mission) {
         if (it == by_seq.end()) return make_error(ErrorCode::kNotFound, "not stored");
         return load_placed_keyframe(missions_, *it->second);
       },
-      &stop_update_,
+      seconds_since(epoch_, t0), &stop_update_,
       [&] {
         std::lock_guard lock(mutex_);
         return queue_.count(mission) > 0;
@@ -153,7 +190,9 @@ void MissionTiles::update_one(const std::string& mission) {
     stats_.update_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   missions_.set_tileset_version(mission, hierarchy->version());
-  if (updated->stale > 0) enqueue(mission);  // the sweep goes on, after whatever else waits
+  if (updated->stale > 0)  // the sweep goes on when its next tile is due, after whatever else waits
+    enqueue_at(mission, epoch_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                     std::chrono::duration<double>(updated->next_sweep_s)));
 }
 
 }  // namespace rgbdcast::service

@@ -1,6 +1,7 @@
 #include "tiles/tile_hierarchy.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <list>
@@ -85,7 +86,9 @@ struct TileHierarchy::Build {
   std::uint64_t version = 0;
   std::map<TileKey, TileRecord> tiles;
   std::map<std::int64_t, KeyframeEntry> keyframes;
-  std::set<TileKey> leaves;  // leaves to build again or remove
+  std::set<TileKey> leaves;    // leaves to build again or remove
+  std::set<TileKey> restaled;  // inner tiles that build_leaves made stale
+  std::set<TileKey> built;     // inner tiles built again (or removed)
   UpdateStats stats;
 };
 
@@ -203,29 +206,50 @@ Result<UpdateStats> TileHierarchy::update(const std::vector<KeyframeId>& wanted,
   if (auto st = apply_keyframes(b, wanted, scenes); !st) return st.error();
   if (b.stats.keyframes_changed == 0 && count_stale(b.tiles) == 0) return b.stats;
   if (auto st = build_leaves(b, scenes, stop); !st) return st.error();
-  if (auto st = sweep_stale(b, stop, nullptr); !st) return st.error();
+  if (auto st = sweep_stale(b, stop, nullptr, nullptr); !st) return st.error();
   b.stats.stale = count_stale(b.tiles);
   if (auto st = commit(b); !st) return st.error();
   b.stats.version = version_;
   return b.stats;
 }
 
+double TileHierarchy::due_at(const TileKey& key) const {
+  auto it = stale_since_.find(key);
+  if (it == stale_since_.end()) return -INFINITY;
+  return std::min(it->second.last_s + options_.settle_s, it->second.first_s + options_.max_stale_s);
+}
+
 Result<UpdateStats> TileHierarchy::step(const std::vector<KeyframeId>& wanted, const KeyframeLoader& load,
-                                        const std::atomic<bool>* stop, const std::function<bool()>& yield) {
+                                        double now_s, const std::atomic<bool>* stop,
+                                        const std::function<bool()>& yield) {
   Build b = begin_build();
   SceneCache scenes(load, 16);
   if (auto st = apply_keyframes(b, wanted, scenes); !st) return st.error();
   if (b.stats.keyframes_changed > 0) {
     if (auto st = build_leaves(b, scenes, stop); !st) return st.error();
-  } else {
-    if (count_stale(b.tiles) == 0) return b.stats;
+    for (const TileKey& key : b.restaled) {  // changed under it at now_s
+      auto [it, added] = stale_since_.try_emplace(key, StaleSince{now_s, now_s});
+      if (!added) it->second.last_s = now_s;
+    }
+  } else if (count_stale(b.tiles) > 0) {
     const std::function<bool()> never = [] { return false; };
-    if (auto st = sweep_stale(b, stop, yield ? yield : never); !st) return st.error();
+    const auto due = [&](const TileKey& key) { return due_at(key) <= now_s; };
+    if (auto st = sweep_stale(b, stop, yield ? yield : never, due); !st) return st.error();
     // A sweep that went on from a higher level may find nothing to build there: the lowest stale tiles always can be.
     if (b.stats.inner_built + b.stats.tiles_removed == 0)
-      if (auto st = sweep_stale(b, stop, yield ? yield : never); !st) return st.error();
+      if (auto st = sweep_stale(b, stop, yield ? yield : never, due); !st) return st.error();
   }
   b.stats.stale = count_stale(b.tiles);
+  // When to step again: the earliest a stale tile whose children are fresh (the ones a sweep can build) is due.
+  b.stats.next_sweep_s = INFINITY;
+  for (const auto& [key, r] : b.tiles) {
+    if (!r.stale) continue;
+    const auto children = children_of(b.tiles, key);
+    if (std::none_of(children.begin(), children.end(), [](const TileRecord* c) { return c->stale; }))
+      b.stats.next_sweep_s = std::min(b.stats.next_sweep_s, std::max(now_s, due_at(key)));
+  }
+  if (b.stats.stale == 0) b.stats.next_sweep_s = now_s;
+  if (b.stats.keyframes_changed == 0 && b.stats.inner_built + b.stats.tiles_removed == 0) return b.stats;
   if (auto st = commit(b); !st) return st.error();
   b.stats.version = version_;
   return b.stats;
@@ -301,6 +325,7 @@ void TileHierarchy::mark_ancestors_stale(Build& b, const TileKey& leaf) {
     TileRecord& r = b.tiles[key];  // a new one: no content yet (version 0)
     r.key = key;
     r.stale = true;
+    b.restaled.insert(key);
     if (it != b.tiles.end()) r.box.extend(it->second.box);
   }
 }
@@ -327,15 +352,17 @@ Status TileHierarchy::build_inner(Build& b, const TileKey& key) {
   SceneNode node;
   if (inner) node.mesh = std::move(inner->mesh);
   Result<SceneNode> content = inner ? Result<SceneNode>(std::move(node)) : Result<SceneNode>(inner.error());
+  b.built.insert(key);
   return store_tile(b, key, std::move(content), r, &b.stats.inner_built);
 }
 
-Status TileHierarchy::sweep_stale(Build& b, const std::atomic<bool>* stop, const std::function<bool()>& yield) {
+Status TileHierarchy::sweep_stale(Build& b, const std::atomic<bool>* stop, const std::function<bool()>& yield,
+                                  const std::function<bool(const TileKey&)>& due) {
   for (int level = yield ? sweep_level_ : 1; level <= options_.top_level; ++level) {
     std::vector<TileKey> stale;
     for (auto it = b.tiles.lower_bound(TileKey{level, INT64_MIN, INT64_MIN, INT64_MIN});
          it != b.tiles.end() && it->first.level == level; ++it)
-      if (it->second.stale) stale.push_back(it->first);
+      if (it->second.stale && (!due || due(it->first))) stale.push_back(it->first);
     for (const TileKey& key : stale) {
       const auto children = children_of(b.tiles, key);
       if (std::any_of(children.begin(), children.end(), [](const TileRecord* c) { return c->stale; })) continue;
@@ -396,6 +423,7 @@ Status TileHierarchy::commit(Build& b) {
   retired_.clear();
   for (const auto& [key, r] : tiles_)
     if (r.has_content() && !now.count(r.file())) retired_.insert(r.file());
+  for (const auto& key : b.built) stale_since_.erase(key);
   version_ = b.version;
   tiles_ = std::move(b.tiles);
   keyframes_ = std::move(b.keyframes);

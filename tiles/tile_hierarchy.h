@@ -49,6 +49,12 @@ struct TilingOptions {
   // Draco, the keyframes' own codec: a leaf's geometry then takes what its keyframe GLB took (meshopt: 2.4x more on
   // TUM keyframes); three.js (DRACOLoader) and decode_glb read it.
   GeometryCodec geometry = GeometryCodec::kDraco;
+  // step() builds a stale tile again once nothing under it changed for settle_s (a tile that keyframes keep changing
+  // is not built over and over: a burst of keyframes costs one build), or once it has been stale for max_stale_s
+  // however often it changes (so the tiles over a robot that keeps posting are still built now and then). Neither
+  // changes what is built, only when.
+  double settle_s = 1.0;
+  double max_stale_s = 30.0;
 };
 
 struct KeyframeId {
@@ -94,6 +100,8 @@ struct UpdateStats {
   size_t leaves_built = 0, inner_built = 0, tiles_removed = 0;
   std::uint64_t bytes_written = 0;
   size_t stale = 0;  // inner tiles still stale when the call returned
+  // When stale > 0: the earliest time (the caller's clock, as step()'s now_s) at which a step can build one of them.
+  double next_sweep_s = 0.0;
 };
 
 class TileHierarchy {
@@ -111,13 +119,16 @@ class TileHierarchy {
   Result<UpdateStats> update(const std::vector<KeyframeId>& keyframes, const KeyframeLoader& load,
                              const std::atomic<bool>* stop = nullptr);
 
-  // One step of a live hierarchy, at most one commit, for a server that must show new keyframes at once:
-  // - when `keyframes` differ from the committed ones, their leaves only (their ancestors made stale);
-  // - else a sweep over the stale tiles, lowest level first, each built once its children are all fresh, until none
-  //   is left or `yield` (when given) returns true after a tile: new keyframes wait. The next sweep goes on from the
-  //   level where this one yielded, so every level is reached however often keyframes arrive.
-  // UpdateStats::stale says how many stale tiles remain: step again while it is not 0. Errors as update()'s.
-  Result<UpdateStats> step(const std::vector<KeyframeId>& keyframes, const KeyframeLoader& load,
+  // One step of a live hierarchy, at most one commit, for a server that must show new keyframes at once. now_s is
+  // the caller's clock in seconds (monotonic; injected, so that tests choose it):
+  // - when `keyframes` differ from the committed ones, their leaves only (their ancestors made stale at now_s);
+  // - else a sweep over the stale tiles that are due (TilingOptions::settle_s, max_stale_s), lowest level first,
+  //   each built once its children are all fresh, until none is left or `yield` (when given) returns true after a
+  //   tile: new keyframes wait. The next sweep goes on from the level where this one yielded, so every level is
+  //   reached however often keyframes arrive. A sweep that builds nothing commits nothing.
+  // UpdateStats::stale says how many stale tiles remain, next_sweep_s when to step again. Tiles that were stale when
+  // the hierarchy was opened are due at once. Errors as update()'s.
+  Result<UpdateStats> step(const std::vector<KeyframeId>& keyframes, const KeyframeLoader& load, double now_s,
                            const std::atomic<bool>* stop = nullptr, const std::function<bool()>& yield = nullptr);
 
   std::uint64_t version() const { return version_; }
@@ -141,7 +152,10 @@ class TileHierarchy {
   Status apply_keyframes(Build& b, const std::vector<KeyframeId>& wanted, SceneCache& scenes);
   Status build_leaves(Build& b, SceneCache& scenes, const std::atomic<bool>* stop);
   void mark_ancestors_stale(Build& b, const TileKey& leaf);
-  Status sweep_stale(Build& b, const std::atomic<bool>* stop, const std::function<bool()>& yield);
+  // Builds the stale tiles `due` accepts (all when it is empty).
+  Status sweep_stale(Build& b, const std::atomic<bool>* stop, const std::function<bool()>& yield,
+                     const std::function<bool(const TileKey&)>& due);
+  double due_at(const TileKey& key) const;
   Status build_inner(Build& b, const TileKey& key);
   Status store_tile(Build& b, const TileKey& key, Result<SceneNode> content, TileRecord record, size_t* built);
   Status commit(Build& b);
@@ -154,6 +168,10 @@ class TileHierarchy {
   std::map<std::int64_t, KeyframeEntry> keyframes_;
   std::set<std::string> retired_;  // files of the previous version that the current one no longer names
   int sweep_level_ = 1;            // where step()'s next sweep starts
+  struct StaleSince {
+    double first_s = 0.0, last_s = 0.0;  // when the tile became stale, and when something under it last changed
+  };
+  std::map<TileKey, StaleSince> stale_since_;  // step()'s clock; a stale tile without an entry is due at once
   mutable std::mutex snapshot_mutex_;
   std::shared_ptr<const TilesetSnapshot> snapshot_;
 };

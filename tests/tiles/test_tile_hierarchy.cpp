@@ -242,8 +242,9 @@ TEST(TileHierarchyTest, IncrementalUpdatesGiveTheSameTilesAsOneBuild) {
   EXPECT_EQ(contents(*once), contents(*steps));  // byte for byte, so every view of them is the same too
 }
 
-// The live path: a step commits a new keyframe's leaf at once, its ancestors stale; views and the tileset refine
-// through stale tiles to it; sweeps that give way after every tile still end where one build does.
+// The live path, on an injected clock (seconds): a step commits a new keyframe's leaf at once, its ancestors stale;
+// the tileset refines through stale tiles to it; a sweep builds only tiles nothing changed under for settle_s, gives
+// way after every tile, and the sweeps still end where one build does.
 TEST(TileHierarchyTest, AStepShowsANewKeyframeAtOnceAndSweepsEndWhereOneBuildDoes) {
   REQUIRE_KEYFRAMES();
   auto once = open_ok(test::temp_dir("tiles-once-live"));
@@ -252,12 +253,17 @@ TEST(TileHierarchyTest, AStepShowsANewKeyframeAtOnceAndSweepsEndWhereOneBuildDoe
   ASSERT_TRUE(once->update(first(8), loader()));
   const auto always = [] { return true; };  // new keyframes always wait: every sweep builds one tile
   size_t sweeps = 0;
+  const double settle_s = live->options().settle_s;
+  ASSERT_GT(settle_s, 0.0);
   for (size_t n = 1; n <= 8; ++n) {
-    auto s = live->step(first(n), loader(), nullptr, always);
+    const double t = static_cast<double>(n) * settle_s;  // keyframe n at t
+    auto s = live->step(first(n), loader(), t, nullptr, always);
     ASSERT_TRUE(s) << s.error().message;
     EXPECT_EQ(s->leaves_built, 1u);
     EXPECT_EQ(s->inner_built, 0u);
     EXPECT_GT(s->stale, 0u);
+    EXPECT_GE(s->next_sweep_s, t);
+    EXPECT_LE(s->next_sweep_s, t + settle_s);
     const TileKey leaf = live->keyframes().at(static_cast<std::int64_t>(n - 1)).leaves.at(0);
     const TileRecord& leaf_record = live->tiles().at(leaf);
     for (TileKey k = leaf.parent(); k.level <= live->options().top_level; k = k.parent()) {
@@ -277,26 +283,55 @@ TEST(TileHierarchyTest, AStepShowsANewKeyframeAtOnceAndSweepsEndWhereOneBuildDoe
     };
     walk(tileset["root"], tileset["geometricError"].get<double>());
     EXPECT_TRUE(found) << leaf.name() << " is not in the tileset";
-    // Half the time, one sweep before the next keyframe: it builds exactly one tile.
+    // Half the time, a sweep halfway to the next keyframe: it builds one tile at most (it gives way), and none that
+    // changed at t (the new leaf's ancestors are not due before t + settle_s).
     if (n % 2 == 0) {
-      auto sweep = live->step(first(n), loader(), nullptr, always);
+      auto sweep = live->step(first(n), loader(), t + 0.5 * settle_s, nullptr, always);
       ASSERT_TRUE(sweep) << sweep.error().message;
       EXPECT_EQ(sweep->leaves_built, 0u);
-      EXPECT_EQ(sweep->inner_built + sweep->tiles_removed, 1u);
+      EXPECT_LE(sweep->inner_built + sweep->tiles_removed, 1u);
+      for (TileKey k = leaf.parent(); k.level <= live->options().top_level; k = k.parent())
+        EXPECT_TRUE(live->tiles().at(k).stale) << k.name() << " was built before it settled";
       ++sweeps;
     }
   }
   for (size_t i = 0; i < 200; ++i) {
-    auto sweep = live->step(first(8), loader(), nullptr, always);
+    auto sweep = live->step(first(8), loader(), 100.0 * settle_s, nullptr, always);
     ASSERT_TRUE(sweep) << sweep.error().message;
     ++sweeps;
     if (sweep->stale == 0) break;
   }
   for (const auto& [key, r] : live->tiles()) EXPECT_FALSE(r.stale) << key.name();
   EXPECT_EQ(contents(*once), contents(*live)) << "after " << sweeps << " sweeps";
-  auto idle = live->step(first(8), loader(), nullptr, always);
+  auto idle = live->step(first(8), loader(), 100.0 * settle_s, nullptr, always);
   ASSERT_TRUE(idle);
   EXPECT_EQ(idle->version, live->version());  // nothing left: no commit
+}
+
+// A keyframe revised every half settle_s never lets its tiles settle; they are built anyway once stale for
+// max_stale_s.
+TEST(TileHierarchyTest, TilesThatKeepChangingAreBuiltOnceStaleForTheLongest) {
+  REQUIRE_KEYFRAMES();
+  auto live = open_ok(test::temp_dir("tiles-busy"));
+  ASSERT_TRUE(live);
+  const double settle_s = live->options().settle_s, max_stale_s = live->options().max_stale_s;
+  ASSERT_GT(max_stale_s, 4.0 * settle_s);
+  std::vector<KeyframeId> ids = first(1);
+  const TileKey level1 = [&] {
+    EXPECT_TRUE(live->step(ids, loader(), 0.0));
+    return live->keyframes().at(0).leaves.at(0).parent();
+  }();
+  double built_at = -1.0;
+  for (std::int64_t rev = 1; built_at < 0.0 && rev < 4 * static_cast<std::int64_t>(max_stale_s / settle_s); ++rev) {
+    const double t = 0.5 * settle_s * static_cast<double>(rev);
+    ids[0].rev = rev % 2;  // the surface alternates: every revision changes the leaf
+    ASSERT_TRUE(live->step(ids, loader(), t));
+    auto sweep = live->step(ids, loader(), t + 0.25 * settle_s);
+    ASSERT_TRUE(sweep) << sweep.error().message;
+    if (!live->tiles().at(level1).stale) built_at = t + 0.25 * settle_s;
+  }
+  EXPECT_GE(built_at, max_stale_s);
+  EXPECT_LE(built_at, max_stale_s + settle_s);
 }
 
 TEST(TileHierarchyTest, ARevisionReplacesItsKeyframesSurface) {
