@@ -8,18 +8,13 @@
 
 namespace rgbdcast::service {
 namespace fs = std::filesystem;
-
-namespace {
-double seconds_since(std::chrono::steady_clock::time_point epoch, std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(t - epoch).count();
-}
-}  // namespace
+using Clock = std::chrono::steady_clock;
 
 MissionTiles::MissionTiles(std::string data_dir, MissionStore& missions, tiles::TilingOptions options)
     : root_((fs::path(data_dir) / "tiles").string()),
       missions_(missions),
       options_(std::move(options)),
-      epoch_(std::chrono::steady_clock::now()) {}
+      epoch_(Clock::now()) {}
 
 MissionTiles::~MissionTiles() { stop(); }
 
@@ -38,6 +33,7 @@ void MissionTiles::start() {
   for (const auto& entry : fs::directory_iterator(root_, ec))
     if (!live.count(entry.path().filename().string())) fs::remove_all(entry.path(), ec);
   worker_ = std::thread([this] { run(); });
+  sweeper_ = std::thread([this] { sweep(); });
   for (const auto& name : live) enqueue(name);
 }
 
@@ -49,6 +45,7 @@ void MissionTiles::stop() {
   }
   cv_.notify_all();
   if (worker_.joinable()) worker_.join();
+  if (sweeper_.joinable()) sweeper_.join();
 }
 
 void MissionTiles::enqueue(const std::string& mission) {
@@ -59,7 +56,7 @@ void MissionTiles::enqueue(const std::string& mission) {
   cv_.notify_all();
 }
 
-void MissionTiles::enqueue_at(const std::string& mission, std::chrono::steady_clock::time_point due) {
+void MissionTiles::enqueue_at(const std::string& mission, Clock::time_point due) {
   {
     std::lock_guard lock(mutex_);
     auto [it, added] = delayed_.emplace(mission, due);
@@ -73,7 +70,7 @@ void MissionTiles::forget(const std::string& mission) {
   queue_.erase(mission);
   std::erase(order_, mission);
   delayed_.erase(mission);
-  cv_.wait(lock, [&] { return busy_ != mission; });  // an update under way finishes first
+  cv_.wait(lock, [&] { return busy_ != mission && sweeping_ != mission; });  // what is under way finishes first
   hierarchies_.erase(mission);
   snapshots_.erase(mission);
   std::error_code ec;
@@ -90,8 +87,9 @@ std::string MissionTiles::tile_dir(const std::string& mission) const { return ro
 
 bool MissionTiles::wait_idle(double timeout_s) const {
   std::unique_lock lock(mutex_);
-  return cv_.wait_for(lock, std::chrono::duration<double>(timeout_s),
-                      [&] { return (queue_.empty() && delayed_.empty() && busy_.empty()) || stopping_; });
+  return cv_.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] {
+    return (queue_.empty() && delayed_.empty() && busy_.empty() && sweeping_.empty()) || stopping_;
+  });
 }
 
 MissionTilesStats MissionTiles::stats() const {
@@ -99,29 +97,36 @@ MissionTilesStats MissionTiles::stats() const {
   return stats_;
 }
 
+double MissionTiles::now_s() const { return std::chrono::duration<double>(Clock::now() - epoch_).count(); }
+
+void MissionTiles::failed(const std::string& what) {
+  std::lock_guard lock(mutex_);
+  ++stats_.failures;
+  stats_.last_error = what;
+  std::cerr << "tiles: " << what << "\n";
+}
+
+// After a call on the hierarchy (entry.lock held): the snapshot readers see, the version event when it committed, and
+// the sweeper's next due time.
+void MissionTiles::published(const std::string& mission, Entry& entry, const tiles::UpdateStats& stats) {
+  bool changed = false;
+  {
+    std::lock_guard lock(mutex_);
+    auto& snapshot = snapshots_[mission];
+    changed = !snapshot || snapshot->version != entry.hierarchy->version();
+    snapshot = entry.hierarchy->snapshot();
+  }
+  if (changed) missions_.set_tileset_version(mission, entry.hierarchy->version());
+  if (stats.stale > 0)
+    enqueue_at(mission, epoch_ + std::chrono::duration_cast<Clock::duration>(
+                                     std::chrono::duration<double>(std::max(0.0, stats.next_sweep_s))));
+}
+
 void MissionTiles::run() {
   std::unique_lock lock(mutex_);
   while (true) {
-    // Missions whose stale tiles are due join the queue.
-    const auto now = std::chrono::steady_clock::now();
-    auto next = std::chrono::steady_clock::time_point::max();
-    for (auto it = delayed_.begin(); it != delayed_.end();) {
-      if (it->second > now) {
-        next = std::min(next, it->second);
-        ++it;
-        continue;
-      }
-      if (queue_.insert(it->first).second) order_.push_back(it->first);
-      it = delayed_.erase(it);
-    }
+    cv_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
     if (stopping_) return;
-    if (queue_.empty()) {
-      if (next == std::chrono::steady_clock::time_point::max())
-        cv_.wait(lock);
-      else
-        cv_.wait_until(lock, next);
-      continue;  // woken early, late or for nothing: look again
-    }
     busy_ = order_.front();
     order_.pop_front();
     queue_.erase(busy_);
@@ -134,26 +139,49 @@ void MissionTiles::run() {
   }
 }
 
+void MissionTiles::sweep() {
+  std::unique_lock lock(mutex_);
+  while (true) {
+    if (stopping_) return;
+    // The mission whose stale tiles are due first.
+    auto first = delayed_.end();
+    for (auto it = delayed_.begin(); it != delayed_.end(); ++it)
+      if (first == delayed_.end() || it->second < first->second) first = it;
+    if (first == delayed_.end()) {
+      cv_.wait(lock);
+      continue;
+    }
+    if (first->second > Clock::now()) {
+      cv_.wait_until(lock, first->second);
+      continue;  // woken early, late or for something else: look again
+    }
+    sweeping_ = first->first;
+    delayed_.erase(first);
+    const std::string mission = sweeping_;
+    lock.unlock();
+    sweep_one(mission);
+    lock.lock();
+    sweeping_.clear();
+    cv_.notify_all();
+  }
+}
+
 void MissionTiles::update_one(const std::string& mission) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
   auto keyframes = missions_.keyframes(mission);
   if (!keyframes) return;  // deleted meanwhile
-  std::unique_ptr<tiles::TileHierarchy>* slot = nullptr;
+  Entry* entry = nullptr;
   {
-    std::lock_guard lock(mutex_);  // forget() erases entries, but never the one being updated
-    slot = &hierarchies_[mission];
+    std::lock_guard lock(mutex_);  // forget() erases entries, but never one in use
+    auto& slot = hierarchies_[mission];
+    if (!slot) slot = std::make_unique<Entry>();
+    entry = slot.get();
   }
-  auto& hierarchy = *slot;
-  auto fail = [&](const std::string& what) {
-    std::lock_guard lock(mutex_);
-    ++stats_.failures;
-    stats_.last_error = "mission " + mission + ": " + what;
-    std::cerr << "tiles: " << stats_.last_error << "\n";
-  };
-  if (!hierarchy) {
+  std::lock_guard hold(entry->lock);
+  if (!entry->hierarchy) {
     auto opened = tiles::TileHierarchy::open(tile_dir(mission), options_);
-    if (!opened) return fail(opened.error().message);
-    hierarchy = std::move(*opened);
+    if (!opened) return failed("mission " + mission + ": " + opened.error().message);
+    entry->hierarchy = std::move(*opened);
   }
   std::vector<tiles::KeyframeId> wanted;
   std::map<std::int64_t, const MissionKeyframe*> by_seq;
@@ -161,38 +189,60 @@ void MissionTiles::update_one(const std::string& mission) {
     wanted.push_back({k.seq, k.rev});
     by_seq[k.seq] = &k;
   }
-  // One step: new keyframes' leaves, else a sweep over stale tiles that yields as soon as this mission has new
-  // keyframes waiting (a POST enqueued it again), so a keyframe reaches the tileset after at most one tile's build.
-  auto updated = hierarchy->step(
+  auto updated = entry->hierarchy->add_leaves(
       wanted,
       [&](const tiles::KeyframeId& id) -> Result<Scene> {
         auto it = by_seq.find(id.seq);
         if (it == by_seq.end()) return make_error(ErrorCode::kNotFound, "not stored");
         return load_placed_keyframe(missions_, *it->second);
       },
-      seconds_since(epoch_, t0), &stop_update_,
-      [&] {
-        std::lock_guard lock(mutex_);
-        return queue_.count(mission) > 0;
-      });
+      std::chrono::duration<double>(t0 - epoch_).count(), &stop_update_);
   if (!updated && stop_update_) return;  // stopped: uncommitted, not a failure
-  {
-    std::lock_guard lock(mutex_);
-    snapshots_[mission] = hierarchy->snapshot();
+  if (!updated) {
+    published(mission, *entry, entry->hierarchy->status(now_s()));
+    return failed("mission " + mission + ": " + updated.error().message);
   }
-  if (!updated) return fail(updated.error().message);
   {
     std::lock_guard lock(mutex_);
     ++stats_.updates;
     stats_.leaves_built += updated->leaves_built;
-    stats_.inner_built += updated->inner_built;
     stats_.bytes_written += updated->bytes_written;
-    stats_.update_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    stats_.update_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
   }
-  missions_.set_tileset_version(mission, hierarchy->version());
-  if (updated->stale > 0)  // the sweep goes on when its next tile is due, after whatever else waits
-    enqueue_at(mission, epoch_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                     std::chrono::duration<double>(updated->next_sweep_s)));
+  published(mission, *entry, *updated);
+}
+
+void MissionTiles::sweep_one(const std::string& mission) {
+  Entry* entry = nullptr;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = hierarchies_.find(mission);
+    if (it == hierarchies_.end()) return;
+    entry = it->second.get();
+  }
+  const auto t0 = Clock::now();
+  std::optional<tiles::TileHierarchy::PendingBuild> pending;
+  {
+    std::lock_guard hold(entry->lock);
+    if (!entry->hierarchy) return;
+    pending = entry->hierarchy->next_build(now_s());
+    // None due yet (a keyframe came since it was scheduled): come back when one is.
+    if (!pending) return published(mission, *entry, entry->hierarchy->status(now_s()));
+  }
+  auto built = entry->hierarchy->build_tile(*pending);  // no lock: the leaf worker commits meanwhile
+  std::lock_guard hold(entry->lock);
+  auto finished = entry->hierarchy->finish_build(*pending, std::move(built), now_s());
+  if (!finished) {
+    published(mission, *entry, entry->hierarchy->status(now_s()));
+    return failed("mission " + mission + ": " + finished.error().message);
+  }
+  {
+    std::lock_guard lock(mutex_);
+    stats_.inner_built += finished->inner_built;
+    stats_.bytes_written += finished->bytes_written;
+    stats_.update_seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+  }
+  published(mission, *entry, *finished);
 }
 
 }  // namespace rgbdcast::service

@@ -1,19 +1,21 @@
 #pragma once
-// Keeps each live mission's tile hierarchy (tiles/tile_hierarchy.h) up to date, off the keyframe POST's path: a POST
-// only names its mission to a background worker, which steps the mission's hierarchy (TileHierarchy::step): first the
-// leaves of the keyframes the store holds (so several keyframes posted meanwhile make one commit), then sweeps over
-// the stale inner tiles once they are due (TilingOptions::settle_s, max_stale_s: the worker sleeps until then), one
-// commit each, that give way as soon as the mission has new keyframes again. Each commit tells the event streams the
-// new version (MissionStore::set_tileset_version). Contract:
+// Keeps each live mission's tile hierarchy (tiles/tile_hierarchy.h) up to date, off the keyframe POST's path, with two
+// threads:
+// - the leaf worker: a POST only names its mission to it, and it commits the leaves of the keyframes the store holds
+//   (TileHierarchy::add_leaves: several keyframes posted meanwhile make one commit). It never waits for an inner
+//   tile's build, so a keyframe reaches the tileset in the time its own leaf takes.
+// - the sweeper: builds the stale inner tiles once they are due (TilingOptions::settle_s, max_stale_s; it sleeps until
+//   then), one at a time (TileHierarchy::next_build; build_tile outside the mission's lock; finish_build), each its
+//   own commit; a build whose children changed meanwhile is dropped, and picked again once due.
+// Each commit tells the event streams the new version (MissionStore::set_tileset_version). Contract:
 // - Hierarchies live in <data_dir>/tiles/<mission>/ and survive restarts: start() names every stored mission to the
 //   worker, which builds only what the committed hierarchy lacks.
-// - The queue holds each mission at most once, so it is bounded by the number of missions, and serves them in turn;
-//   one worker thread.
-// - A keyframe that fails to build leaves the mission's last committed tileset served; the error is counted and kept
-//   (last_error), and the next keyframe of the mission tries again.
+// - The queue holds each mission at most once, so it is bounded by the number of missions, and serves them in turn.
+// - A keyframe or tile that fails to build leaves the mission's last committed tileset served; the error is counted
+//   and kept (last_error), and the next keyframe (or the next sweep) tries again.
 // - forget() (the mission was deleted) drops the hierarchy and its folder.
-// - stop() ends an update under way between two tiles (uncommitted: the next start builds it again), so a server
-//   shutting down does not wait for it.
+// - stop() ends the leaf worker between two leaves (uncommitted: the next start builds them again) and the sweeper
+//   after the tile it is building, so a server shutting down waits for one tile at most.
 // Thread-safe.
 #include <atomic>
 #include <chrono>
@@ -60,9 +62,18 @@ class MissionTiles {
   MissionTilesStats stats() const;
 
  private:
+  struct Entry {  // a mission's hierarchy: opened by the leaf worker, used by both threads under `lock`
+    std::mutex lock;
+    std::unique_ptr<tiles::TileHierarchy> hierarchy;
+  };
   void run();
+  void sweep();
   void update_one(const std::string& mission);
+  void sweep_one(const std::string& mission);
   void enqueue_at(const std::string& mission, std::chrono::steady_clock::time_point due);
+  double now_s() const;
+  void published(const std::string& mission, Entry& entry, const tiles::UpdateStats& stats);
+  void failed(const std::string& what);
 
   std::string root_;
   MissionStore& missions_;
@@ -71,15 +82,16 @@ class MissionTiles {
   mutable std::condition_variable cv_;
   std::set<std::string> queue_;    // the missions waiting, each once
   std::deque<std::string> order_;  // the same, first come first served (a mission that steps again goes last)
-  std::map<std::string, std::chrono::steady_clock::time_point> delayed_;  // stale tiles due then
-  std::chrono::steady_clock::time_point epoch_;  // the hierarchies' clock (TileHierarchy::step's now_s) starts here
-  std::string busy_;  // the mission being updated, or empty
+  std::map<std::string, std::chrono::steady_clock::time_point> delayed_;  // the sweeper's: stale tiles due then
+  std::chrono::steady_clock::time_point epoch_;  // the hierarchies' clock (TileHierarchy's now_s) starts here
+  std::string busy_;      // the mission the leaf worker is updating, or empty
+  std::string sweeping_;  // the mission the sweeper is building a tile of, or empty
   bool stopping_ = false;
   std::atomic<bool> stop_update_{false};  // set by stop(), read by the update under way
-  std::map<std::string, std::unique_ptr<tiles::TileHierarchy>> hierarchies_;  // used by the worker only
+  std::map<std::string, std::unique_ptr<Entry>> hierarchies_;
   std::map<std::string, std::shared_ptr<const tiles::TilesetSnapshot>> snapshots_;
   MissionTilesStats stats_;
-  std::thread worker_;
+  std::thread worker_, sweeper_;
 };
 
 }  // namespace rgbdcast::service

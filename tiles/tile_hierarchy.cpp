@@ -29,6 +29,7 @@ nlohmann::json options_json(const TilingOptions& o) {
           {"leaf_gutter_px", o.leaf.gutter_px}, {"leaf_jpeg_quality", o.leaf.jpeg_quality},
           {"inner_max_atlas_side_px", o.inner.atlas.max_atlas_side_px}, {"inner_gutter_px", o.inner.atlas.gutter_px},
           {"inner_jpeg_quality", o.inner.atlas.jpeg_quality}, {"inner_texels_per_error", o.inner.texels_per_error},
+          {"inner_min_leg_texels", o.inner.min_leg_texels},
           {"geometry", to_string(o.geometry)}};
 }
 
@@ -213,15 +214,29 @@ Result<UpdateStats> TileHierarchy::update(const std::vector<KeyframeId>& wanted,
   return b.stats;
 }
 
+// b.stats with how many tiles stay stale, and when the earliest one whose children are fresh (the ones a sweep can
+// build) is due.
+UpdateStats TileHierarchy::summarize(const Build& b, double now_s) const {
+  UpdateStats stats = b.stats;
+  stats.stale = count_stale(b.tiles);
+  stats.next_sweep_s = stats.stale == 0 ? now_s : INFINITY;
+  for (const auto& [key, r] : b.tiles) {
+    if (!r.stale) continue;
+    const auto children = children_of(b.tiles, key);
+    if (std::none_of(children.begin(), children.end(), [](const TileRecord* c) { return c->stale; }))
+      stats.next_sweep_s = std::min(stats.next_sweep_s, std::max(now_s, due_at(key)));
+  }
+  return stats;
+}
+
 double TileHierarchy::due_at(const TileKey& key) const {
   auto it = stale_since_.find(key);
   if (it == stale_since_.end()) return -INFINITY;
   return std::min(it->second.last_s + options_.settle_s, it->second.first_s + options_.max_stale_s);
 }
 
-Result<UpdateStats> TileHierarchy::step(const std::vector<KeyframeId>& wanted, const KeyframeLoader& load,
-                                        double now_s, const std::atomic<bool>* stop,
-                                        const std::function<bool()>& yield) {
+Result<UpdateStats> TileHierarchy::add_leaves(const std::vector<KeyframeId>& wanted, const KeyframeLoader& load,
+                                              double now_s, const std::atomic<bool>* stop) {
   Build b = begin_build();
   SceneCache scenes(load, 16);
   if (auto st = apply_keyframes(b, wanted, scenes); !st) return st.error();
@@ -231,7 +246,21 @@ Result<UpdateStats> TileHierarchy::step(const std::vector<KeyframeId>& wanted, c
       auto [it, added] = stale_since_.try_emplace(key, StaleSince{now_s, now_s});
       if (!added) it->second.last_s = now_s;
     }
-  } else if (count_stale(b.tiles) > 0) {
+  }
+  b.stats = summarize(b, now_s);
+  if (b.stats.keyframes_changed == 0) return b.stats;
+  if (auto st = commit(b); !st) return st.error();
+  b.stats.version = version_;
+  return b.stats;
+}
+
+Result<UpdateStats> TileHierarchy::step(const std::vector<KeyframeId>& wanted, const KeyframeLoader& load,
+                                        double now_s, const std::atomic<bool>* stop,
+                                        const std::function<bool()>& yield) {
+  auto leaves = add_leaves(wanted, load, now_s, stop);
+  if (!leaves || leaves->keyframes_changed > 0) return leaves;
+  Build b = begin_build();
+  if (count_stale(b.tiles) > 0) {
     const std::function<bool()> never = [] { return false; };
     const auto due = [&](const TileKey& key) { return due_at(key) <= now_s; };
     if (auto st = sweep_stale(b, stop, yield ? yield : never, due); !st) return st.error();
@@ -239,16 +268,7 @@ Result<UpdateStats> TileHierarchy::step(const std::vector<KeyframeId>& wanted, c
     if (b.stats.inner_built + b.stats.tiles_removed == 0)
       if (auto st = sweep_stale(b, stop, yield ? yield : never, due); !st) return st.error();
   }
-  b.stats.stale = count_stale(b.tiles);
-  // When to step again: the earliest a stale tile whose children are fresh (the ones a sweep can build) is due.
-  b.stats.next_sweep_s = INFINITY;
-  for (const auto& [key, r] : b.tiles) {
-    if (!r.stale) continue;
-    const auto children = children_of(b.tiles, key);
-    if (std::none_of(children.begin(), children.end(), [](const TileRecord* c) { return c->stale; }))
-      b.stats.next_sweep_s = std::min(b.stats.next_sweep_s, std::max(now_s, due_at(key)));
-  }
-  if (b.stats.stale == 0) b.stats.next_sweep_s = now_s;
+  b.stats = summarize(b, now_s);
   if (b.stats.keyframes_changed == 0 && b.stats.inner_built + b.stats.tiles_removed == 0) return b.stats;
   if (auto st = commit(b); !st) return st.error();
   b.stats.version = version_;
@@ -330,30 +350,107 @@ void TileHierarchy::mark_ancestors_stale(Build& b, const TileKey& leaf) {
   }
 }
 
-// Builds `key` again from its children (or removes it when none is left). Its children are fresh.
-Status TileHierarchy::build_inner(Build& b, const TileKey& key) {
-  const auto child_records = children_of(b.tiles, key);
+// `key`'s content from `children` (their stored GLBs), written as "<key>.v<version>.glb": its record (box holding
+// the children's, error covering theirs), or kEmpty when no child or no triangle is left. Reads only dir_ and
+// options_, which never change: any thread may run it.
+Result<TileRecord> TileHierarchy::make_inner(const TileKey& key, const std::vector<TileRecord>& child_records,
+                                             std::uint64_t version) const {
   std::vector<Mesh> children;
-  TileRecord r;  // holds its children's boxes, and its error covers theirs
+  TileRecord r;
   double child_error = 0.0;
-  for (const TileRecord* c : child_records) {
-    auto mesh = read_tile(dir_, *c);
+  for (const TileRecord& c : child_records) {
+    auto mesh = read_tile(dir_, c);
     if (!mesh) return mesh.error();
     children.push_back(std::move(*mesh));
-    child_error = std::max(child_error, c->geometric_error_m);
-    r.box.extend(c->box);
+    child_error = std::max(child_error, c.geometric_error_m);
+    r.box.extend(c.box);
   }
   std::vector<const Mesh*> inputs;
   for (const auto& m : children) inputs.push_back(&m);
-  auto inner = inputs.empty() ? Result<InnerTile>(make_error(ErrorCode::kEmpty, "no child"))
-                              : tiles::build_inner(inputs, child_error, options_.inner_triangles, false,
-                                                   options_.inner);
-  r.geometric_error_m = child_error + (inner ? inner->simplify_error_m : 0.0);
+  if (inputs.empty()) return make_error(ErrorCode::kEmpty, "no child");
+  auto inner = tiles::build_inner(inputs, child_error, options_.inner_triangles, false, options_.inner);
+  if (!inner && inner.error().code == ErrorCode::kEmpty) return inner.error();
+  if (!inner) return make_error(inner.error().code, "tile " + key.name() + ": " + inner.error().message);
+  r.key = key;
+  r.version = version;
+  r.geometric_error_m = child_error + inner->simplify_error_m;
   SceneNode node;
-  if (inner) node.mesh = std::move(inner->mesh);
-  Result<SceneNode> content = inner ? Result<SceneNode>(std::move(node)) : Result<SceneNode>(inner.error());
+  node.mesh = std::move(inner->mesh);
+  if (auto st = write_tile(dir_, std::move(node), options_.geometry, &r); !st) return st.error();
+  return r;
+}
+
+// Builds `key` again from its children (or removes it when none is left). Its children are fresh.
+Status TileHierarchy::build_inner(Build& b, const TileKey& key) {
+  std::vector<TileRecord> children;
+  for (const TileRecord* c : children_of(b.tiles, key)) children.push_back(*c);
   b.built.insert(key);
-  return store_tile(b, key, std::move(content), r, &b.stats.inner_built);
+  return put_inner(b, key, make_inner(key, children, b.version));
+}
+
+// The result of make_inner in the build: recorded, or the tile removed (kEmpty).
+Status TileHierarchy::put_inner(Build& b, const TileKey& key, Result<TileRecord> built) {
+  if (!built && built.error().code == ErrorCode::kEmpty) {
+    b.stats.tiles_removed += b.tiles.erase(key);
+    return ok_status();
+  }
+  if (!built) return built.error();
+  b.stats.bytes_written += built->bytes;
+  b.tiles[key] = *built;
+  ++b.stats.inner_built;
+  return ok_status();
+}
+
+std::optional<TileHierarchy::PendingBuild> TileHierarchy::next_build(double now_s) const {
+  for (int level = 1; level <= options_.top_level; ++level)
+    for (auto it = tiles_.lower_bound(TileKey{level, INT64_MIN, INT64_MIN, INT64_MIN});
+         it != tiles_.end() && it->first.level == level; ++it) {
+      if (!it->second.stale || due_at(it->first) > now_s) continue;
+      const auto children = children_of(tiles_, it->first);
+      if (std::any_of(children.begin(), children.end(), [](const TileRecord* c) { return c->stale; })) continue;
+      PendingBuild p{it->first, version_ + 1, {}};
+      for (const TileRecord* c : children) p.children.push_back(*c);
+      return p;
+    }
+  return std::nullopt;
+}
+
+UpdateStats TileHierarchy::status(double now_s) const {
+  Build b;
+  b.tiles = tiles_;
+  b.stats.version = version_;
+  return summarize(b, now_s);
+}
+
+Result<TileRecord> TileHierarchy::build_tile(const PendingBuild& p) const {
+  return make_inner(p.key, p.children, p.file_version);
+}
+
+Result<UpdateStats> TileHierarchy::finish_build(const PendingBuild& p, Result<TileRecord> built, double now_s) {
+  Build b = begin_build();
+  // Still the build the hierarchy needs: the tile stale, its children the ones it was made from (none changed, none
+  // went stale, none came or went).
+  auto self = b.tiles.find(p.key);
+  const auto now = children_of(b.tiles, p.key);
+  bool same = self != b.tiles.end() && self->second.stale && now.size() == p.children.size();
+  for (size_t i = 0; same && i < now.size(); ++i)
+    same = now[i]->key == p.children[i].key && now[i]->version == p.children[i].version && !now[i]->stale;
+  std::error_code ec;
+  if (!same) {
+    if (built) fs::remove(dir_ + "/" + built->file(), ec);
+    b.stats = summarize(b, now_s);
+    return b.stats;
+  }
+  if (!built && built.error().code != ErrorCode::kEmpty) {
+    stale_since_[p.key] = StaleSince{now_s, now_s};  // tried again once settled, not at once
+    return built.error();
+  }
+  b.built.insert(p.key);
+  if (auto st = put_inner(b, p.key, std::move(built)); !st) return st.error();
+  b.stats = summarize(b, now_s);
+  if (auto st = commit(b); !st) return st.error();
+  b.stats.version = version_;
+  return b.stats;
 }
 
 Status TileHierarchy::sweep_stale(Build& b, const std::atomic<bool>* stop, const std::function<bool()>& yield,

@@ -26,6 +26,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -131,6 +132,27 @@ class TileHierarchy {
   Result<UpdateStats> step(const std::vector<KeyframeId>& keyframes, const KeyframeLoader& load, double now_s,
                            const std::atomic<bool>* stop = nullptr, const std::function<bool()>& yield = nullptr);
 
+  // step()'s first half alone: the leaves of changed keyframes (nothing when none changed, and no commit).
+  Result<UpdateStats> add_leaves(const std::vector<KeyframeId>& keyframes, const KeyframeLoader& load, double now_s,
+                                 const std::atomic<bool>* stop = nullptr);
+
+  // step()'s sweep, one tile at a time and off the caller's thread, for a server whose new keyframes must never wait
+  // for a tile build: next_build() picks what a sweep would build next (a due stale tile whose children are fresh;
+  // nullopt when none is due), build_tile() writes its file from what the pick copied (it reads no mutable member:
+  // any thread may run it while add_leaves() commits), and finish_build() commits it, unless its children changed
+  // meanwhile (the file is then deleted and the tile stays stale). Every call but build_tile() needs the same
+  // exclusion as step().
+  struct PendingBuild {
+    TileKey key;
+    std::uint64_t file_version = 0;   // the version in its file name
+    std::vector<TileRecord> children;  // as they were when it was picked
+  };
+  std::optional<PendingBuild> next_build(double now_s) const;
+  // The committed hierarchy's stale count and when its next stale tile is due (UpdateStats::stale, next_sweep_s).
+  UpdateStats status(double now_s) const;
+  Result<TileRecord> build_tile(const PendingBuild& pending) const;
+  Result<UpdateStats> finish_build(const PendingBuild& pending, Result<TileRecord> built, double now_s);
+
   std::uint64_t version() const { return version_; }
   const std::map<TileKey, TileRecord>& tiles() const { return tiles_; }
   // seq -> (rev, its leaf), as committed.
@@ -157,6 +179,10 @@ class TileHierarchy {
                      const std::function<bool(const TileKey&)>& due);
   double due_at(const TileKey& key) const;
   Status build_inner(Build& b, const TileKey& key);
+  Result<TileRecord> make_inner(const TileKey& key, const std::vector<TileRecord>& children,
+                                std::uint64_t version) const;
+  Status put_inner(Build& b, const TileKey& key, Result<TileRecord> built);
+  UpdateStats summarize(const Build& b, double now_s) const;
   Status store_tile(Build& b, const TileKey& key, Result<SceneNode> content, TileRecord record, size_t* built);
   Status commit(Build& b);
   void publish();

@@ -251,6 +251,57 @@ void source_colour(const Welded& w, const std::vector<const Mesh*>& children, co
   }
 }
 
+// The median, over the simplified triangles, of the leg (in texels of texel_m) of a right isosceles triangle of the
+// same area: how big their atlas cells would be.
+double median_leg_texels(const Welded& w, const std::vector<std::uint32_t>& simplified, double texel_m) {
+  std::vector<double> legs(simplified.size() / 3);
+  for (size_t t = 0; t < legs.size(); ++t) {
+    const Eigen::Vector3d a = w.positions[simplified[3 * t]].cast<double>();
+    const Eigen::Vector3d b = w.positions[simplified[3 * t + 1]].cast<double>();
+    const Eigen::Vector3d c = w.positions[simplified[3 * t + 2]].cast<double>();
+    legs[t] = std::sqrt((b - a).cross(c - a).norm()) / texel_m;  // area = leg^2 / 2
+  }
+  std::nth_element(legs.begin(), legs.begin() + legs.size() / 2, legs.end());
+  return legs[legs.size() / 2];
+}
+
+// The simplified triangles as a vertex-coloured mesh, their vertices shared as the simplifier left them. A vertex's
+// colour is the mean of the children's at a point a fifth of the way from it toward the far side of each triangle
+// around it: the surface around the vertex, not one point of it.
+Mesh vertex_coloured(const Welded& w, const std::vector<std::uint32_t>& simplified,
+                     const std::vector<const Mesh*>& children, const std::vector<CellSource>& textures,
+                     const SurfaceTree& surface) {
+  Mesh m;
+  std::vector<std::uint32_t> remap(w.positions.size(), UINT32_MAX);
+  for (std::uint32_t v : simplified)
+    if (remap[v] == UINT32_MAX) {
+      remap[v] = static_cast<std::uint32_t>(m.positions.size());
+      m.positions.push_back(w.positions[v]);
+    }
+  std::vector<Eigen::Vector3d> sum(m.positions.size(), Eigen::Vector3d::Zero());
+  std::vector<int> count(m.positions.size(), 0);
+  m.indices.resize(simplified.size());
+  for (size_t t = 0; t < simplified.size() / 3; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t v = remap[simplified[3 * t + k]];
+      m.indices[3 * t + k] = v;
+      const Eigen::Vector3d p = 0.8 * w.positions[simplified[3 * t + k]].cast<double>() +
+                                0.1 * w.positions[simplified[3 * t + (k + 1) % 3]].cast<double>() +
+                                0.1 * w.positions[simplified[3 * t + (k + 2) % 3]].cast<double>();
+      Eigen::Vector3d bary;
+      const std::uint32_t source = surface.nearest(p, nullptr, &bary);
+      std::uint8_t rgb[3];
+      source_colour(w, children, textures, source, bary, rgb);
+      sum[v] += Eigen::Vector3d(rgb[0], rgb[1], rgb[2]);
+      ++count[v];
+    }
+  m.colors.resize(m.positions.size());
+  for (size_t v = 0; v < m.positions.size(); ++v)
+    for (int c = 0; c < 3; ++c)
+      m.colors[v][c] = static_cast<std::uint8_t>(std::clamp(std::lround(sum[v][c] / count[v]), 0L, 255L));
+  return m;
+}
+
 // A simplified triangle's cell: the corner with the largest angle first, legs of side / texel_m texels.
 BakeTriangle bake_triangle(const std::array<Eigen::Vector3d, 3>& v, double texel_m) {
   // The triangle in its own plane (an isometry), in texels.
@@ -294,16 +345,20 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double c
   // so an inner tile holds about as many texels as one child, whatever its level.
   const double texel_m =
       std::max({error_m / options.texels_per_error, 2.0 * children_texel_m(w, children), kWeldStepM});
+  std::vector<CellSource> textures(children.size());
+  for (size_t c = 0; c < children.size(); ++c)
+    if (has_texture(*children[c])) textures[c] = cell_source(children[c]->texture);
+  const SurfaceTree surface(w);
+  if (median_leg_texels(w, simplified, texel_m) < options.min_leg_texels) {
+    out.mesh = vertex_coloured(w, simplified, children, textures, surface);
+    return out;
+  }
   std::vector<BakeTriangle> tris(simplified.size() / 3);
   for (size_t i = 0; i < tris.size(); ++i)
     tris[i] = bake_triangle({w.positions[simplified[3 * i]].cast<double>(),
                              w.positions[simplified[3 * i + 1]].cast<double>(),
                              w.positions[simplified[3 * i + 2]].cast<double>()},
                             texel_m);
-  std::vector<CellSource> textures(children.size());
-  for (size_t c = 0; c < children.size(); ++c)
-    if (has_texture(*children[c])) textures[c] = cell_source(children[c]->texture);
-  const SurfaceTree surface(w);
   // Each texel takes the children's surface where the simplified triangle's normal through it meets them nearest
   // (within the simplifier's error and two texels), as texture bakers cast rays from a low-resolution mesh: a line
   // crosses a few layers of a surface where a sphere of the same radius would hold thousands of its triangles. A texel

@@ -21,10 +21,6 @@ std::array<Eigen::Vector3d, 3> world_triangle(const SceneNode& node, size_t t) {
   return v;
 }
 
-TileKey centroid_leaf(const std::array<Eigen::Vector3d, 3>& v, double leaf_size_m) {
-  const Eigen::Vector3d c = (v[0] + v[1] + v[2]) / 3.0;
-  return leaf_key(c.x(), c.z(), leaf_size_m);
-}
 
 bool mesh_consistent(const Mesh& m) {
   if (m.indices.size() % 3 != 0) return false;

@@ -992,7 +992,20 @@ TEST(Missions, TheJsonPagesAndTheTileExportIsBoundedByMaxError) {
     const std::string& body = (*coarse_result)->body;
     coarse_decoded.emplace(rgbdcast::decode_glb(reinterpret_cast<const std::uint8_t*>(body.data()), body.size()));
     ASSERT_TRUE(*coarse_decoded) << coarse_decoded->error().message;
-    if ((*coarse_decoded)->triangle_count() < posted) break;
+    // Settled: no tile below the root without content (stale), the cut taken from that version.
+    std::function<bool(const json&, bool)> fresh = [&](const json& t, bool root) {
+      if (!root && !t.contains("content")) return false;
+      for (const auto& ch : t.value("children", json::array()))
+        if (!fresh(ch, false)) return false;
+      return true;
+    };
+    auto ts = c->Get("/v1/missions/long/tileset.json");
+    ASSERT_TRUE(ts && ts->status == 200);
+    const json tileset = json::parse(ts->body);
+    if (fresh(tileset["root"], true) &&
+        (*coarse_result)->get_header_value("ETag").find("-v" + tileset["asset"]["tilesetVersion"].get<std::string>() +
+                                                         "-") != std::string::npos)
+      break;
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   } while (std::chrono::steady_clock::now() < settle_deadline);
   httplib::Result& coarse = *coarse_result;
