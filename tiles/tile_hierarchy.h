@@ -19,7 +19,7 @@
 // - Every build is a function of its inputs (a leaf: its keyframe; an inner tile: its children's stored GLBs, built
 //   only once none of them is stale), so a hierarchy with no stale tile has the same contents however it was reached.
 // - Every tile's geometric error is in metres and at least each of its children's; leaves' is 0.
-// Not thread-safe, except snapshot(), which any thread may call while update() or step() runs.
+// Not thread-safe, except snapshot() and build_tile(), which any thread may call while another call runs.
 #include <atomic>
 #include <cstdint>
 #include <functional>
