@@ -214,15 +214,15 @@ Result<UpdateStats> TileHierarchy::update(const std::vector<KeyframeId>& wanted,
   return b.stats;
 }
 
-// b.stats with how many tiles stay stale, and when the earliest one whose children are fresh (the ones a sweep can
-// build) is due.
-UpdateStats TileHierarchy::summarize(const Build& b, double now_s) const {
-  UpdateStats stats = b.stats;
-  stats.stale = count_stale(b.tiles);
+// `stats` with how many of `tiles` stay stale, and when the earliest one whose children are fresh (the ones a sweep
+// can build) is due.
+UpdateStats TileHierarchy::summarize(const std::map<TileKey, TileRecord>& tiles, UpdateStats stats,
+                                     double now_s) const {
+  stats.stale = count_stale(tiles);
   stats.next_sweep_s = stats.stale == 0 ? now_s : INFINITY;
-  for (const auto& [key, r] : b.tiles) {
+  for (const auto& [key, r] : tiles) {
     if (!r.stale) continue;
-    const auto children = children_of(b.tiles, key);
+    const auto children = children_of(tiles, key);
     if (std::none_of(children.begin(), children.end(), [](const TileRecord* c) { return c->stale; }))
       stats.next_sweep_s = std::min(stats.next_sweep_s, std::max(now_s, due_at(key)));
   }
@@ -247,7 +247,7 @@ Result<UpdateStats> TileHierarchy::add_leaves(const std::vector<KeyframeId>& wan
       if (!added) it->second.last_s = now_s;
     }
   }
-  b.stats = summarize(b, now_s);
+  b.stats = summarize(b.tiles, b.stats, now_s);
   if (b.stats.keyframes_changed == 0) return b.stats;
   if (auto st = commit(b); !st) return st.error();
   b.stats.version = version_;
@@ -268,7 +268,7 @@ Result<UpdateStats> TileHierarchy::step(const std::vector<KeyframeId>& wanted, c
     if (b.stats.inner_built + b.stats.tiles_removed == 0)
       if (auto st = sweep_stale(b, stop, yield ? yield : never, due); !st) return st.error();
   }
-  b.stats = summarize(b, now_s);
+  b.stats = summarize(b.tiles, b.stats, now_s);
   if (b.stats.keyframes_changed == 0 && b.stats.inner_built + b.stats.tiles_removed == 0) return b.stats;
   if (auto st = commit(b); !st) return st.error();
   b.stats.version = version_;
@@ -416,10 +416,9 @@ std::optional<TileHierarchy::PendingBuild> TileHierarchy::next_build(double now_
 }
 
 UpdateStats TileHierarchy::status(double now_s) const {
-  Build b;
-  b.tiles = tiles_;
-  b.stats.version = version_;
-  return summarize(b, now_s);
+  UpdateStats stats;
+  stats.version = version_;
+  return summarize(tiles_, stats, now_s);
 }
 
 Result<TileRecord> TileHierarchy::build_tile(const PendingBuild& p) const {
@@ -438,7 +437,7 @@ Result<UpdateStats> TileHierarchy::finish_build(const PendingBuild& p, Result<Ti
   std::error_code ec;
   if (!same) {
     if (built) fs::remove(dir_ + "/" + built->file(), ec);
-    b.stats = summarize(b, now_s);
+    b.stats = summarize(b.tiles, b.stats, now_s);
     return b.stats;
   }
   if (!built && built.error().code != ErrorCode::kEmpty) {
@@ -447,7 +446,7 @@ Result<UpdateStats> TileHierarchy::finish_build(const PendingBuild& p, Result<Ti
   }
   b.built.insert(p.key);
   if (auto st = put_inner(b, p.key, std::move(built)); !st) return st.error();
-  b.stats = summarize(b, now_s);
+  b.stats = summarize(b.tiles, b.stats, now_s);
   if (auto st = commit(b); !st) return st.error();
   b.stats.version = version_;
   return b.stats;

@@ -182,7 +182,7 @@ class TileHierarchy {
   Result<TileRecord> make_inner(const TileKey& key, const std::vector<TileRecord>& children,
                                 std::uint64_t version) const;
   Status put_inner(Build& b, const TileKey& key, Result<TileRecord> built);
-  UpdateStats summarize(const Build& b, double now_s) const;
+  UpdateStats summarize(const std::map<TileKey, TileRecord>& tiles, UpdateStats stats, double now_s) const;
   Status store_tile(Build& b, const TileKey& key, Result<SceneNode> content, TileRecord record, size_t* built);
   Status commit(Build& b);
   void publish();
