@@ -6,7 +6,7 @@
 
 #include "app/cli_error.h"
 #include "app/commands.h"
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
 #include "gltf/gltf_io.h"
 
 namespace rgbdcast::app {
@@ -30,12 +30,12 @@ void run_convert(const ConvertArgs& a) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(a.input, ec))
     fail(make_error(ErrorCode::kNotFound, a.input + " is not a readable file"));
-  auto bytes = glb::read_file_bytes(a.input, kMaxInputBytes);
+  auto bytes = read_file_bytes(a.input, kMaxInputBytes);
   if (!bytes) fail(bytes.error());
   GlbStats stats;
   auto out = convert_glb(bytes->data(), bytes->size(), a.glb, &stats);
   if (!out) fail(make_error(out.error().code, a.input + ": " + out.error().message));
-  if (auto st = glb::write_file_atomically(a.out, *out); !st) fail(st.error());
+  if (auto st = write_file_atomically(a.out, *out); !st) fail(st.error());
   std::cout << "rgbdcast convert: " << a.input << " (" << bytes->size() << " bytes) -> " << a.out << " ("
             << to_string(a.glb.flavor)
             << (a.glb.flavor == GlbFlavor::kCompact ? std::string(" ") + to_string(a.glb.geometry_codec) : "") << ", "

@@ -9,9 +9,10 @@
 #include "app/reduce_common.h"
 #include "app/reduce_sequence.h"
 #include "app/report.h"
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
+#include "base/malloc_settings.h"
+#include "base/stopwatch.h"
 #include "input/frame_source.h"
-#include "scene/frame_memory.h"
 
 namespace rgbdcast::app {
 
@@ -30,7 +31,7 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
   if (a.frame < 0) fail(make_error(ErrorCode::kInvalidArgument, "--frame must be 0 or more"));
   auto frame = source.frame(static_cast<size_t>(a.frame));
   if (!frame) fail(frame.error());
-  const double load_ms = std::chrono::duration<double, std::milli>(clock::now() - t0).count();
+  const double load_ms = ms_since(t0);
 
   auto options = frame_options(a);
   if (!options) fail(options.error());
@@ -56,8 +57,8 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
   auto glb = encode_glb(scene, glb_options, &glb_stats);
   if (!glb) fail(glb.error());
   stages.push_back({"export", "bytes", glb->size(), glb_stats.ms});
-  if (auto st = glb::write_file_atomically(a.out, *glb); !st) fail(st.error());
-  const double total_ms = std::chrono::duration<double, std::milli>(clock::now() - t0).count();
+  if (auto st = write_file_atomically(a.out, *glb); !st) fail(st.error());
+  const double total_ms = ms_since(t0);
 
   std::cout << "rgbdcast reduce: " << frame->color_path << " (frame " << frame->index << ", "
             << frame->intrinsics.width << "x" << frame->intrinsics.height << ")\n"
@@ -104,7 +105,7 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
 }
 
 void run_reduce(const ReduceArgs& a, const RosbagTopics& topics) {
-  keep_freed_frame_memory();
+  apply_malloc_settings(frame_loop_malloc_settings());
   auto so = source_options(a, topics);
   if (!so) fail(so.error());
   if (auto o = frame_options(a); !o) fail(o.error());

@@ -15,9 +15,9 @@
 #include "app/cli_error.h"
 #include "app/commands.h"
 #include "app/reduce_common.h"
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
+#include "base/malloc_settings.h"
 #include "input/frame_source.h"
-#include "scene/frame_memory.h"
 #include "stream/keyframe_stream.h"
 #include "stream/uplink.h"
 
@@ -80,7 +80,7 @@ class ProgressLine {
 };
 
 void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
-  keep_freed_frame_memory();
+  apply_malloc_settings(frame_loop_malloc_settings());
   auto fail_stream = [](const Error& e) { fail("stream", e); };
   static const std::regex mission_name("^[A-Za-z0-9_-]{1,64}$");
   if (!std::regex_match(a.mission, mission_name))
@@ -197,7 +197,7 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
                     p.seq, p.rev, p.bytes, p.started, p.ended, p.stored ? "true" : "false");
       text += row;
     }
-    if (Status st = glb::write_file_atomically(a.post_log, std::vector<std::uint8_t>(text.begin(), text.end())); !st)
+    if (Status st = write_file_atomically(a.post_log, std::vector<std::uint8_t>(text.begin(), text.end())); !st)
       std::cerr << "rgbdcast stream: --post-log: " << st.error().message << "\n";
   }
   if (!summary) fail_stream(summary.error());

@@ -7,7 +7,8 @@
 #include <iostream>
 
 #include "app/report.h"
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
+#include "base/stopwatch.h"
 #include "keyframes/sequence.h"
 #include "keyframes/sequence_report.h"
 
@@ -92,13 +93,13 @@ Status run_sequence(const ReduceArgs& a, const FrameSource& source) {
   GlbStats stats;
   auto glb = encode_glb(scene, options->glb, &stats);  // the codec the budget measured with
   if (!glb) return glb.error();
-  if (auto st = glb::write_file_atomically(a.out, *glb); !st) return st;
+  if (auto st = write_file_atomically(a.out, *glb); !st) return st;
   if (!a.trajectory.empty()) {
     const Trajectory t = result->trajectory();
     const bool log = a.trajectory.size() > 4 && a.trajectory.substr(a.trajectory.size() - 4) == ".log";
     if (auto st = log ? write_redwood_log(a.trajectory, t) : write_tum_trajectory(a.trajectory, t); !st) return st;
   }
-  const double total_ms = std::chrono::duration<double, std::milli>(clock::now() - t0).count();
+  const double total_ms = ms_since(t0);
 
   std::cout << "rgbdcast reduce --sequence: " << result->frames.size() << " frames, " << result->tracked
             << " tracked (" << result->widened << " by the wide search, " << result->relocalised

@@ -2,7 +2,7 @@
 
 #include <cstdio>
 
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
 
 namespace rgbdcast::app {
 
@@ -29,7 +29,7 @@ std::string stages_table(const std::vector<StageReport>& stages) {
 }
 
 Status write_text_file_atomic(const std::string& path, const std::string& text) {
-  return glb::write_file_atomically(path, std::vector<std::uint8_t>(text.begin(), text.end()));
+  return write_file_atomically(path, std::vector<std::uint8_t>(text.begin(), text.end()));
 }
 
 }  // namespace rgbdcast::app

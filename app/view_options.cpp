@@ -6,7 +6,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
 
 namespace rgbdcast::app {
 
@@ -89,7 +89,7 @@ Status write_image(const Image& image, const std::string& path) {
   } catch (const cv::Exception&) {
     return make_error(ErrorCode::kInvalidArgument, "unsupported image type for " + path + " (use .png or .jpg)");
   }
-  return glb::write_file_atomically(path, std::vector<std::uint8_t>(bytes.begin(), bytes.end()));
+  return write_file_atomically(path, std::vector<std::uint8_t>(bytes.begin(), bytes.end()));
 }
 
 }  // namespace rgbdcast::app

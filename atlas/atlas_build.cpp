@@ -10,6 +10,7 @@
 #include "atlas/frame_texture.h"
 #include "atlas/texture_encode.h"
 #include "atlas/triangle_homography.h"
+#include "base/stopwatch.h"
 
 namespace rgbdcast {
 
@@ -143,7 +144,7 @@ Result<AtlasResult> build_atlas(const Mesh& mesh, const cv::Mat& color_rgb, cons
   atlas_detail::set_atlas_texture(std::move(atlas), layout.cells, tris.size(), &r);
   r.median_source_px = atlas_detail::median_projected_area_px(mesh, K);
   r.texels_per_triangle = 0.5 * layout.leg_px() * layout.leg_px();
-  r.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  r.ms = ms_since(t0);
   if (options.encode)
     if (auto st = attach_jpeg(out, options.jpeg_quality, &r.encode_ms); !st) return st.error();
   return r;

@@ -15,15 +15,13 @@
 #include "atlas/texture_encode.h"
 #include "atlas/triangle_homography.h"
 #include "atlas/unsampled_fill.h"
+#include "base/stopwatch.h"
 
 namespace rgbdcast::atlas_detail {
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double ms_between(Clock::time_point a, Clock::time_point b) {
-  return std::chrono::duration<double, std::milli>(b - a).count();
-}
 
 // Fills the texels of a cell that belong to one triangle from the colour image through the triangle's map
 // (atlas/cell_fill.h). Texels whose continued plane passes behind the camera take the centroid's pixel.

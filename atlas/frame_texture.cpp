@@ -9,6 +9,7 @@
 #include "atlas/texture_encode.h"
 #include "atlas/triangle_homography.h"
 #include "atlas/unsampled_fill.h"
+#include "base/stopwatch.h"
 
 namespace rgbdcast::atlas_detail {
 
@@ -137,7 +138,7 @@ Result<AtlasResult> build_frame_texture(const Mesh& mesh, const cv::Mat& color_r
     if (!sampled) return sampled.error();
     r.unsampled_texels = static_cast<size_t>(std::count(sampled->begin(), sampled->end(), 0));
     if (auto st = fill_unsampled_texels(&out.texture, *sampled); !st) return st.error();
-    r.fill_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - f0).count();
+    r.fill_ms = ms_since(f0);
   }
   r.width = color_rgb.cols;
   r.height = color_rgb.rows;
@@ -145,7 +146,7 @@ Result<AtlasResult> build_frame_texture(const Mesh& mesh, const cv::Mat& color_r
   r.triangles = out.triangle_count();
   r.median_source_px = median_projected_area_px(mesh, pinhole.K());
   r.texels_per_triangle = r.median_source_px;
-  r.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  r.ms = ms_since(t0);
   if (options.encode)
     if (auto st = attach_jpeg(out, options.jpeg_quality, &r.encode_ms); !st) return st.error();
   return r;

@@ -10,6 +10,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "base/stopwatch.h"
+
 namespace rgbdcast {
 
 namespace {
@@ -81,7 +83,7 @@ Status attach_jpeg(Mesh& mesh, int quality, double* encode_ms) {
   if (!jpeg) return jpeg.error();
   mesh.texture_encoded = std::move(jpeg.value());
   mesh.texture_mime = "image/jpeg";
-  *encode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  *encode_ms = ms_since(t0);
   return ok_status();
 }
 

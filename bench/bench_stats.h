@@ -5,6 +5,8 @@
 #include <ctime>
 #include <vector>
 
+#include "base/stopwatch.h"
+
 namespace rgbdcast::bench {
 
 // The q-quantile (0..1) of v, by the nearest rank; 0 for an empty v. median(v) is quantile(v, 0.5).
@@ -20,7 +22,7 @@ template <typename F>
 double time_ms(F&& f) {
   const auto t0 = std::chrono::steady_clock::now();
   f();
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return ms_since(t0);
 }
 
 // CPU milliseconds that f() took: on the calling thread (CLOCK_THREAD_CPUTIME_ID), or summed over the process's

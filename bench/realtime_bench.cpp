@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "base/malloc_settings.h"
 #include "bench/bench_stats.h"
 #include "bench/transmission/codecs.h"
 #include "bench/transmission/datasets.h"
@@ -35,7 +36,6 @@
 #include "input/frame_source.h"
 #include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
-#include "scene/frame_memory.h"
 
 using namespace rgbdcast;
 using namespace rgbdcast::bench;
@@ -406,7 +406,7 @@ void budget_section(const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  keep_freed_frame_memory();  // as `rgbdcast reduce` and `rgbdcast stream` run
+  apply_malloc_settings(frame_loop_malloc_settings());  // as `rgbdcast reduce` and `rgbdcast stream` run
   Args args;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];

@@ -14,9 +14,10 @@
 
 #include <chrono>
 
+#include "base/malloc_settings.h"
+#include "base/stopwatch.h"
 #include "gltf/gltf_io.h"
 #include "input/frame_source.h"
-#include "scene/frame_memory.h"
 #include "pipeline/frame_scene.h"
 #include "reduction/pipeline.h"
 #include "reduction/stages.h"
@@ -53,7 +54,7 @@ static int realtime_stages(const RgbdFrame& frame, const std::string& input, int
     const GlbWriteOptions glb_options = write_options(*textured, o.glb);
     auto glb = encode_glb(frame_scene(std::move(*textured), ""), glb_options);
     if (!glb) return std::fprintf(stderr, "reduce_bench: %s\n", glb.error().message.c_str()), 1;
-    wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    wall.push_back(ms_since(t0));
     bytes = glb->size();
     for (const auto& s : stages) {
       if (!ms.count(s.name)) order.push_back(s.name);
@@ -73,7 +74,7 @@ static int realtime_stages(const RgbdFrame& frame, const std::string& input, int
 }
 
 int main(int argc, char** argv) {
-  keep_freed_frame_memory();  // as `rgbdcast reduce` and `rgbdcast stream` run
+  apply_malloc_settings(frame_loop_malloc_settings());  // as `rgbdcast reduce` and `rgbdcast stream` run
   std::string input = RGBDCAST_DATA_DIR "/tum/rgbd_dataset_freiburg1_xyz", intrinsics;
   int frame_index = 0, runs = 5;
   std::string preset = "paper";

@@ -12,7 +12,7 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
 #include "gltf/color_space.h"
 #include "gltf/document_check.h"
 #include "gltf/glb_container.h"
@@ -497,7 +497,7 @@ Result<Scene> decode_glb(const std::uint8_t* data, size_t size, const GlbDecodeL
 }
 
 Result<Scene> read_glb_file(const std::string& path, const GlbDecodeLimits& limits) {
-  auto bytes = glb::read_file_bytes(path, kMaxGlbBytes);
+  auto bytes = read_file_bytes(path, kMaxGlbBytes);
   if (!bytes) return bytes.error();
   auto scene = decode_glb(bytes->data(), bytes->size(), limits);
   if (!scene) return make_error(scene.error().code, path + ": " + scene.error().message);

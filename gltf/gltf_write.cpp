@@ -8,7 +8,8 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
+#include "base/stopwatch.h"
 #include "gltf/color_space.h"
 #include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
@@ -454,7 +455,7 @@ Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteO
     stats->texture_bytes = b.texture_bytes_;
     stats->json_bytes = chunks ? chunks->json.size() : 0;
     stats->total_bytes = glb.size();
-    stats->ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    stats->ms = ms_since(t0);
   }
   return glb;
 }
@@ -474,7 +475,7 @@ Result<std::vector<std::uint8_t>> convert_glb(const std::uint8_t* data, size_t s
 Status write_glb_file(const Scene& scene, const std::string& path, const GlbWriteOptions& options, GlbStats* stats) {
   auto bytes = encode_glb(scene, options, stats);
   if (!bytes) return bytes.error();
-  return glb::write_file_atomically(path, bytes.value());
+  return write_file_atomically(path, bytes.value());
 }
 
 }  // namespace rgbdcast

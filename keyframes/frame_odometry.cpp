@@ -5,13 +5,9 @@
 #include <chrono>
 #include <cmath>
 
-namespace rgbdcast {
+#include "base/stopwatch.h"
 
-namespace {
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-}  // namespace
+namespace rgbdcast {
 
 double translation_m(const Eigen::Matrix4d& t) { return t.topRightCorner<3, 1>().norm(); }
 

@@ -2,6 +2,8 @@
 
 #include <chrono>
 
+#include "base/stopwatch.h"
+
 namespace rgbdcast {
 
 Status SequenceParams::validate() const {
@@ -70,7 +72,7 @@ Result<SequenceResult> track_sequence(size_t frame_count, const FrameLoader& loa
         if (kd.keyframe) rec.message = "keyframe (" + kd.reason + ")" + (rec.message.empty() ? "" : "; " + rec.message);
       }
     }
-    rec.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    rec.ms = ms_since(t0);
     if (rec.tracked) {
       ++out.tracked;
       if (rec.keyframe) ++out.keyframes;

@@ -5,13 +5,11 @@
 #include <cmath>
 #include <cstdio>
 
+#include "base/stopwatch.h"
+
 namespace rgbdcast {
 
 namespace {
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 std::string fmt(const char* f, double a, double b) {
   char buf[160];

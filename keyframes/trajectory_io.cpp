@@ -9,6 +9,8 @@
 #include <iomanip>
 #include <sstream>
 
+#include "base/atomic_file.h"
+
 namespace rgbdcast {
 
 namespace fs = std::filesystem;
@@ -54,20 +56,6 @@ std::vector<double> numbers(const std::string& line, bool* ok) {
 bool valid_quaternion(double qx, double qy, double qz, double qw) {
   const double n = std::sqrt(qx * qx + qy * qy + qz * qz + qw * qw);
   return n > 0.5 && n < 1.5;
-}
-
-Status write_atomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    if (!out) return make_error(ErrorCode::kIo, "cannot write " + tmp);
-    out << text;
-    if (!out) return make_error(ErrorCode::kIo, "write failed: " + tmp);
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) return make_error(ErrorCode::kIo, "cannot rename " + tmp + " to " + path + ": " + ec.message());
-  return ok_status();
 }
 
 }  // namespace
@@ -223,7 +211,7 @@ Status write_tum_trajectory(const std::string& path, const Trajectory& tr) {
     out << std::setprecision(6) << p.timestamp << std::setprecision(7) << ' ' << t.x() << ' ' << t.y() << ' ' << t.z()
         << ' ' << q.x() << ' ' << q.y() << ' ' << q.z() << ' ' << q.w() << '\n';
   }
-  return write_atomically(path, out.str());
+  return write_file_atomically(path, out.str());
 }
 
 Status write_redwood_log(const std::string& path, const Trajectory& tr) {
@@ -236,7 +224,7 @@ Status write_redwood_log(const std::string& path, const Trajectory& tr) {
       out << tr.poses[i].camera_to_world(r, 0) << ' ' << tr.poses[i].camera_to_world(r, 1) << ' '
           << tr.poses[i].camera_to_world(r, 2) << ' ' << tr.poses[i].camera_to_world(r, 3) << '\n';
   }
-  return write_atomically(path, out.str());
+  return write_file_atomically(path, out.str());
 }
 
 const StampedPose* nearest_pose(const Trajectory& tr, double t, double max_difference_s) {

@@ -43,7 +43,8 @@ Result<Trajectory> parse_trajectory(std::string_view text, TrajectoryFormat form
 // By name and content: *.log -> Redwood, 7 numbers per line -> ICL-NUIM, 8 -> TUM.
 Result<Trajectory> read_trajectory(const std::string& path);
 
-// Writers (temp file then rename). TUM needs timestamps; Redwood uses index (or position when index < 0).
+// Writers (base/atomic_file.h: temp file, fsync, rename). TUM needs timestamps; Redwood uses index (or position
+// when index < 0).
 Status write_tum_trajectory(const std::string& path, const Trajectory& trajectory);
 Status write_redwood_log(const std::string& path, const Trajectory& trajectory);
 

@@ -10,6 +10,7 @@
 #include <memory>
 #include <new>
 
+#include "base/stopwatch.h"
 #include "reduction/openmp_threads.h"
 #include "reduction/stages.h"
 
@@ -59,7 +60,7 @@ class StageTimer {
   explicit StageTimer(std::vector<StageReport>* out) : out_(out), start_(std::chrono::steady_clock::now()) {}
   void done(const char* name, const char* unit, size_t count) {
     const auto now = std::chrono::steady_clock::now();
-    out_->push_back({name, unit, count, std::chrono::duration<double, std::milli>(now - start_).count()});
+    out_->push_back({name, unit, count, ms_between(start_, now)});
     start_ = now;
   }
 
@@ -161,7 +162,7 @@ Result<RealtimeReduction> prepare_realtime(const RgbdFrame& frame, const Reducti
   if (!hierarchy) return hierarchy.error();
   timer.done("hierarchy", "points", filtered->kept);
   RealtimeReduction r{std::move(*hierarchy), std::move(stages), 0.0};
-  r.prepare_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  r.prepare_ms = ms_since(t0);
   return r;
 }
 

@@ -1,6 +1,7 @@
 // The server-side reduction of an uploaded RGB-D frame (the multipart route of POST /v1/scenes): decode and validate
 // the images, read the intrinsics, reduce and texture (pipeline/frame_scene.h, as `rgbdcast reduce`), encode the GLB. The
 // result is what `rgbdcast reduce` writes for the same frame, and is then checked like any uploaded GLB.
+#include "base/stopwatch.h"
 #include "gltf/gltf_io.h"
 #include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
@@ -11,9 +12,6 @@ namespace rgbdcast::service {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 nlohmann::json stage_json(const StageReport& s) { return {{"name", s.name}, {s.unit, s.count}, {"ms", s.ms}}; }
 

@@ -7,6 +7,7 @@
 #include <regex>
 #include <set>
 
+#include "base/stopwatch.h"
 #include "gltf/gltf_io.h"
 #include "service/connection_gate.h"
 #include "service/mission_export.h"
@@ -220,7 +221,7 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   // Stored: views draw it at once (a keyframe the tileset does not hold yet is drawn whole, service/mission_view.h),
   // and the tile worker takes it into the tileset off this request's path.
   const auto t_done = std::chrono::steady_clock::now();
-  res.set_header("X-Store-Ms", std::to_string(std::chrono::duration<double, std::milli>(t_done - t_store).count()));
+  res.set_header("X-Store-Ms", std::to_string(ms_between(t_store, t_done)));
   const double available = now_unix_s();
   auto marked = missions_.mark_available(*name, *seq, available);
   if (!marked) return send_error(res, marked.error());

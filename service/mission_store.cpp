@@ -6,8 +6,9 @@
 #include <fstream>
 #include <random>
 
+#include "base/atomic_file.h"
 #include "service/mission_index.h"
-#include "service/scene_store.h"  // write_file_atomic, fsync_dir, read_text, quarantine, etag_of
+#include "service/scene_store.h"  // read_text, quarantine, etag_of
 
 namespace fs = std::filesystem;
 
@@ -104,7 +105,7 @@ double now_unix_s() {
 
 Status write_json(const std::string& dir, std::int64_t seq, const MissionKeyframe& k) {
   const std::string text = stored_keyframe_json(k).dump(2);
-  return write_file_atomic(dir, std::to_string(seq) + ".json", text.data(), text.size());
+  return write_file_atomically(dir + "/" + std::to_string(seq) + ".json", text.data(), text.size());
 }
 
 }  // namespace
@@ -312,7 +313,7 @@ Result<PutResult> DirectoryMissionStore::put(MissionKeyframe k, const std::vecto
     if (auto st = fsync_dir(dir_); !st) return st.error();
   }
   const std::string name = glb_name(k.seq, k.rev);
-  if (auto st = write_file_atomic(dir, name, glb.data(), glb.size()); !st) return st.error();
+  if (auto st = write_file_atomically(dir + "/" + name, glb.data(), glb.size()); !st) return st.error();
   if (auto st = write_json(dir, k.seq, k); !st) {
     fs::remove(dir + "/" + name, ec);
     return st.error();

@@ -160,7 +160,7 @@ PutOutcome repeat_outcome(const MissionKeyframe& stored, const MissionKeyframe& 
 // Live missions on disk: <data_dir>/missions/<name>/<seq>.glb (the keyframe GLB as the robot sent it;
 // <seq>.r<rev>.glb for a revision rev > 0) and <seq>.json (its pose, sizes, times and rev). Besides MissionStore's
 // contract:
-// - put() writes the GLB, then the JSON, each with write_file_atomic (service/scene_store.h: temporary name, fsync,
+// - put() writes the GLB, then the JSON, each with write_file_atomically (base/atomic_file.h: temporary name, fsync,
 //   rename, fsync of the folder); the JSON is the commit marker, so a crash leaves a whole keyframe or none.
 // - A revision's new GLB is written under its own name, then the JSON (the commit: from then on the new rev is the
 //   keyframe), then the old GLB is removed.

@@ -4,7 +4,7 @@
 #include <filesystem>
 #include <memory>
 
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
 #include "gltf/gltf_io.h"
 #include "service/mission_routes.h"  // mission_scene_key
 #include "service/mission_scene.h"
@@ -18,7 +18,7 @@ constexpr size_t kMaxTileFileBytes = size_t(256) << 20;
 Result<std::shared_ptr<const Scene>> load_tile(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) return make_error(ErrorCode::kNotFound, "no tile file " + path);
-  auto bytes = glb::read_file_bytes(path, kMaxTileFileBytes);
+  auto bytes = read_file_bytes(path, kMaxTileFileBytes);
   if (!bytes) return bytes.error();
   auto scene = decode_glb(bytes->data(), bytes->size());
   if (!scene) return make_error(ErrorCode::kInternal, "tile " + path + " does not decode: " + scene.error().message);

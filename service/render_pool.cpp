@@ -1,20 +1,17 @@
 #include "service/render_pool.h"
 
-#include <malloc.h>
-
 #include <atomic>
 #include <chrono>
 #include <list>
 #include <unordered_map>
 #include <utility>
 
+#include "base/malloc_settings.h"
+#include "base/stopwatch.h"
 #include "scene/render_bytes.h"
 
 namespace rgbdcast::service {
 namespace {
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 }  // namespace
 
@@ -241,7 +238,7 @@ void RenderPool::release_when_idle(Worker* w, const RendererFactory& factory) {
     }
   }
   if (w->heap_dirty) {
-    ::malloc_trim(0);
+    return_freed_heap();
     w->heap_dirty = false;
   }
 }

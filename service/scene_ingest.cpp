@@ -3,6 +3,7 @@
 #include <chrono>
 #include <limits>
 
+#include "base/stopwatch.h"
 #include "gltf/gltf_io.h"
 
 namespace rgbdcast::service {
@@ -75,7 +76,7 @@ Result<IngestedScene> ingest_glb(std::vector<std::uint8_t> glb) {
   const auto t0 = std::chrono::steady_clock::now();
   auto scene = decode_client_glb(glb);
   if (!scene) return scene.error();
-  const double decode_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const double decode_ms = ms_since(t0);
   IngestedScene out;
   out.stats = scene_stats(*scene, glb.size());
   out.stats["source"] = "glb";

@@ -1,9 +1,5 @@
 #include "service/scene_store.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
@@ -12,26 +8,16 @@
 #include <fstream>
 #include <random>
 
+#include "base/atomic_file.h"
+
 namespace fs = std::filesystem;
 
 namespace rgbdcast::service {
 namespace {
 
 constexpr size_t kIdLength = 32;
-constexpr const char* kTempPrefix = kTempFilePrefix;
-
-std::string errno_text() { return std::strerror(errno); }
 
 }  // namespace
-
-Status fsync_dir(const std::string& dir) {
-  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return make_error(ErrorCode::kIo, "cannot open folder " + dir + ": " + errno_text());
-  const int rc = ::fsync(fd);
-  ::close(fd);
-  if (rc != 0) return make_error(ErrorCode::kIo, "cannot fsync folder " + dir + ": " + errno_text());
-  return ok_status();
-}
 
 namespace {
 
@@ -135,38 +121,6 @@ std::string etag_of(const std::uint8_t* data, size_t size) {
   return buf;
 }
 
-Status write_file_atomic(const std::string& dir, const std::string& name, const void* data, size_t size) {
-  const std::string tmp = dir + "/" + kTempPrefix + name + "-" + random_hex(8);
-  const std::string final_path = dir + "/" + name;
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) return make_error(ErrorCode::kIo, "cannot create " + tmp + ": " + errno_text());
-  const auto* p = static_cast<const char*>(data);
-  size_t left = size;
-  while (left > 0) {
-    const ssize_t n = ::write(fd, p, left);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const std::string why = errno_text();
-      ::close(fd);
-      ::unlink(tmp.c_str());
-      return make_error(ErrorCode::kIo, "cannot write " + tmp + ": " + why);
-    }
-    p += n;
-    left -= static_cast<size_t>(n);
-  }
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
-    const std::string why = errno_text();
-    ::unlink(tmp.c_str());
-    return make_error(ErrorCode::kIo, "cannot flush " + tmp + ": " + why);
-  }
-  if (::rename(tmp.c_str(), final_path.c_str()) != 0) {
-    const std::string why = errno_text();
-    ::unlink(tmp.c_str());
-    return make_error(ErrorCode::kIo, "cannot rename " + tmp + " to " + final_path + ": " + why);
-  }
-  return fsync_dir(dir);
-}
-
 Result<std::unique_ptr<SceneStore>> SceneStore::open(const std::string& data_dir) {
   auto store = DirectorySceneStore::open(data_dir);
   if (!store) return store.error();
@@ -186,7 +140,7 @@ Result<std::unique_ptr<DirectorySceneStore>> DirectorySceneStore::open(const std
   std::vector<std::pair<std::string, std::string>> bad;  // id, why
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
     const std::string name = entry.path().filename().string();
-    if (name.rfind(kTempPrefix, 0) == 0) {
+    if (name.rfind(kTempFilePrefix, 0) == 0) {
       fs::remove(entry.path(), ec);
       store->cleaned_.push_back(name);
       continue;
@@ -255,10 +209,10 @@ StoredScene new_stored_scene(const std::vector<std::uint8_t>& glb, nlohmann::jso
 Result<StoredScene> DirectorySceneStore::put(const std::vector<std::uint8_t>& glb, nlohmann::json metadata) {
   StoredScene s = new_stored_scene(glb, metadata);
 
-  auto st = write_file_atomic(dir_, s.id + ".glb", glb.data(), glb.size());
+  auto st = write_file_atomically(dir_ + "/" + s.id + ".glb", glb.data(), glb.size());
   if (!st) return st.error();
   const std::string text = metadata.dump(2);
-  st = write_file_atomic(dir_, s.id + ".json", text.data(), text.size());
+  st = write_file_atomically(dir_ + "/" + s.id + ".json", text.data(), text.size());
   if (!st) {
     std::error_code ec;
     fs::remove(glb_path(s.id), ec);

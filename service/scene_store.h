@@ -116,17 +116,12 @@ StoredScene new_stored_scene(const std::vector<std::uint8_t>& glb, nlohmann::jso
 // A stored metadata text read back: the scene it describes, or kInvalidInput with the reason.
 Result<StoredScene> parse_scene_metadata(const std::string& id, const std::string& text);
 
-// Writes bytes to dir/name atomically: dir/.tmp-<name>-<random>, fsync, rename, fsync(dir).
-Status write_file_atomic(const std::string& dir, const std::string& name, const void* data, size_t size);
-
 // For the mission store too (service/mission_store.h), so that one set of file helpers serves both:
-// fsync of a folder; a whole small file; <stem>.json and <stem>.glb of from_dir moved (when there) to
-// <data_dir>/quarantine/<prefix><stem>.json|.glb.
-Status fsync_dir(const std::string& dir);
+// a whole small file; <stem>.json and <stem>.glb of from_dir moved (when there) to
+// <data_dir>/quarantine/<prefix><stem>.json|.glb. Files are written with base/atomic_file.h.
 Result<std::string> read_text(const std::string& path);
 Status quarantine(const std::string& data_dir, const std::string& from_dir, const std::string& stem,
                   const std::string& prefix);
-inline constexpr const char* kTempFilePrefix = ".tmp-";  // what write_file_atomic's temporary names start with
 
 // A strong ETag for bytes: "\"<16 hex digits of FNV-1a 64>-<size>\"".
 std::string etag_of(const std::uint8_t* data, size_t size);

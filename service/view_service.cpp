@@ -1,6 +1,5 @@
 #include "service/view_service.h"
 
-#include <malloc.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -17,6 +16,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "base/malloc_settings.h"
+#include "base/stopwatch.h"
 #include "gltf/gltf_io.h"
 #include "service/connection_gate.h"
 #include "service/http_errors.h"
@@ -66,7 +67,7 @@ nlohmann::json scene_summary(const StoredScene& s) {
 }
 
 // Returns freed heap to the system once no reduction is running: a frame reduction peaks at hundreds of MB.
-void trim_heap() { ::malloc_trim(0); }
+void trim_heap() { return_freed_heap(); }
 
 // OpenMP threads per frame reduction: the operator's number, else the cores shared among the reducers.
 int reduce_threads(const ServeOptions& o) {
@@ -275,7 +276,7 @@ void ViewService::Impl::render_and_send(const httplib::Request& req, const ViewR
   const auto t0 = Clock::now();
   auto encoded = encode_image(out->color, request->format, request->quality);
   if (!encoded) return send_error(res, encoded.error());
-  const double encode_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  const double encode_ms = ms_since(t0);
   metrics.observe_render(to_string(request->mode), out->backend, out->render_ms / 1000.0);
   res.set_header("X-Render-Ms", fmt_ms(out->render_ms));
   res.set_header("X-Readback-Ms", fmt_ms(out->readback_ms));
@@ -527,23 +528,8 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
     std::fprintf(stderr, "rgbdcast serve: warning: %s\n", q.c_str());
 
   cap_renderer_threads(options.renderers);
-  // With one malloc arena per thread (up to 16 on 2 cores) a burst of large views leaves hundreds of MB spread over
-  // arenas that malloc_trim does not give back; two arenas give it back (bench/memory_burst.sh: 1405 MiB after 8 s
-  // idle before, 235 MiB with this and the idle reset, base 221 MiB). MALLOC_ARENA_MAX, when set, wins.
-  if (!std::getenv("MALLOC_ARENA_MAX")) ::mallopt(M_ARENA_MAX, 2);
-  // glibc raises its mmap threshold to the largest mmapped block freed (up to 32 MiB), after which the view-sized
-  // buffers of every request (render targets and readbacks resized per view, images, JPEGs: up to 64 MB) come from
-  // the arena heaps, between long-lived allocations, and stay resident. A fixed threshold keeps them in mmap,
-  // returned on free (bench/soak.sh 300 8: peak 21 % above the post-warm-up RSS before, 7 % with a 128 kB one).
-  // It is 2 MB, not 128 kB: a keyframe POST allocates and frees the same blocks of 0.1-1.2 MB each time (its body,
-  // the decoded 640x480 texture, the glTF and Draco buffers), and at 128 kB each was mapped, faulted in and unmapped
-  // again, 7-10 of a POST's 11-14 ms on the server (bench/post_roundtrip.py; BENCHMARKS.md, "Keyframe POST round
-  // trip"). The trim
-  // threshold keeps them at the heap's top between POSTs; the render pool's malloc_trim still returns the heap after
-  // a burst of views. This is the only place serve sets them; MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_, when
-  // set, win.
-  if (!std::getenv("MALLOC_MMAP_THRESHOLD_")) ::mallopt(M_MMAP_THRESHOLD, 2 << 20);
-  if (!std::getenv("MALLOC_TRIM_THRESHOLD_")) ::mallopt(M_TRIM_THRESHOLD, 16 << 20);
+  // The server's malloc profile (base/malloc_settings.h has the reasons); the environment's MALLOC_* win.
+  apply_malloc_settings(server_malloc_settings());
   SceneStore* store_ptr = impl->store.get();
   std::string* reason = &impl->backend_reason;
   std::mutex* reason_mutex = &impl->reason_mutex;

@@ -8,7 +8,7 @@
 #include <set>
 #include <sstream>
 
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
 
 namespace rgbdcast::stream {
 
@@ -93,7 +93,7 @@ Result<DeferredKeyframe> parse_deferred(const std::string& text, const std::stri
 }
 
 Result<std::string> read_text(const std::string& path) {
-  auto bytes = glb::read_file_bytes(path, 1 << 20);
+  auto bytes = read_file_bytes(path, 1 << 20);
   if (!bytes) return bytes.error();
   return std::string(bytes->begin(), bytes->end());
 }
@@ -133,7 +133,7 @@ Result<std::unique_ptr<Outbox>> Outbox::open(const std::string& dir, const std::
     if (j["mission"].get<std::string>() != mission)
       return make_error(ErrorCode::kInvalidArgument, "outbox " + dir + " holds mission '" +
                                                          j["mission"].get<std::string>() + "', not '" + mission + "'");
-  } else if (auto st = glb::write_file_atomically(mission_path, text_bytes(json{{"mission", mission}}.dump() + "\n"));
+  } else if (auto st = write_file_atomically(mission_path, text_bytes(json{{"mission", mission}}.dump() + "\n"));
              !st) {
     return st.error();
   }
@@ -187,7 +187,7 @@ std::string Outbox::glb_path(int seq, int rev) const {
 }
 
 Status Outbox::write_meta(const OutboxEntry& e) const {
-  return glb::write_file_atomically(path(e.seq, ".json"), text_bytes(entry_json(e).dump(1) + "\n"));
+  return write_file_atomically(path(e.seq, ".json"), text_bytes(entry_json(e).dump(1) + "\n"));
 }
 
 std::vector<OutboxEntry> Outbox::entries() const {
@@ -214,7 +214,7 @@ Result<OutboxEntry> Outbox::add(OutboxEntry e, const std::vector<std::uint8_t>& 
   e.seq = entries_.empty() ? 0 : entries_.rbegin()->first + 1;
   e.bytes = glb.size();
   e.attempted = e.acked = false;
-  if (auto st = glb::write_file_atomically(path(e.seq, ".glb"), glb); !st) return st.error();
+  if (auto st = write_file_atomically(path(e.seq, ".glb"), glb); !st) return st.error();
   if (auto st = write_meta(e); !st) return st.error();
   entries_[e.seq] = e;
   if (deferred_.count(e.frame_index)) (void)remove_deferred_locked(e.frame_index);  // open() removes it, should this fail
@@ -234,7 +234,7 @@ Status Outbox::coarsen(int seq, const std::vector<std::uint8_t>& glb, double bud
   e.budget_kb = budget_kb;
   e.triangles = triangles;
   e.coarsened = true;
-  if (auto st = glb::write_file_atomically(glb_path(seq, e.rev), glb); !st) return st;
+  if (auto st = write_file_atomically(glb_path(seq, e.rev), glb); !st) return st;
   if (auto st = write_meta(e); !st) return st;
   it->second = e;
   return ok_status();
@@ -272,7 +272,7 @@ Status Outbox::revise_entry(int seq, const std::vector<std::uint8_t>& glb, doubl
   e.triangles = triangles;
   e.attempted = e.acked = false;
   e.ack_json.clear();
-  if (auto st = glb::write_file_atomically(glb_path(seq, e.rev), glb); !st) return st;
+  if (auto st = write_file_atomically(glb_path(seq, e.rev), glb); !st) return st;
   if (auto st = write_meta(e); !st) {
     std::error_code ec;
     fs::remove(glb_path(seq, e.rev), ec);
@@ -330,7 +330,7 @@ Result<std::vector<std::uint8_t>> Outbox::read_glb(int seq) const {
 }
 
 Result<std::vector<std::uint8_t>> Outbox::read_glb(int seq, int rev) const {
-  return glb::read_file_bytes(glb_path(seq, rev), size_t{1} << 30);
+  return read_file_bytes(glb_path(seq, rev), size_t{1} << 30);
 }
 
 std::string Outbox::deferred_path(int frame_index) const {
@@ -342,7 +342,7 @@ std::string Outbox::deferred_path(int frame_index) const {
 Status Outbox::defer(const DeferredKeyframe& k) {
   if (k.frame_index < 0) return make_error(ErrorCode::kInvalidArgument, "outbox: a deferred keyframe needs a frame");
   std::lock_guard lock(mu_);
-  if (auto st = glb::write_file_atomically(deferred_path(k.frame_index), text_bytes(deferred_json(k).dump(1) + "\n"));
+  if (auto st = write_file_atomically(deferred_path(k.frame_index), text_bytes(deferred_json(k).dump(1) + "\n"));
       !st)
     return st;
   deferred_[k.frame_index] = k;

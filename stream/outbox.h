@@ -5,7 +5,7 @@
 // Layout of DIR: `mission.json` ({"mission": name}: an outbox serves one mission), and per keyframe
 // `kf-<seq, 8 digits>.glb` (the body exactly as posted; `kf-<seq>.r<rev>.glb` for a revision rev > 0) and
 // `kf-<seq>.json` (its state, below). Each file is written
-// by the project's one atomic writer (gltf/atomic_file.h: temp file, fsync, rename), the GLB before its JSON: an
+// by the project's one atomic writer (base/atomic_file.h: temp file, fsync, rename), the GLB before its JSON: an
 // entry exists when its JSON does; a GLB without one (a crash between the two writes) was never sent and is
 // removed when the outbox is opened. Sequence numbers continue after the highest one on disk.
 //

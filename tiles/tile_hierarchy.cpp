@@ -9,7 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
 #include "gltf/gltf_io.h"
 #include "scene/render_bytes.h"
 #include "tiles/tileset_json.h"
@@ -120,7 +120,7 @@ TileHierarchy::~TileHierarchy() = default;
 Status TileHierarchy::load_committed() {
   const std::string path = dir_ + "/" + kManifest;
   if (!fs::exists(path)) return ok_status();
-  auto bytes = glb::read_file_bytes(path, kMaxManifestBytes);
+  auto bytes = read_file_bytes(path, kMaxManifestBytes);
   if (!bytes) return bytes.error();
   const auto j = nlohmann::json::parse(bytes->begin(), bytes->end(), nullptr, false);
   if (j.is_discarded() || !j.is_object() || j.value("format", 0) != kFormat ||
@@ -287,7 +287,7 @@ Status write_tile(const std::string& dir, SceneNode node, GeometryCodec codec, T
   options.geometry_codec = codec;
   auto glb = encode_glb(scene, options);
   if (!glb) return make_error(glb.error().code, "tile " + r->key.name() + ": " + glb.error().message);
-  if (auto st = glb::write_file_atomically(dir + "/" + r->file(), *glb); !st) return st.error();
+  if (auto st = write_file_atomically(dir + "/" + r->file(), *glb); !st) return st.error();
   r->bytes = glb->size();
   r->triangles = scene.triangle_count();
   r->render_bytes = render_bytes(scene);
@@ -302,7 +302,7 @@ Status write_tile(const std::string& dir, SceneNode node, GeometryCodec codec, T
 // A tile's content as its parent reads it, in world coordinates: the stored GLB decoded, whether it was written in
 // this update or an earlier one, so that a parent's input does not depend on which.
 Result<Mesh> read_tile(const std::string& dir, const TileRecord& r) {
-  auto bytes = glb::read_file_bytes(dir + "/" + r.file(), size_t(512) << 20);
+  auto bytes = read_file_bytes(dir + "/" + r.file(), size_t(512) << 20);
   if (!bytes) return bytes.error();
   auto scene = decode_glb(bytes->data(), bytes->size());
   if (!scene || scene->nodes.empty())
@@ -506,7 +506,7 @@ Status TileHierarchy::commit(Build& b) {
   const nlohmann::json manifest = {{"format", kFormat},      {"version", b.version}, {"options", options_json(options_)},
                                    {"keyframes", keyframes}, {"tiles", tiles}};
   const std::string text = manifest.dump();
-  if (auto st = glb::write_file_atomically(dir_ + "/" + kManifest, std::vector<std::uint8_t>(text.begin(), text.end()));
+  if (auto st = write_file_atomically(dir_ + "/" + kManifest, std::vector<std::uint8_t>(text.begin(), text.end()));
       !st)
     return st;
   // Committed. The previous version's files stay for clients that read its tileset; the ones before it go.

@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "base/stopwatch.h"
 #include "bench/transmission/draco_codec.h"
 #include "gltf/gltf_io.h"
 #include "pipeline/frame_defaults.h"
@@ -15,10 +16,6 @@
 namespace rgbdcast::bench {
 
 namespace {
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 Scene scene_at_capture(const Intrinsics& k) {
   Scene scene;

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <map>
 
+#include "base/stopwatch.h"
 #include "renderer/osmesa/gl_program.h"
 #include "renderer/render_camera.h"
 #include "renderer/render_scene.h"
@@ -17,7 +18,6 @@ namespace rgbdcast {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 // std140 DrawParams block of shaders/scene.vert.
 struct DrawParams {

@@ -5,6 +5,8 @@
 #include <cstring>
 #include <vector>
 
+#include "base/stopwatch.h"
+
 #if defined(__SANITIZE_ADDRESS__)
 #include <dlfcn.h>
 #include <link.h>
@@ -261,7 +263,7 @@ Status Context::end_submit_wait(VkCommandBuffer cmd, double* submit_ms) {
         status = vk_error(w, "vkWaitForFences");
       vkResetFences(device_, 1, &fence_);
       if (submit_ms)
-        *submit_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        *submit_ms = ms_since(t0);
     }
   }
   vkFreeCommandBuffers(device_, command_pool_, 1, &cmd);

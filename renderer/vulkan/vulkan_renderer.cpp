@@ -5,6 +5,7 @@
 #include <cstring>
 #include <map>
 
+#include "base/stopwatch.h"
 #include "renderer/render_camera.h"
 #include "renderer/render_scene.h"
 #include "renderer/vulkan/vk_context.h"
@@ -16,7 +17,6 @@ namespace rgbdcast {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 constexpr VkFormat kColorFormat = VK_FORMAT_R8G8B8A8_UNORM;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;

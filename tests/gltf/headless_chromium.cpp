@@ -10,6 +10,7 @@
 #include <string_view>
 #include <vector>
 
+#include "base/stopwatch.h"
 #include "tests/common/test_data.h"
 #include "tests/gltf/static_http_server.h"
 
@@ -70,7 +71,7 @@ PagePost run_tools_page(const std::string& chromium, const std::string& page_and
     return r;
   }
   const auto posted = server.wait_for_post({"/result", "/error"}, timeout_ms);
-  r.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  r.ms = ms_since(t0);
   kill(pid, SIGTERM);
   int status = 0;
   waitpid(pid, &status, 0);

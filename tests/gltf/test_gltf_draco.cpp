@@ -17,7 +17,7 @@
 #include <random>
 #include <set>
 
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
 #include "gltf/draco_buffers.h"
 #include "gltf/draco_header.h"
 #include "gltf/glb_container.h"
@@ -283,7 +283,7 @@ TEST(GltfDraco, ValidatorReportsNoErrorOrWarning) {
   ASSERT_TRUE(glb) << glb.error().message;
   const std::string dir = test::temp_dir("draco_validator");
   const std::string path = dir + "/frame.glb";
-  ASSERT_TRUE(glb::write_file_atomically(path, *glb));
+  ASSERT_TRUE(write_file_atomically(path, *glb));
   EXPECT_GLTF_VALID(path);
   test::remove_tree_quietly(dir);
 }

@@ -11,7 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
 #include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
 #include "tests/common/gltf_validator.h"
@@ -158,7 +158,7 @@ TEST(GltfFlavors, ConvertCliFailsInOneLineWithExitTwoAndWritesNothing) {
   }
   auto good = encode_glb(test::sample_scene(), {});
   ASSERT_TRUE(good.ok());
-  ASSERT_TRUE(glb::write_file_atomically(dir + "/good.glb", *good).ok());
+  ASSERT_TRUE(write_file_atomically(dir + "/good.glb", *good).ok());
   struct Case {
     std::string args, says;
   };

@@ -24,7 +24,7 @@
 #include <set>
 #include <sstream>
 
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
 #include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
 #include "tests/common/gltf_validator.h"
@@ -86,7 +86,7 @@ Counts counts_of_file(const std::string& path) {
 }
 
 json glb_json(const std::string& path) {
-  auto bytes = glb::read_file_bytes(path, size_t(1) << 30);
+  auto bytes = read_file_bytes(path, size_t(1) << 30);
   if (!bytes) return json();
   auto chunks = glb::parse_glb(bytes->data(), bytes->size());
   return chunks ? json::parse(chunks->json, nullptr, false) : json();
@@ -331,14 +331,14 @@ TEST(GltfViewers, AssimpCannotOpenTheCompactOrAQuantizedGlb) {
   const AssimpInfo compact = assimp_info(files().tum_compact);
   EXPECT_NE(compact.exit_code, 0);
   EXPECT_NE(compact.text.find("missing the \"uri\" attribute"), std::string::npos) << compact.text;
-  auto bytes = glb::read_file_bytes(files().tum_compat, size_t(1) << 30);
+  auto bytes = read_file_bytes(files().tum_compat, size_t(1) << 30);
   ASSERT_TRUE(bytes.ok());
   GlbWriteOptions quantized;  // compact without meshopt: what --no-meshopt writes
   quantized.meshopt = false;
   auto q = convert_glb(bytes->data(), bytes->size(), quantized);
   ASSERT_TRUE(q.ok()) << q.error().message;
   const std::string path = files().dir + "/tum-quantized.glb";
-  ASSERT_TRUE(glb::write_file_atomically(path, *q).ok());
+  ASSERT_TRUE(write_file_atomically(path, *q).ok());
   const auto r = test::run_command("/usr/bin/assimp info " + path);  // with Assimp's default post-processing
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE((r.out + r.err).find("No meshes remaining"), std::string::npos) << r.out << r.err;

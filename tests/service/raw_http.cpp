@@ -10,6 +10,8 @@
 #include <chrono>
 #include <thread>
 
+#include "base/stopwatch.h"
+
 namespace rgbdcast::test {
 
 int connect_loopback(int port, const char* address) {
@@ -79,7 +81,7 @@ RawResponse read_response(int fd, double timeout_s) {
   }
   if (header_end != std::string::npos) r.body = data.substr(header_end + 4);
   if (need != std::string::npos && r.body.size() > need - header_end - 4) r.body.resize(need - header_end - 4);
-  r.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  r.ms = ms_since(t0);
   return r;
 }
 
@@ -93,7 +95,7 @@ RawResponse raw_request(int port, const std::string& request, double timeout_s) 
   ::shutdown(fd, SHUT_RDWR);
   sender.join();
   ::close(fd);
-  r.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  r.ms = ms_since(t0);
   return r;
 }
 

@@ -20,6 +20,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "base/stopwatch.h"
 #include "tests/common/run_command.h"
 #include "tests/common/test_data.h"
 #include "tests/service/mission_keyframes.h"
@@ -27,6 +28,8 @@
 
 using nlohmann::json;
 using rgbdcast::test::MissionKeyframeFile;
+
+using rgbdcast::ms_since;
 
 namespace {
 
@@ -170,7 +173,7 @@ TEST(Cluster, AffinityEventsAndFailoverBehindNginx) {
   const auto posted = std::chrono::steady_clock::now();
   ASSERT_EQ(post_keyframe(*c, mission, 1, k[1])->status, 201);
   listener.join();
-  const double event_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - posted).count();
+  const double event_ms = ms_since(posted);
   EXPECT_NE(seen.find("id: 1\n"), std::string::npos) << seen;
   std::printf("keyframe POST through the front to its SSE event through the front: %.0f ms\n", event_ms);
 

@@ -19,6 +19,7 @@
 #include <random>
 #include <thread>
 
+#include "base/stopwatch.h"
 #include "tests/common/run_command.h"
 #include "tests/common/test_data.h"
 #include "tests/service/raw_http.h"
@@ -30,13 +31,14 @@ using rgbdcast::test::RawResponse;
 using rgbdcast::test::ServerProcess;
 using rgbdcast::test::raw_request;
 
+using rgbdcast::ms_since;
+
 namespace {
 
 constexpr const char* kFr1 = "tum/rgbd_dataset_freiburg1_xyz/rgb/1305031102.175304.png";
 constexpr const char* kToken = "battery-token-0123456789abcdef";
 
 using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 std::string host_of(int port) { return "127.0.0.1:" + std::to_string(port); }
 

@@ -21,6 +21,7 @@
 #include <opencv2/imgproc.hpp>
 #include <thread>
 
+#include "base/stopwatch.h"
 #include "tests/common/test_data.h"
 #include "tests/service/raw_http.h"
 #include "tests/service/server_process.h"
@@ -28,6 +29,8 @@
 namespace fs = std::filesystem;
 using nlohmann::json;
 using rgbdcast::test::ServerProcess;
+
+using rgbdcast::ms_since;
 
 namespace {
 
@@ -103,7 +106,7 @@ class ServiceHttp : public ::testing::Test {
     auto c = client(server_->port());
     const auto t0 = std::chrono::steady_clock::now();
     auto r = c->Post("/v1/scenes", frame_parts(rgbdcast::test::fr1_frame0()));
-    upload_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    upload_ms_ = ms_since(t0);
     if (!r || r->status != 201) {
       start_error_ = "frame upload failed: " + (r ? std::to_string(r->status) + " " + r->body : std::string("no response"));
       return;

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <thread>
 
+#include "base/stopwatch.h"
 #include "service/mission_store.h"
 #include "tests/common/test_data.h"
 
@@ -98,7 +99,7 @@ TEST(MissionStore, EventsInArrivalOrderWithCursorsAndWakeups) {
     (void)s.mark_available("m", 6, 2000.0);
   });
   auto live = s.wait_events("m", cursor, std::chrono::milliseconds(5000));
-  const double waited_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const double waited_ms = ms_since(t0);
   writer.join();
   EXPECT_EQ(seqs(live.events), (std::vector<std::int64_t>{6}));  // woken by it: a timeout returns none
   EXPECT_GE(waited_ms, 150.0);  // not by the put 100 ms in: by mark_available, 100 ms later

@@ -103,18 +103,6 @@ TEST(ServiceStore, CrashLeftoversAreRemovedOnOpen) {
   fs::remove_all(dir);
 }
 
-TEST(ServiceStore, AtomicWriteLeavesNoTemporaryFile) {
-  const std::string dir = rgbdcast::test::temp_dir("atomic");
-  const std::string text(1 << 20, 'x');
-  ASSERT_TRUE(write_file_atomic(dir, "big.bin", text.data(), text.size()).ok());
-  EXPECT_EQ(fs::file_size(dir + "/big.bin"), text.size());
-  EXPECT_EQ(files_in(dir), 1u);
-  auto st = write_file_atomic(dir + "/missing-folder", "x.bin", "x", 1);
-  ASSERT_FALSE(st.ok());
-  EXPECT_EQ(st.error().code, rgbdcast::ErrorCode::kIo);
-  fs::remove_all(dir);
-}
-
 // A truncated metadata file, or one whose field has the wrong type, is moved to quarantine/ with its GLB;
 // the other scenes are served (before: exit 2 on the first, SIGABRT on the second).
 TEST(ServiceStore, BadMetadataIsQuarantinedAndTheRestServed) {

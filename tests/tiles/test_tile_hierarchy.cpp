@@ -14,7 +14,7 @@
 #include <set>
 #include <thread>
 
-#include "gltf/atomic_file.h"
+#include "base/atomic_file.h"
 #include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
 #include "service/mission_scene.h"
@@ -105,7 +105,7 @@ Mesh tile_mesh(const TileHierarchy& h, const TileRecord& r) {
 std::map<TileKey, std::vector<std::uint8_t>> contents(const TileHierarchy& h) {
   std::map<TileKey, std::vector<std::uint8_t>> out;
   for (const auto& [key, r] : h.tiles()) {
-    auto bytes = glb::read_file_bytes(h.dir() + "/" + r.file(), size_t(1) << 30);
+    auto bytes = read_file_bytes(h.dir() + "/" + r.file(), size_t(1) << 30);
     EXPECT_TRUE(bytes) << r.file();
     if (bytes) out[key] = *bytes;
   }
@@ -555,7 +555,7 @@ TEST(TileHierarchyTest, EveryTileIsAValidCompactGlbAndStorageIsMeasured) {
     for (const auto& [key, r] : h->tiles()) {
       const std::string path = h->dir() + "/" + r.file();
       EXPECT_GLTF_VALID(path);
-      auto bytes = glb::read_file_bytes(path, size_t(1) << 30);
+      auto bytes = read_file_bytes(path, size_t(1) << 30);
       ASSERT_TRUE(bytes);
       auto chunks = glb::parse_glb(bytes->data(), bytes->size());
       ASSERT_TRUE(chunks) << r.file();

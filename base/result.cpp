@@ -1,4 +1,4 @@
-#include "scene/result.h"
+#include "base/result.h"
 
 namespace rgbdcast {
 
