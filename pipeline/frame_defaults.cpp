@@ -3,7 +3,8 @@
 #include <algorithm>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <thread>
+
+#include "base/worker_threads.h"
 
 namespace rgbdcast {
 
@@ -18,7 +19,7 @@ Result<JpegPng16> encode_jpeg_png16(const RgbdFrame& frame, int jpeg_quality, in
   // The two encodes are single-threaded and independent: the depth's on a second thread (the estimate of the
   // default budget then costs the longer of the two, not their sum).
   bool png_ok = false;
-  std::thread depth([&] {
+  BesideThread depth([&] {
     cv::Mat depth_raw;
     // Back to the sensor's units (what a driver publishes); the frame's metres came from exactly these integers.
     frame.depth_m.convertTo(depth_raw, CV_16U, frame.intrinsics.depth_scale);

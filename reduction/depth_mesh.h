@@ -1,7 +1,7 @@
 #pragma once
-// The realtime preset's two stages on the organized depth image (beyond the paper, which works on an unorganized
-// cloud): an O(pixels) depth filter, and an adaptive, crack-free triangulation of the depth image, a right-
-// triangulated irregular network (RTIN) over tiles of 2^k pixels.
+// The realtime preset's triangulation of the organized depth image (beyond the paper, which works on an unorganized
+// cloud), after the depth filter (reduction/depth_filter.h): an adaptive, crack-free triangulation of the depth
+// image, a right-triangulated irregular network (RTIN) over tiles of 2^k pixels.
 //
 // Why inverse depth: a plane in the camera frame projects to a depth image whose inverse depth w = 1/z is an affine
 // function of the pixel (u, v). So a triangle with its three vertices at pixel centres is a planar 3D triangle exactly
@@ -17,7 +17,6 @@
 // conforming splits, shared across tiles); every interior edge has exactly two triangles; no triangle spans a depth
 // discontinuity; deterministic (no randomness, no thread-order dependence).
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <vector>
@@ -30,35 +29,6 @@ namespace rgbdcast {
 
 struct RtinTable;        // the implicit triangle tree of one tile size (depth_mesh.cpp)
 struct DepthMeshLayout;  // the tables a hierarchy's build needs for one image size and parameters (depth_mesh.cpp)
-
-struct DepthFilterParams {
-  double jump_relative = 0.08;  // adjacent pixels whose depths differ by more than this fraction are discontinuous
-  int min_region_px = 64;       // connected regions (across continuous neighbours) smaller than this are speckles
-  int min_support = 3;          // a pixel with fewer continuous 8-neighbours is a flying pixel (or a speckle)
-  int gap_fill_px = 3;          // gaps in one surface within this radius are filled with the surface's depth (0: off)
-  int smooth_px = 0;            // vertex depth: mean inverse depth over this radius on one surface (0: off; on
-                                // fr1/xyz frame 0 a radius of 2 gave 8-37 % more triangles at 2-8 sigma)
-
-  // An error naming the first parameter out of range.
-  Status validate() const;
-};
-
-struct DepthFilterResult {
-  cv::Mat depth_m;         // CV_32FC1, the kept depth and the filled gaps (0 where removed or invalid)
-  cv::Mat vertex_depth_m;  // CV_32FC1, depth_m smoothed within one surface: where mesh vertices sit (without
-                           // smoothing, depth_m itself: the same buffer)
-  size_t valid = 0, flying = 0, speckles = 0, kept = 0, filled = 0;
-};
-
-// filter: drops flying pixels (too few continuous 8-neighbours) and speckles (small continuous regions, through
-// OpenCV's filterSpeckles on log depth, where a relative jump is an absolute difference), then fills small gaps
-// inside one surface (never between two), so that the mesh need not trace every missing pixel. depth_m: CV_32FC1
-// metres, 0 = no depth. O(pixels).
-// threads: row bands on plain threads for the per-pixel passes (1: this thread alone). beside_speckles: the caller's
-// work, run on a thread of its own during the speckle pass (serial: the second core is otherwise idle there) and
-// joined before that pass ends; it must not throw.
-Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilterParams& params, int threads = 1,
-                                       const std::function<void()>& beside_speckles = {});
 
 struct DepthMeshParams {
   double tolerance_factor = 2.0;      // split while a triangle's RMS distance from its pixels exceeds this many sigma

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "input/frame.h"
+#include "reduction/depth_filter.h"
 #include "reduction/depth_mesh.h"
 #include "scene/mesh.h"
 #include "scene/result.h"

@@ -1,5 +1,5 @@
-// The realtime preset's depth filter and RTIN triangulation (reduction/depth_mesh.h) on synthetic depth with known
-// answers, and on the shared real frames.
+// The realtime preset's depth filter and RTIN triangulation (reduction/depth_filter.h, reduction/depth_mesh.h) on
+// synthetic depth with known answers, and on the shared real frames.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -9,6 +9,7 @@
 #include <tuple>
 
 #include "input/frame_source.h"
+#include "reduction/depth_filter.h"
 #include "reduction/depth_mesh.h"
 #include "reduction/mesh_edges.h"
 #include "reduction/pipeline.h"
