@@ -7,6 +7,7 @@
 #include <stb/stb_image.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 namespace rgbdcast {
@@ -124,6 +125,15 @@ Result<PreparedScene> prepare_scene(const Scene& scene) {
   if (out.triangle_count == 0 && out.point_count == 0)
     return make_error(ErrorCode::kEmpty, "scene is empty: no triangles and no points to draw");
   return out;
+}
+
+DrawParams make_draw_params(const Eigen::Matrix4d& clip_from_node, float point_size_px, ColorSource source) {
+  DrawParams p{};
+  const Eigen::Matrix4f m = clip_from_node.cast<float>();
+  std::memcpy(p.clip_from_node, m.data(), sizeof(p.clip_from_node));  // Eigen is column-major, like GLSL
+  p.params[0] = point_size_px;
+  p.params[1] = static_cast<float>(static_cast<int>(source));
+  return p;
 }
 
 }  // namespace rgbdcast

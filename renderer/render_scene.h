@@ -24,6 +24,18 @@ static_assert(sizeof(GpuVertex) == 24);
 // color_source of shaders/scene.vert.
 enum class ColorSource : int { kVertex = 0, kTextureFragment = 1, kTextureVertex = 2 };
 
+// The DrawParams block of shaders/scene.vert, one per draw: Vulkan's push constants and OpenGL's std140 uniform
+// block have this same layout. 80 bytes.
+struct DrawParams {
+  float clip_from_node[16];  // column-major, as GLSL's mat4
+  float params[4];           // x: point size in pixels, y: the ColorSource, z and w: unused (0)
+};
+static_assert(sizeof(DrawParams) == 80);
+
+// A draw's parameters: the node's clip-from-node transform (clip-from-world times the node's to_world), the point
+// size and where its colours come from.
+DrawParams make_draw_params(const Eigen::Matrix4d& clip_from_node, float point_size_px, ColorSource source);
+
 struct PreparedNode {
   std::string name;
   Eigen::Matrix4d to_world = Eigen::Matrix4d::Identity();

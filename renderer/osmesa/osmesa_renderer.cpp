@@ -19,12 +19,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// std140 DrawParams block of shaders/scene.vert.
-struct DrawParams {
-  float clip_from_node[16];
-  float params[4];
-};
-
 struct GlNode {
   Eigen::Matrix4d to_world;
   GLuint mesh_vao = 0, mesh_vbo = 0, ibo = 0, point_vao = 0, point_vbo = 0, texture = 0;
@@ -288,11 +282,7 @@ Result<RenderResult> OsmesaRenderer::render_scenes(std::span<const ResidentScene
   glActiveTexture(GL_TEXTURE1);  // binding = 1 in the shaders
   const Eigen::Matrix4d clip_from_world = clip_from_camera(camera) * camera.world_to_camera();
   auto set_params = [&](const GlNode& node, ColorSource source) {
-    DrawParams p{};
-    const Eigen::Matrix4f m = (clip_from_world * node.to_world).cast<float>();
-    std::memcpy(p.clip_from_node, m.data(), sizeof(p.clip_from_node));
-    p.params[0] = options.point_size_px;
-    p.params[1] = static_cast<float>(static_cast<int>(source));
+    const DrawParams p = make_draw_params(clip_from_world * node.to_world, options.point_size_px, source);
     glBufferSubData(GL_UNIFORM_BUFFER, 0, sizeof(p), &p);
     glBindTexture(GL_TEXTURE_2D, node.texture ? node.texture : white_);
   };

@@ -21,12 +21,6 @@ using Clock = std::chrono::steady_clock;
 constexpr VkFormat kColorFormat = VK_FORMAT_R8G8B8A8_UNORM;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 
-// Push constants: the DrawParams block of shaders/scene.vert (same layout as its std140 form in OpenGL).
-struct DrawParams {
-  float clip_from_node[16];  // column-major
-  float params[4];           // point size px, color source
-};
-
 struct ResidentNode {
   Eigen::Matrix4d to_world;
   vk::Buffer mesh_vertices, indices, point_vertices;
@@ -336,11 +330,7 @@ void VulkanRenderer::record_draws(VkCommandBuffer cmd, const std::vector<const R
                                   const ViewCamera& camera, const RenderOptions& options) {
   const Eigen::Matrix4d clip_from_world = clip_from_camera(camera) * camera.world_to_camera();
   auto draw_params = [&](const ResidentNode& node, ColorSource source) {
-    DrawParams p{};
-    const Eigen::Matrix4f m = (clip_from_world * node.to_world).cast<float>();
-    std::memcpy(p.clip_from_node, m.data(), sizeof(p.clip_from_node));  // Eigen is column-major, like GLSL
-    p.params[0] = options.point_size_px;
-    p.params[1] = static_cast<float>(static_cast<int>(source));
+    const DrawParams p = make_draw_params(clip_from_world * node.to_world, options.point_size_px, source);
     vkCmdPushConstants(cmd, layout_, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(p), &p);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_, 0, 1, &node.set, 0, nullptr);
   };
