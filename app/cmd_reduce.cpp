@@ -13,6 +13,7 @@
 #include "base/malloc_settings.h"
 #include "base/stopwatch.h"
 #include "input/frame_source.h"
+#include "pipeline/keyframe_glb.h"
 
 namespace rgbdcast::app {
 
@@ -39,22 +40,20 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
   if (!textured) fail(textured.error());
   std::vector<StageReport> stages = textured->stages;
   const AtlasResult atlas_stats = textured->atlas_stats;
-  const nlohmann::json choices = nlohmann::json::parse(choices_json(*textured));
+  const nlohmann::json choices = reduction_choices(*textured);
   const BudgetChoice budget = textured->budget;
-  nlohmann::json extras = {{"rgbdcast",
-                            {{"source", frame->color_path},
-                             {"depth", frame->depth_path},
-                             {"frame", frame->index},
-                             {"timestamp", frame->timestamp},
-                             {"intrinsics", intrinsics_json(frame->intrinsics)},
-                             {"reduction", choices},
-                             {"stages", stages_json(stages)}}}};
-  const GlbWriteOptions glb_options = write_options(*textured, options->glb);  // the codec the budget measured with
-  Scene scene = frame_scene(std::move(*textured), extras.dump());
-  const Mesh& mesh = scene.nodes[0].mesh;
+  const Mesh& reduced = textured->node.mesh;
+  const size_t points = reduced.positions.size(), triangles = reduced.triangle_count();
+  const int texture_width = reduced.texture.width, texture_height = reduced.texture.height;
+  const nlohmann::json capture = {{"source", frame->color_path},
+                                  {"depth", frame->depth_path},
+                                  {"frame", frame->index},
+                                  {"timestamp", frame->timestamp},
+                                  {"intrinsics", intrinsics_json(frame->intrinsics)},
+                                  {"stages", stages_json(stages)}};
 
   GlbStats glb_stats;
-  auto glb = encode_glb(scene, glb_options, &glb_stats);
+  auto glb = encode_keyframe_glb(std::move(*textured), capture, options->glb, &glb_stats);
   if (!glb) fail(glb.error());
   stages.push_back({"export", "bytes", glb->size(), glb_stats.ms});
   if (auto st = write_file_atomically(a.out, *glb); !st) fail(st.error());
@@ -62,9 +61,9 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
 
   std::cout << "rgbdcast reduce: " << frame->color_path << " (frame " << frame->index << ", "
             << frame->intrinsics.width << "x" << frame->intrinsics.height << ")\n"
-            << stages_table(stages) << "points " << mesh.positions.size() << ", triangles " << mesh.triangle_count()
-            << ", texture " << to_string(atlas_stats.mode) << " " << mesh.texture.width << "x"
-            << mesh.texture.height << ", "
+            << stages_table(stages) << "points " << points << ", triangles " << triangles
+            << ", texture " << to_string(atlas_stats.mode) << " " << texture_width << "x"
+            << texture_height << ", "
             << glb->size() << " bytes (geometry " << glb_stats.geometry_bytes << ", texture "
             << glb_stats.texture_bytes << ") -> " << a.out << " (load " << static_cast<int>(load_ms)
             << " ms, total " << static_cast<int>(total_ms) << " ms)\n";
@@ -95,8 +94,8 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
                       {"params", params_json(a)},
                       {"reduction", choices},
                       {"stages", stage_list},
-                      {"points", mesh.positions.size()},
-                      {"triangles", mesh.triangle_count()},
+                      {"points", points},
+                      {"triangles", triangles},
                       {"bytes", glb->size()},
                       {"load_ms", load_ms},
                       {"total_ms", total_ms},

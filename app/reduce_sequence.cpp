@@ -11,6 +11,7 @@
 #include "base/stopwatch.h"
 #include "keyframes/sequence.h"
 #include "keyframes/sequence_report.h"
+#include "pipeline/keyframe_glb.h"
 
 namespace rgbdcast::app {
 
@@ -71,7 +72,7 @@ Status run_sequence(const ReduceArgs& a, const FrameSource& source) {
     keyframes.push_back({{"index", record.index},
                          {"triangles", textured->node.mesh.triangle_count()},
                          {"texels", textured->atlas_stats.texels},
-                         {"reduction", nlohmann::json::parse(choices_json(*textured))},
+                         {"reduction", reduction_choices(*textured)},
                          {"stages", stages_json(textured->stages)}});
     scene.cameras.push_back(textured->camera);
     scene.nodes.push_back(std::move(textured->node));

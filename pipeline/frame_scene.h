@@ -95,9 +95,7 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
                                          const std::vector<CoverageView>& earlier = {});
 
 // The single-frame scene of a reduced frame: its node, its capture camera, and `extras_json` (a JSON object text).
+// pipeline/keyframe_glb.h writes it as a keyframe's GLB, with its extras.
 Scene frame_scene(TexturedFrame frame, std::string extras_json);
-
-// JSON of the texture and budget choices, for extras and reports: {"preset", "texture", "budget"?}.
-std::string choices_json(const TexturedFrame& frame);
 
 }  // namespace rgbdcast

@@ -5,6 +5,7 @@
 #include "gltf/gltf_io.h"
 #include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
+#include "pipeline/keyframe_glb.h"
 #include "service/scene_ingest.h"
 #include "service/upload_body.h"
 
@@ -40,21 +41,15 @@ Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   textured->camera.frame_index = 0;
   textured->node.name = "frame_0";
   const Intrinsics k = textured->camera.intrinsics;
-  const nlohmann::json choices = nlohmann::json::parse(choices_json(*textured));
   nlohmann::json stage_list = nlohmann::json::array();
   for (const auto& s : stages) stage_list.push_back(stage_json(s));
-  const GlbWriteOptions glb_options = write_options(*textured, options.glb);  // the budget's Draco results
-  Scene scene = frame_scene(std::move(*textured),
-                            nlohmann::json{{"rgbdcast",
-                                            {{"source", "upload"},
-                                             {"intrinsics",
-                                              {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy},
-                                               {"width", k.width}, {"height", k.height}}},
-                                             {"reduction", choices},
-                                             {"stages", stage_list}}}}
-                                .dump());
+  const nlohmann::json capture = {{"source", "upload"},
+                                  {"intrinsics",
+                                   {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy},
+                                    {"width", k.width}, {"height", k.height}}},
+                                  {"stages", stage_list}};
   t = Clock::now();
-  auto glb = encode_glb(scene, glb_options);  // the codec the budget measured with
+  auto glb = encode_keyframe_glb(std::move(*textured), capture, options.glb);
   if (!glb) return glb.error();
   const double export_ms = ms_since(t);
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <nlohmann/json.hpp>
 
+#include "pipeline/keyframe_glb.h"
+
 namespace rgbdcast::stream {
 
 FrameReductionOptions reduction_for_budget(const FrameReductionOptions& base, const FineReduction& fine,
@@ -27,14 +29,8 @@ Result<EncodedKeyframe> encode_keyframe(const RgbdFrame& frame, FrameReductionOp
   out.fits = textured->budget.rule == "fits";
   textured->node.to_world = Eigen::Matrix4d::Identity();
   textured->camera.camera_to_world = Eigen::Matrix4d::Identity();
-  const nlohmann::json extras = {{"rgbdcast",
-                                  {{"source", frame.color_path},
-                                   {"frame", frame.index},
-                                   {"timestamp", frame.timestamp},
-                                   {"reduction", nlohmann::json::parse(choices_json(*textured))}}}};
-  const GlbWriteOptions glb_options = write_options(*textured, options.glb);
-  Scene scene = frame_scene(std::move(*textured), extras.dump());
-  auto glb = encode_glb(scene, glb_options);
+  const nlohmann::json capture = {{"source", frame.color_path}, {"frame", frame.index}, {"timestamp", frame.timestamp}};
+  auto glb = encode_keyframe_glb(std::move(*textured), capture, options.glb);
   if (!glb) return glb.error();
   out.glb = std::move(*glb);
   return out;

@@ -11,8 +11,10 @@
 #include "input/frame_source.h"
 #include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
+#include "pipeline/keyframe_glb.h"
 #include "renderer/renderer.h"
 #include "tests/common/test_data.h"
+#include "tests/pipeline/realtime_frames.h"
 
 namespace rgbdcast {
 namespace {
@@ -37,14 +39,7 @@ const std::vector<SharedFrames> kShared = {
     {"pcl_kinect_organized/pcd/frame_20121214T142256.332395.pcd", "kinect", {0}, ""},
 };
 
-// The realtime preset as `rgbdcast reduce --budget-kb B` runs it (its default codec, Draco).
-FrameReductionOptions realtime(double budget_kb) {
-  FrameReductionOptions o;
-  o.params = reduction_preset(Preset::kRealtime);
-  o.glb.geometry_codec = default_geometry_codec(Preset::kRealtime);
-  o.budget_kb = budget_kb;
-  return o;
-}
+using test::realtime;
 
 template <class F>
 void for_each_shared_frame(F&& f) {
@@ -130,15 +125,11 @@ TEST(FrameScene, CoversTheValidPixelsAtTheCapturePose) {
 
 TEST(FrameScene, RecordsItsChoices) {
   REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
-  SourceOptions o;
-  o.intrinsics = "fr1";
-  auto src = open_frame_source(test::data_path("tum/rgbd_dataset_freiburg1_xyz"), o);
-  ASSERT_TRUE(src);
-  auto frame = (*src)->frame(0);
-  ASSERT_TRUE(frame);
+  auto frame = test::fr1_xyz_frame(0);
+  ASSERT_TRUE(frame) << frame.error().message;
   auto t = reduce_and_texture(*frame, realtime(40));
   ASSERT_TRUE(t) << t.error().message;
-  const auto j = nlohmann::json::parse(choices_json(*t));
+  const auto j = reduction_choices(*t);
   EXPECT_EQ(j["preset"], "realtime");
   EXPECT_EQ(j["texture"], "frame");
   EXPECT_EQ(j["budget"]["budget_bytes"], 40000.0);

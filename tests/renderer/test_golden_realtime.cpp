@@ -15,6 +15,7 @@
 #include "input/frame_source.h"
 #include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
+#include "pipeline/keyframe_glb.h"
 #include "tests/common/test_data.h"
 #include "tests/renderer/image_compare.h"
 #include "tests/renderer/renderer_fixture.h"
@@ -52,7 +53,7 @@ const Scene* realtime_scene(std::string* error) {
       o.budget_kb = *budget;
       auto textured = reduce_and_texture(*frame, o);
       if (!textured) return textured.error();
-      std::cout << "realtime golden scene: " << choices_json(*textured) << "\n";  // what a mismatch came from
+      std::cout << "realtime golden scene: " << reduction_choices(*textured).dump() << "\n";  // what a mismatch came from
       auto glb = encode_glb(frame_scene(std::move(*textured), "{}"), o.glb);
       if (!glb) return glb.error();
       return decode_glb(glb->data(), glb->size());
