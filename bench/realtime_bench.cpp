@@ -35,6 +35,7 @@
 #include "input/frame_source.h"
 #include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
+#include "renderer/create_renderer.h"
 #include "scene/frame_memory.h"
 
 using namespace rgbdcast;

@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gltf/gltf_io.h"
+#include "renderer/create_renderer.h"
 #include "service/connection_gate.h"
 #include "service/http_errors.h"
 #include "service/http_reply.h"

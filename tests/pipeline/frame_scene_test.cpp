@@ -11,7 +11,7 @@
 #include "input/frame_source.h"
 #include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
-#include "renderer/renderer.h"
+#include "renderer/create_renderer.h"
 #include "tests/common/test_data.h"
 
 namespace rgbdcast {
