@@ -244,8 +244,9 @@ class SurfaceTree {
 // kept triangle covering every such direction its normal leans toward (a component over 0.3), so a surface near 45
 // degrees is not kept twice, and the two sides of a thin object are both kept. A kept triangle covers the voxels of
 // points spread over it at half a voxel, and their neighbours along its dominant normal axis (a layer a few cm behind
-// another, across a voxel border, is still the same surface). Returns the largest distance from a dropped triangle's
-// centroid to the kept surface (at most about 2.5 voxels by construction): what dropping the copies costs, metres.
+// another, across a voxel border, is still the same surface). Returns the centroids of the dropped triangles:
+// their distance to the kept surface (at most about 2.5 voxels by construction) is what dropping the
+// copies costs.
 struct VoxelKey {
   std::int64_t x, y, z;
   int facing;  // 2 * axis + (component < 0)
@@ -263,7 +264,7 @@ int dominant_facing(const Eigen::Vector3d& n) {
   return 2 * axis + (n[axis] < 0);
 }
 
-double keep_one_layer(Welded* w, const std::vector<double>& child_texel_m, double voxel_m) {
+std::vector<Eigen::Vector3d> keep_one_layer(Welded* w, const std::vector<double>& child_texel_m, double voxel_m) {
   const size_t n_children = child_texel_m.size() - 1;
   std::vector<std::uint32_t> order(n_children);
   for (size_t c = 0; c < n_children; ++c) order[c] = static_cast<std::uint32_t>(c);
@@ -312,32 +313,32 @@ double keep_one_layer(Welded* w, const std::vector<double>& child_texel_m, doubl
         }
     }
   }
-  Welded kept;
-  kept.positions = w->positions;
   std::vector<Eigen::Vector3d> dropped;
+  size_t n_kept = 0;
   for (size_t t = 0; t < keep.size(); ++t) {
-    if (keep[t]) {
-      kept.indices.insert(kept.indices.end(), w->indices.begin() + 3 * t, w->indices.begin() + 3 * t + 3);
-      kept.sources.push_back(w->sources[t]);
-    } else {
+    if (!keep[t]) {
       dropped.push_back((w->corner(t, 0) + w->corner(t, 1) + w->corner(t, 2)) / 3.0);
+      continue;
     }
+    std::copy_n(w->indices.begin() + 3 * t, 3, w->indices.begin() + 3 * n_kept);
+    w->sources[n_kept++] = w->sources[t];
   }
-  double error_m = 0.0;
-  if (!dropped.empty()) {
-    const SurfaceTree surface(kept);
-    std::uint32_t hint = 0;
-    for (size_t i = 0; i < dropped.size(); ++i) {
-      Eigen::Vector3d bary;
-      hint = surface.nearest(dropped[i], i ? &hint : nullptr, &bary);
-      const Eigen::Vector3d q = bary.x() * kept.corner(hint, 0) + bary.y() * kept.corner(hint, 1) +
-                                bary.z() * kept.corner(hint, 2);
-      error_m = std::max(error_m, (q - dropped[i]).norm());
-    }
+  w->indices.resize(3 * n_kept);
+  w->sources.resize(n_kept);
+  return dropped;
+}
+
+// The largest distance from `points` to `surface`, metres.
+double largest_distance(const SurfaceTree& surface, const Welded& w, const std::vector<Eigen::Vector3d>& points) {
+  double out = 0.0;
+  std::uint32_t hint = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    Eigen::Vector3d bary;
+    hint = surface.nearest(points[i], i ? &hint : nullptr, &bary);
+    const Eigen::Vector3d q = bary.x() * w.corner(hint, 0) + bary.y() * w.corner(hint, 1) + bary.z() * w.corner(hint, 2);
+    out = std::max(out, (q - points[i]).norm());
   }
-  w->indices = std::move(kept.indices);
-  w->sources = std::move(kept.sources);
-  return error_m;
+  return out;
 }
 
 // The colour of the children's surface at welded triangle t, barycentric weights `bary`: its child's texture
@@ -440,8 +441,9 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double c
   InnerTile out;
   out.merged_triangles = w.indices.size() / 3;
   const std::vector<double> texel_side = children_texel_m(w, children);
+  std::vector<Eigen::Vector3d> dropped;
   if (children.size() > 1 && options.min_layer_voxel_m > 0.0)
-    out.layer_error_m = keep_one_layer(&w, texel_side, std::max(options.min_layer_voxel_m, children_error_m));
+    dropped = keep_one_layer(&w, texel_side, std::max(options.min_layer_voxel_m, children_error_m));
   out.kept_triangles = w.indices.size() / 3;
   // A level up halves the detail along each floor axis: a quarter of the triangles, at most target_triangles.
   const size_t target = std::max<size_t>(1, std::min(target_triangles, (out.kept_triangles + 3) / 4));
@@ -455,6 +457,8 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double c
   out.simplify_error_m = static_cast<double>(relative_error) * scale;
   if (simplified.empty()) return make_error(ErrorCode::kEmpty, "inner tile: nothing left after simplification");
 
+  const SurfaceTree surface(w);
+  out.layer_error_m = largest_distance(surface, w, dropped);
   const double error_m = children_error_m + out.layer_error_m + out.simplify_error_m;
   // A level up halves the detail along each axis, as for the triangles: texels at least twice the children's side,
   // so an inner tile holds about as many texels as one child, whatever its level.
@@ -463,7 +467,6 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double c
   std::vector<CellSource> textures(children.size());
   for (size_t c = 0; c < children.size(); ++c)
     if (has_texture(*children[c])) textures[c] = cell_source(children[c]->texture);
-  const SurfaceTree surface(w);
   if (median_leg_texels(w, simplified, texel_m) < options.min_leg_texels) {
     out.mesh = vertex_coloured(w, simplified, children, textures, surface);
     return out;
