@@ -3,7 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
-#include "renderer/renderer.h"
+#include "renderer/create_renderer.h"
 #include "scene/scene.h"
 
 namespace rgbdcast::app {

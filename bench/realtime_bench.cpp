@@ -36,6 +36,7 @@
 #include "input/frame_source.h"
 #include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
+#include "renderer/create_renderer.h"
 
 using namespace rgbdcast;
 using namespace rgbdcast::bench;

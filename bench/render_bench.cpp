@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "renderer/renderer.h"
+#include "renderer/create_renderer.h"
 #ifdef RGBDCAST_HAVE_GLTF
 #include "gltf/gltf_io.h"
 #endif

@@ -18,6 +18,7 @@
 #include "bench/transmission/codecs.h"
 #include "bench/transmission/datasets.h"
 #include "bench/transmission/fidelity.h"
+#include "renderer/create_renderer.h"
 
 using namespace rgbdcast;
 using namespace rgbdcast::bench;

@@ -1,6 +1,7 @@
 #pragma once
-// The one rendering interface. Backends (renderer/vulkan/, renderer/osmesa/) implement it; create_renderer() is the
-// single place that chooses one. A Renderer is used by one thread at a time; scenes stay resident on the device
+// The one rendering interface, header-only (the INTERFACE target rgbdcast_renderer_api). Backends
+// (renderer/vulkan/, renderer/osmesa/) implement it; create_renderer() (renderer/create_renderer.h, in the library
+// rgbdcast_renderer) is the single place that chooses one. A Renderer is used by one thread at a time; scenes stay resident on the device
 // between renders (upload once, render many views).
 #include <array>
 #include <cstdint>
@@ -19,8 +20,24 @@ namespace rgbdcast {
 enum class RenderMode { kMesh, kPoints };
 enum class BackendChoice { kAuto, kVulkan, kOsmesa };
 
-const char* to_string(RenderMode mode);
-const char* to_string(BackendChoice choice);
+inline const char* to_string(RenderMode mode) { return mode == RenderMode::kMesh ? "mesh" : "points"; }
+
+inline const char* to_string(BackendChoice choice) {
+  switch (choice) {
+    case BackendChoice::kAuto: return "auto";
+    case BackendChoice::kVulkan: return "vulkan";
+    case BackendChoice::kOsmesa: return "osmesa";
+  }
+  return "auto";
+}
+
+// "auto", "vulkan" or "osmesa" (for command lines); anything else is kInvalidArgument.
+inline Result<BackendChoice> parse_backend_choice(const std::string& name) {
+  if (name == "auto") return BackendChoice::kAuto;
+  if (name == "vulkan") return BackendChoice::kVulkan;
+  if (name == "osmesa") return BackendChoice::kOsmesa;
+  return make_error(ErrorCode::kInvalidArgument, "unknown backend '" + name + "' (auto, vulkan or osmesa)");
+}
 
 struct RenderOptions {
   RenderMode mode = RenderMode::kMesh;
@@ -72,21 +89,5 @@ class Renderer {
   // Vulkan with validation on (RendererConfig::vulkan_validation): validation errors reported so far. 0 otherwise.
   virtual int validation_errors() const { return 0; }
 };
-
-struct RendererConfig {
-  // Vulkan only: enable VK_LAYER_KHRONOS_validation and count its errors (tests). Creation fails when the layer is
-  // not installed.
-  bool vulkan_validation = false;
-};
-
-struct RendererSelection {
-  std::unique_ptr<Renderer> renderer;
-  std::string reason;  // why this backend: "requested", or what auto found ("no Vulkan device: ...")
-};
-
-// auto: Vulkan when a device is found, else OSMesa. When nothing works, one error says what is missing.
-Result<RendererSelection> create_renderer(BackendChoice choice, const RendererConfig& config = {});
-// "auto", "vulkan" or "osmesa" (for command lines); anything else is kInvalidArgument.
-Result<BackendChoice> parse_backend_choice(const std::string& name);
 
 }  // namespace rgbdcast

@@ -19,6 +19,7 @@
 #include "base/malloc_settings.h"
 #include "base/stopwatch.h"
 #include "gltf/gltf_io.h"
+#include "renderer/create_renderer.h"
 #include "service/connection_gate.h"
 #include "service/http_errors.h"
 #include "service/http_reply.h"

@@ -19,8 +19,9 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kManifest = "hierarchy.json";
-constexpr int kFormat = 5;  // 2: inner tiles are textured; 3: their texels at least twice their children's;
-                            // 4: records carry render bytes; 5: keyframes are the leaves, inner tiles can be stale
+constexpr int kFormat = 6;  // 2: inner tiles are textured; 3: their texels at least twice their children's;
+                            // 4: records carry render bytes; 5: keyframes are the leaves, inner tiles can be stale;
+                            // 6: inner tiles keep one layer where children overlap
 constexpr size_t kMaxManifestBytes = size_t(256) << 20;
 
 nlohmann::json options_json(const TilingOptions& o) {
@@ -29,7 +30,7 @@ nlohmann::json options_json(const TilingOptions& o) {
           {"leaf_gutter_px", o.leaf.gutter_px}, {"leaf_jpeg_quality", o.leaf.jpeg_quality},
           {"inner_max_atlas_side_px", o.inner.atlas.max_atlas_side_px}, {"inner_gutter_px", o.inner.atlas.gutter_px},
           {"inner_jpeg_quality", o.inner.atlas.jpeg_quality}, {"inner_texels_per_error", o.inner.texels_per_error},
-          {"inner_min_leg_texels", o.inner.min_leg_texels},
+          {"inner_min_leg_texels", o.inner.min_leg_texels}, {"inner_min_layer_voxel_m", o.inner.min_layer_voxel_m},
           {"geometry", to_string(o.geometry)}};
 }
 
@@ -373,7 +374,7 @@ Result<TileRecord> TileHierarchy::make_inner(const TileKey& key, const std::vect
   if (!inner) return make_error(inner.error().code, "tile " + key.name() + ": " + inner.error().message);
   r.key = key;
   r.version = version;
-  r.geometric_error_m = child_error + inner->simplify_error_m;
+  r.geometric_error_m = child_error + inner->layer_error_m + inner->simplify_error_m;
   SceneNode node;
   node.mesh = std::move(inner->mesh);
   if (auto st = write_tile(dir_, std::move(node), options_.geometry, &r); !st) return st.error();

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
+#include <unordered_set>
 
 #include <unsupported/Eigen/BVH>
 
@@ -71,22 +72,25 @@ Status gather(const Mesh& m, std::uint32_t child, Welded* w) {
 
 bool has_texture(const Mesh& m) { return !m.uvs.empty() && !m.texture.empty() && m.texture.channels == 3; }
 
-// The side of the children's texels, metres: sqrt(world area / texel area) over their textured triangles; 0 when
-// none is textured.
-double children_texel_m(const Welded& w, const std::vector<const Mesh*>& children) {
-  double world = 0.0, texels = 0.0;
+// The side of the texels of each child and of all of them, metres: sqrt(world area / texel area) over their textured
+// triangles (0 when none is textured); the last entry is all children's.
+std::vector<double> children_texel_m(const Welded& w, const std::vector<const Mesh*>& children) {
+  std::vector<double> world(children.size() + 1, 0.0), texels(children.size() + 1, 0.0);
   for (size_t t = 0; t < w.sources.size(); ++t) {
     const SourceTriangle& s = w.sources[t];
     const Mesh& m = *children[s.child];
     if (!has_texture(m)) continue;
-    world += 0.5 * (w.corner(t, 1) - w.corner(t, 0)).cross(w.corner(t, 2) - w.corner(t, 0)).norm();
+    const double area = 0.5 * (w.corner(t, 1) - w.corner(t, 0)).cross(w.corner(t, 2) - w.corner(t, 0)).norm();
     const Eigen::Vector2d size(m.texture.width, m.texture.height);
     const Eigen::Vector2d a = m.uvs[s.corner[0]].cast<double>().cwiseProduct(size);
     const Eigen::Vector2d e1 = m.uvs[s.corner[1]].cast<double>().cwiseProduct(size) - a;
     const Eigen::Vector2d e2 = m.uvs[s.corner[2]].cast<double>().cwiseProduct(size) - a;
-    texels += 0.5 * std::abs(e1.x() * e2.y() - e1.y() * e2.x());
+    const double texel_area = 0.5 * std::abs(e1.x() * e2.y() - e1.y() * e2.x());
+    for (size_t i : {size_t{s.child}, children.size()}) world[i] += area, texels[i] += texel_area;
   }
-  return texels > 0.0 ? std::sqrt(world / texels) : 0.0;
+  std::vector<double> side(world.size(), 0.0);
+  for (size_t i = 0; i < side.size(); ++i) side[i] = texels[i] > 0.0 ? std::sqrt(world[i] / texels[i]) : 0.0;
+  return side;
 }
 
 // The welded triangles in a bounding volume hierarchy (Eigen's KdBVH), for exact nearest-point queries by branch and
@@ -229,6 +233,114 @@ class SurfaceTree {
   Eigen::KdBVH<double, 3, std::uint32_t> tree_;
 };
 
+// One layer where children overlap. Keyframes that saw the same place hold the same surface several times over,
+// offset by depth noise and pose error; merged as they are, a coarse tile keeps every copy (on an explored floor, 12
+// TUM keyframes a cell: a level-1 tile held 12 layers, and the level-1 tiles most of the hierarchy's bytes and
+// build time). Children are taken in turn, finest texels first (ties: the later child, the newer keyframe), each
+// whole: a child's triangle is dropped when its centroid lies in a voxel (voxel_m) that a child taken before it
+// already covers with a surface facing the same way, so each place keeps the surface of the child that saw it best,
+// in patches as large as that child covers (no mosaic of keyframes triangle by triangle), and a place only one child
+// saw keeps that child's surface. "Facing the same way": a voxel is covered per dominant normal axis and sign, a
+// kept triangle covering every such direction its normal leans toward (a component over 0.3), so a surface near 45
+// degrees is not kept twice, and the two sides of a thin object are both kept. A kept triangle covers the voxels of
+// points spread over it at half a voxel, and their neighbours along its dominant normal axis (a layer a few cm behind
+// another, across a voxel border, is still the same surface). Returns the centroids of the dropped triangles:
+// their distance to the kept surface (at most about 2.5 voxels by construction) is what dropping the
+// copies costs.
+struct VoxelKey {
+  std::int64_t x, y, z;
+  int facing;  // 2 * axis + (component < 0)
+  bool operator==(const VoxelKey&) const = default;
+};
+struct VoxelHash {
+  size_t operator()(const VoxelKey& k) const {
+    return GridHash{}(GridKey{k.x, k.y, k.z}) ^ static_cast<size_t>(k.facing) * 2654435761u;
+  }
+};
+
+int dominant_facing(const Eigen::Vector3d& n) {
+  int axis = 0;
+  n.cwiseAbs().maxCoeff(&axis);
+  return 2 * axis + (n[axis] < 0);
+}
+
+std::vector<Eigen::Vector3d> keep_one_layer(Welded* w, const std::vector<double>& child_texel_m, double voxel_m) {
+  const size_t n_children = child_texel_m.size() - 1;
+  std::vector<std::uint32_t> order(n_children);
+  for (size_t c = 0; c < n_children; ++c) order[c] = static_cast<std::uint32_t>(c);
+  const auto rank = [&](std::uint32_t c) { return child_texel_m[c] > 0.0 ? child_texel_m[c] : INFINITY; };
+  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return rank(a) != rank(b) ? rank(a) < rank(b) : a > b;
+  });
+  std::vector<std::vector<std::uint32_t>> by_child(n_children);
+  for (size_t t = 0; t < w->sources.size(); ++t) by_child[w->sources[t].child].push_back(static_cast<std::uint32_t>(t));
+  const auto voxel = [&](const Eigen::Vector3d& p, int facing) {
+    return VoxelKey{static_cast<std::int64_t>(std::floor(p.x() / voxel_m)),
+                    static_cast<std::int64_t>(std::floor(p.y() / voxel_m)),
+                    static_cast<std::int64_t>(std::floor(p.z() / voxel_m)), facing};
+  };
+  std::unordered_set<VoxelKey, VoxelHash> covered;
+  std::vector<char> keep(w->sources.size(), 1);
+  for (std::uint32_t c : order) {
+    for (std::uint32_t t : by_child[c]) {
+      const Eigen::Vector3d a = w->corner(t, 0), b = w->corner(t, 1), d = w->corner(t, 2);
+      const Eigen::Vector3d n = (b - a).cross(d - a);
+      if (!(n.squaredNorm() > 0.0)) continue;
+      keep[t] = !covered.count(voxel((a + b + d) / 3.0, dominant_facing(n)));
+    }
+    for (std::uint32_t t : by_child[c]) {
+      if (!keep[t]) continue;
+      const Eigen::Vector3d a = w->corner(t, 0), e1 = w->corner(t, 1) - a, e2 = w->corner(t, 2) - a;
+      const Eigen::Vector3d n = e1.cross(e2).normalized();
+      if (!n.allFinite()) continue;
+      int axis = 0;
+      n.cwiseAbs().maxCoeff(&axis);
+      const double longest = std::max({e1.norm(), e2.norm(), (e2 - e1).norm()});
+      const int steps = std::max(1, static_cast<int>(std::ceil(longest / (0.5 * voxel_m))));
+      for (int i = 0; i <= steps; ++i)
+        for (int j = 0; i + j <= steps; ++j) {
+          const Eigen::Vector3d p = a + (double(i) / steps) * e1 + (double(j) / steps) * e2;
+          for (int f = 0; f < 6; ++f) {
+            const double along = (f % 2 ? -1.0 : 1.0) * n[f / 2];
+            if (along <= 0.3) continue;
+            const VoxelKey k = voxel(p, f);
+            for (std::int64_t s = -1; s <= 1; ++s) {
+              VoxelKey m = k;
+              (axis == 0 ? m.x : axis == 1 ? m.y : m.z) += s;
+              covered.insert(m);
+            }
+          }
+        }
+    }
+  }
+  std::vector<Eigen::Vector3d> dropped;
+  size_t n_kept = 0;
+  for (size_t t = 0; t < keep.size(); ++t) {
+    if (!keep[t]) {
+      dropped.push_back((w->corner(t, 0) + w->corner(t, 1) + w->corner(t, 2)) / 3.0);
+      continue;
+    }
+    std::copy_n(w->indices.begin() + 3 * t, 3, w->indices.begin() + 3 * n_kept);
+    w->sources[n_kept++] = w->sources[t];
+  }
+  w->indices.resize(3 * n_kept);
+  w->sources.resize(n_kept);
+  return dropped;
+}
+
+// The largest distance from `points` to `surface`, metres.
+double largest_distance(const SurfaceTree& surface, const Welded& w, const std::vector<Eigen::Vector3d>& points) {
+  double out = 0.0;
+  std::uint32_t hint = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    Eigen::Vector3d bary;
+    hint = surface.nearest(points[i], i ? &hint : nullptr, &bary);
+    const Eigen::Vector3d q = bary.x() * w.corner(hint, 0) + bary.y() * w.corner(hint, 1) + bary.z() * w.corner(hint, 2);
+    out = std::max(out, (q - points[i]).norm());
+  }
+  return out;
+}
+
 // The colour of the children's surface at welded triangle t, barycentric weights `bary`: its child's texture
 // (bilinear at the interpolated UV), else its colours, else grey.
 void source_colour(const Welded& w, const std::vector<const Mesh*>& children, const std::vector<CellSource>& textures,
@@ -328,8 +440,13 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double c
   if (w.indices.empty()) return make_error(ErrorCode::kEmpty, "inner tile: the children hold no triangle");
   InnerTile out;
   out.merged_triangles = w.indices.size() / 3;
+  const std::vector<double> texel_side = children_texel_m(w, children);
+  std::vector<Eigen::Vector3d> dropped;
+  if (children.size() > 1 && options.min_layer_voxel_m > 0.0)
+    dropped = keep_one_layer(&w, texel_side, std::max(options.min_layer_voxel_m, children_error_m));
+  out.kept_triangles = w.indices.size() / 3;
   // A level up halves the detail along each floor axis: a quarter of the triangles, at most target_triangles.
-  const size_t target = std::max<size_t>(1, std::min(target_triangles, (out.merged_triangles + 3) / 4));
+  const size_t target = std::max<size_t>(1, std::min(target_triangles, (out.kept_triangles + 3) / 4));
   std::vector<std::uint32_t> simplified(w.indices.size());
   float relative_error = 0.0f;
   const size_t kept = meshopt_simplify(simplified.data(), w.indices.data(), w.indices.size(),
@@ -340,15 +457,16 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double c
   out.simplify_error_m = static_cast<double>(relative_error) * scale;
   if (simplified.empty()) return make_error(ErrorCode::kEmpty, "inner tile: nothing left after simplification");
 
-  const double error_m = children_error_m + out.simplify_error_m;
+  const SurfaceTree surface(w);
+  out.layer_error_m = largest_distance(surface, w, dropped);
+  const double error_m = children_error_m + out.layer_error_m + out.simplify_error_m;
   // A level up halves the detail along each axis, as for the triangles: texels at least twice the children's side,
   // so an inner tile holds about as many texels as one child, whatever its level.
   const double texel_m =
-      std::max({error_m / options.texels_per_error, 2.0 * children_texel_m(w, children), kWeldStepM});
+      std::max({error_m / options.texels_per_error, 2.0 * texel_side.back(), kWeldStepM});
   std::vector<CellSource> textures(children.size());
   for (size_t c = 0; c < children.size(); ++c)
     if (has_texture(*children[c])) textures[c] = cell_source(children[c]->texture);
-  const SurfaceTree surface(w);
   if (median_leg_texels(w, simplified, texel_m) < options.min_leg_texels) {
     out.mesh = vertex_coloured(w, simplified, children, textures, surface);
     return out;

@@ -3,7 +3,7 @@
 // host-visible buffers. Written for Mesa lavapipe; any Vulkan 1.3 device with large points works.
 #include <memory>
 
-#include "renderer/renderer.h"
+#include "renderer/create_renderer.h"
 
 namespace rgbdcast {
 

@@ -12,7 +12,7 @@
 #include "pipeline/frame_defaults.h"
 #include "pipeline/frame_scene.h"
 #include "pipeline/keyframe_glb.h"
-#include "renderer/renderer.h"
+#include "renderer/create_renderer.h"
 #include "tests/common/test_data.h"
 #include "tests/pipeline/realtime_frames.h"
 

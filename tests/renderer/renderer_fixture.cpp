@@ -1,5 +1,6 @@
 #include "tests/renderer/renderer_fixture.h"
 
+#include "renderer/create_renderer.h"
 #include "tests/renderer/image_compare.h"
 
 namespace rgbdcast::test {

@@ -1,7 +1,7 @@
 // create_renderer(): the one place a backend is chosen, with its reason.
 #include <gtest/gtest.h>
 
-#include "renderer/renderer.h"
+#include "renderer/create_renderer.h"
 
 namespace rgbdcast {
 namespace {

@@ -284,7 +284,9 @@ TEST(RefinementPlanner, ARevisionThatFitsItsBudgetIsNotRefinedAtTheSameSettingsB
     auto r = planner.choose(all, link, {1.0, false, -1});
     EXPECT_EQ(r.chosen.has_value(), c.chosen) << c.name;
     EXPECT_EQ(r.newly_saturated, c.chosen ? 0u : 1u) << c.name;
-    if (!c.chosen) EXPECT_EQ(planner.choose(all, link, {1.0, false, -1}).newly_saturated, 0u) << "counted once";
+    if (!c.chosen) {
+      EXPECT_EQ(planner.choose(all, link, {1.0, false, -1}).newly_saturated, 0u) << "counted once";
+    }
   }
   // A revision that changed since it fit (other bytes) is not saturated.
   RefinementPlanner planner({200, 1.0, 0.9}, 40);

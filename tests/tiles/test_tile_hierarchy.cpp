@@ -503,6 +503,59 @@ Eigen::Vector3d texel_at(const Mesh& m, size_t t, const Eigen::Vector3d& b) {
   return {double(px[0]), double(px[1]), double(px[2])};
 }
 
+// A placed keyframe's mesh in world coordinates, moved by `shift` metres; `flip` reverses its triangles (the same
+// surface seen from behind).
+Mesh world_mesh(std::int64_t seq, const Eigen::Vector3f& shift, bool flip) {
+  auto scene = Keyframes::get().placed({seq, 0});
+  EXPECT_TRUE(scene);
+  if (!scene || scene->nodes.empty()) return {};
+  SceneNode node = scene->nodes.front();
+  for (auto& p : node.mesh.positions)
+    p = (node.to_world * p.cast<double>().homogeneous()).head<3>().cast<float>() + shift;
+  if (flip)
+    for (size_t t = 0; t < node.mesh.triangle_count(); ++t) std::swap(node.mesh.indices[3 * t + 1], node.mesh.indices[3 * t + 2]);
+  return node.mesh;
+}
+
+// Keyframes that saw the same place give an inner tile one layer of it, not one per keyframe: a copy of a keyframe's
+// surface 1 cm behind it (depth noise) is dropped, and what dropping it moved is in the tile's error; the same surface
+// seen from behind, or moved far away, is kept.
+TEST(TileHierarchyTest, WhereKeyframesOverlapAnInnerTileKeepsOneLayer) {
+  REQUIRE_KEYFRAMES();
+  const Mesh surface = world_mesh(0, Eigen::Vector3f::Zero(), false);
+  ASSERT_GT(surface.triangle_count(), 1000u);
+  InnerBakeOptions options;
+  options.min_layer_voxel_m = 0.05;
+  // Triangles kept of the two surfaces merged, and what the weld left of one (the keyframe at 1 mm).
+  size_t one = 0;
+  double error_m = 0.0;
+  const auto kept = [&](const Mesh& other) {
+    auto inner = build_inner({&surface, &other}, 0.0, 100000, false, options);
+    EXPECT_TRUE(inner) << (inner ? "" : inner.error().message);
+    if (!inner) return size_t{0};
+    one = inner->merged_triangles / 2;
+    error_m = inner->layer_error_m;
+    return inner->kept_triangles;
+  };
+  const size_t behind = kept(world_mesh(0, Eigen::Vector3f(0.0f, 0.0f, 0.01f), false));
+  std::printf("a copy 1 cm behind: %zu of %zu triangles kept, layer error %.4f m\n", behind, 2 * one, error_m);
+  EXPECT_GE(behind, one);
+  EXPECT_LE(behind, one + one / 20) << "the copy is mostly kept";
+  EXPECT_GT(error_m, 0.0);
+  EXPECT_LE(error_m, 0.01 + 0.002) << "each dropped triangle has its copy 1 cm away (welded on a 1 mm grid)";
+
+  const size_t flipped = kept(world_mesh(0, Eigen::Vector3f::Zero(), true));
+  std::printf("the same surface from behind: %zu of %zu triangles kept, layer error %.4f m\n", flipped, 2 * one,
+              error_m);
+  // Where the depth mesh folds (silhouettes), triangles of either winding face every way: a few are covered.
+  EXPECT_GE(flipped, 2 * one - one / 5) << "the back of a surface is another surface";
+  EXPECT_LE(error_m, 0.002) << "what was dropped lies on the kept surface";
+
+  const size_t far = kept(world_mesh(0, Eigen::Vector3f(1.0f, 1.0f, 1.0f), false));
+  std::printf("a copy 1.7 m away: %zu of %zu triangles kept\n", far, 2 * one);
+  EXPECT_GE(far, 2 * one - one / 50) << "a surface elsewhere is kept";
+}
+
 // PSNR (dB) of a level-1 tile's colours against its leaves': at every leaf triangle's centroid, the leaf's texel
 // against the tile's texel where the centroid projects along the nearest tile triangle's normal (the triangle whose
 // plane is nearest among those the projection falls in; centroids that fall in none are skipped).
