@@ -112,6 +112,7 @@ class StreamRun {
                                                          bool& beside_keyframe);
   bool add_refinement(const RefineChoice& c, const EncodedKeyframe& fine, bool beside_keyframe, double window_s,
                       int only_seq);
+  bool await_answer(const RefineChoice& c, int only_seq);
   void count_refinement(bool made_ahead, bool beside_keyframe);
 
   // The tracker (the caller's thread) and the drain.
@@ -496,18 +497,20 @@ void StreamRun::refiner_loop() {
   refiner_tid_ = idle_this_thread();
   SmoothedDuration took(0.5);
   for (;;) {
-    double free_s = 0;
+    RefinerTurn turn;
     const LinkSnapshot l = link();
     {
       std::unique_lock lock(mu_);
       jobs_cv_.wait_for(lock, std::chrono::milliseconds(50), [&] { return tracking_done_; });
       if (tracking_done_ || should_stop_()) return;
-      if (!queues_.empty() || reducing_ || holding_ || summary_.keyframes == 0) continue;
-      free_s = refiner_window_s(l, options_.refine_window_s, last_keyframe_s_, interval_.seconds(),
-                                reduce_s_.value(), took.value(), since_start_s());
+      turn.keyframe_work = !queues_.empty() || reducing_ || holding_;
+      turn.keyframes = summary_.keyframes;
+      turn.window_s = refiner_window_s(l, options_.refine_window_s, last_keyframe_s_, interval_.seconds(),
+                                       reduce_s_.value(), took.value(), since_start_s());
     }
-    if (free_s <= 0 || sender_.owed_s(true) > 0.05) continue;
-    if (!refine_one(free_s, took, false)) {
+    turn.owed_s = sender_.owed_s(true);
+    if (!refiner_may_refine(turn)) continue;
+    if (!refine_one(turn.window_s, took, false)) {
       std::unique_lock lock(mu_);  // nothing to refine at this window: wait for the next keyframe or answer
       jobs_cv_.wait_for(lock, std::chrono::milliseconds(100), [&] { return tracking_done_; });
     }
@@ -573,11 +576,45 @@ void StreamRun::count_refinement(bool made_ahead, bool beside_keyframe) {
   if (!tracking_done_for_refiner_) ++summary_.refined_while_tracking;
 }
 
+// Made ahead, the refinement waits for the answer to the revision it replaces (refinement_ahead_step). The
+// reduction thread (only_seq >= 0) does not wait (the next keyframe would wait with it): the drain or the refiner
+// thread makes the refinement again once the keyframe qualifies there. An outage is not worth holding the drain (its
+// cap polls) for. True: answered, to be added.
+bool StreamRun::await_answer(const RefineChoice& c, int only_seq) {
+  const int seq = c.entry.seq, rev = c.entry.rev;
+  const bool waits = only_seq < 0;
+  std::optional<OutboxEntry> now = !waits && !c.entry.acked ? outbox_.entry(seq) : c.entry;
+  for (;;) {
+    AheadSnapshot s;
+    s.now = std::move(now);
+    s.rev = rev;
+    s.waits = waits;
+    if (waits && s.now && !s.now->acked) {
+      const SenderStats stats = sender_.stats();
+      s.stopping = should_stop_() || !stats.fatal.empty();
+      s.link_down = stats.link_down;
+    }
+    switch (refinement_ahead_step(s)) {
+      case AheadStep::kAdd:
+        return true;
+      case AheadStep::kDrop:
+        return false;
+      case AheadStep::kRedoLater:
+        forget_tried(seq);
+        return false;
+      case AheadStep::kWait:
+        break;
+    }
+    now = sender_.wait_entry(
+        seq, [&](const auto& e) { return !e || !e->rejected.empty() || e->rev != rev || e->acked; },
+        std::chrono::milliseconds(10));
+  }
+}
+
 bool StreamRun::add_refinement(const RefineChoice& c, const EncodedKeyframe& fine, bool beside_keyframe,
                                double window_s, int only_seq) {
-  const int seq = c.entry.seq;
-  std::optional<OutboxEntry> best = c.entry;
-  if (judge_refinement(fine.glb.size(), best->bytes, false, false, 0) == RefinementVerdict::kTooSmall) {
+  const int seq = c.entry.seq, rev = c.entry.rev;
+  if (judge_refinement(fine.glb.size(), c.entry.bytes, false, false, 0) == RefinementVerdict::kTooSmall) {
     std::lock_guard lock(mu_);
     ++summary_.refined_not_kept;
     return true;
@@ -590,38 +627,15 @@ bool StreamRun::add_refinement(const RefineChoice& c, const EncodedKeyframe& fin
     auto now = outbox_.entry(seq);
     if (beside_keyframe && !should_stop_())
       now = sender_.wait_entry(
-          seq, [&](const auto& e) { return !e || e->rev != best->rev || !e->pending() || e->attempted; },
-          std::chrono::milliseconds(300));
-    if (now && now->rev == best->rev && now->attempted && now->pending() &&
-        outbox_.revise_in_flight(seq, fine.glb, c.budget_kb, fine.triangles)) {
+          seq, [&](const auto& e) { return post_start_settled(e, rev); }, std::chrono::milliseconds(300));
+    if (revise_beside_post(now, rev) && outbox_.revise_in_flight(seq, fine.glb, c.budget_kb, fine.triangles)) {
       note_revision(seq, fine, c.budget_kb);
       count_refinement(true, beside_keyframe);
       sender_.notify();
       return true;
     }
   }
-  // The reduction thread does not wait for an answer (the next keyframe would wait with it): the drain or the
-  // refiner thread makes the refinement again once the keyframe qualifies there.
-  if (only_seq >= 0 && !best->acked) {
-    auto now = outbox_.entry(seq);
-    if (!now || !now->acked || now->rev != best->rev) {
-      forget_tried(seq);
-      return true;
-    }
-    best = std::move(now);  // answered meanwhile: checked against the measured link below
-  }
-  while (!best->acked) {  // made ahead: wait for the answer to the revision it replaces
-    if (should_stop_() || !sender_.stats().fatal.empty()) return true;
-    if (sender_.stats().link_down) {  // an outage: not worth holding the drain (its cap polls) for; made again later
-      forget_tried(seq);
-      return true;
-    }
-    auto now = sender_.wait_entry(
-        seq, [&](const auto& e) { return !e || !e->rejected.empty() || e->rev != best->rev || e->acked; },
-        std::chrono::milliseconds(10));
-    if (!now || !now->rejected.empty() || now->rev != best->rev) return true;
-    best = std::move(now);
-  }
+  if (!await_answer(c, only_seq)) return true;
   // Sized to the cap before the link was measured: added only if the measured link carries it in the window;
   // otherwise the next call refines the keyframe at the measured budget (as without a cap).
   const double measured_kb = carried_kb(planner_.limits(), window_s, sender_.line_kbps(), sender_.post_fixed_s());
@@ -665,7 +679,7 @@ Status StreamRun::on_keyframe(const RgbdFrame& frame, const FrameRecord& record)
     // As fast as it can: no camera to keep up with, so the tracker waits for the reduction instead of taking the
     // CPU it needs (but not while the keyframe is held back for the link: a newer one may supersede it).
     std::unique_lock lock(mu_);
-    jobs_cv_.wait(lock, [&] { return holding_ || (queues_.waiting() == 0 && !reducing_) || should_stop_(); });
+    jobs_cv_.wait(lock, [&] { return tracker_may_go_on(holding_, queues_.waiting(), reducing_) || should_stop_(); });
   }
   return ok_status();
 }
