@@ -735,7 +735,7 @@ void StreamRun::drain() {
     if (link_has_room(sender_.owed_s(true), refine_s_.value()) && refine_one(options_.refine_window_s, refine_s_, true))
       continue;
     if (sender_.stats().pending == 0) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    sender_.wait_delivered(std::chrono::milliseconds(20));  // the cap file and stop are polled at that period
   }
 }
 
