@@ -156,7 +156,7 @@ class StreamRun {
   // Per frame read (the tracker's thread only): its capture time, when its work began, the reader's CPU time for it
   // and the tracker thread's CPU clock when the tracker took it.
   double captured_ = 0;
-  std::optional<steady::time_point> frame_began_;
+  std::optional<double> frame_began_s_;  // on steady_s_
   double frame_read_cpu_ms_ = 0, frame_cpu_began_ = 0;
   size_t sender_lanes_ = 1;
   std::optional<CapFile> cap_file_;
@@ -257,6 +257,8 @@ void StreamRun::start_camera() {
   ro.realtime = options_.realtime;
   ro.fps_without_timestamps = options_.fps_without_timestamps;
   ro.from = params_.from;
+  ro.steady_s = steady_s_;
+  ro.unix_s = unix_s_;
   ro.last = source_.size() == 0 ? 0 : std::min(params_.to, source_.size() - 1);
   if (source_.size() > 0 && ro.from <= ro.last) camera_.emplace(source_, ro, source_mu_);
 }
@@ -267,7 +269,7 @@ Result<RgbdFrame> StreamRun::load(size_t i) {
   auto taken = camera_->take(i);
   if (!taken) return taken.error();
   captured_ = taken->captured;
-  frame_began_ = taken->began;
+  frame_began_s_ = taken->began_s;
   frame_read_cpu_ms_ = taken->read_cpu_ms;
   frame_cpu_began_ = thread_cpu_ms();
   return std::move(taken->frame);
@@ -685,15 +687,15 @@ Status StreamRun::on_keyframe(const RgbdFrame& frame, const FrameRecord& record)
 }
 
 void StreamRun::on_frame(const FrameRecord& r, size_t done, size_t total) {
-  if (frame_began_) {  // this frame was read (not dropped)
-    const double wall = std::chrono::duration<double, std::milli>(steady::now() - *frame_began_).count();
+  if (frame_began_s_) {  // this frame was read (not dropped)
+    const double wall = 1000.0 * (steady_s_() - *frame_began_s_);
     const double cpu = thread_cpu_ms() - frame_cpu_began_;
     std::lock_guard lock(mu_);
     summary_.frame_wall_ms.push_back(wall);
     summary_.frame_cpu_ms.push_back(cpu);
     summary_.read_cpu_ms.push_back(frame_read_cpu_ms_);
   }
-  frame_began_.reset();
+  frame_began_s_.reset();
   poll_cap();
   StreamProgress copy;
   {
