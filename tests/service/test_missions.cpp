@@ -87,14 +87,15 @@ size_t files_under(const std::string& dir) {
   return n;
 }
 
-// Waits until the mission's views draw its tileset alone (X-Pending-Keyframes: 0), at most timeout_s.
+// Waits until the mission's views draw its settled tileset alone (X-Pending-Keyframes: 0, X-Stale-Tiles: 0), at
+// most timeout_s.
 bool wait_for_tileset(httplib::Client& c, const std::string& mission, double timeout_s) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   const std::string path = "/v1/missions/" + mission + "/view?pose=capture&width=32&height=24";
   while (std::chrono::steady_clock::now() < deadline) {
     auto r = c.Get(path.c_str());
     if (r && r->status == 200 && r->get_header_value("X-Pending-Keyframes") == "0" &&
-        r->get_header_value("X-Tileset-Version") != "0")
+        r->get_header_value("X-Tileset-Version") != "0" && r->get_header_value("X-Stale-Tiles") == "0")
       return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
