@@ -50,6 +50,19 @@ alive() {
   [ -r "/proc/$pid/cmdline" ] && tr '\0' ' ' < "/proc/$pid/cmdline" | grep -q -- "$2"
 }
 
+# Whether the process of pid file $1 still runs (neither gone nor a zombie), whatever its command line: for a process
+# this script has just started in the background, which may not have reached its exec yet (its command line is then
+# still this script's, and alive() would say it is not the program).
+running() {
+  local pid stat
+  [ -f "$1" ] || return 1
+  pid="$(cat "$1")"
+  [[ "$pid" =~ ^[0-9]+$ ]] || return 1
+  stat="$(cat "/proc/$pid/stat" 2>/dev/null)" || return 1
+  stat="${stat##*) }"
+  [ "${stat%% *}" != Z ]
+}
+
 # Stops the process of pid file $1 (command line containing $2) with signal $3, SIGKILL after 20 s; removes the file.
 stop_one() {
   local file="$1" what="$2" sig="$3" pid i
@@ -79,13 +92,13 @@ down() {
   echo "cluster.sh: stopped the cluster in $dir"
 }
 
-# Polls `curl URL` until it answers 200, at most $2 seconds, while pid file $3 (when given) names a live process
-# whose command line contains $4; false otherwise.
+# Polls `curl URL` until it answers 200, at most $2 seconds, while pid file $3 (when given) names a process that
+# runs (running()); false otherwise.
 wait_200() {
-  local url="$1" seconds="$2" file="${3:-}" what="${4:-}" i
+  local url="$1" seconds="$2" file="${3:-}" i
   for i in $(seq $((seconds * 10))); do
     [ "$(curl -s -o /dev/null -w '%{http_code}' --max-time 2 "$url" || true)" = 200 ] && return 0
-    if [ -n "$file" ] && ! alive "$file" "$what"; then return 1; fi
+    if [ -n "$file" ] && ! running "$file"; then return 1; fi
     sleep 0.1
   done
   return 1
@@ -139,7 +152,7 @@ up() {
     echo $! > "$dir/replica-$i.pid"
   done
   for i in $(seq "$replicas"); do
-    wait_200 "http://127.0.0.1:$((port + i))/readyz" 60 "$dir/replica-$i.pid" serve ||
+    wait_200 "http://127.0.0.1:$((port + i))/readyz" 60 "$dir/replica-$i.pid" ||
       die "replica $i is not ready: $(tail -n 1 "$dir/replica-$i.log")"
   done
   mkdir -p "$dir/nginx/body" "$dir/nginx/proxy" "$dir/nginx/fastcgi" "$dir/nginx/uwsgi" "$dir/nginx/scgi"
@@ -160,7 +173,7 @@ up() {
     nginx -c "$dir/nginx.conf" -e "$dir/nginx-error.log" >> "$dir/nginx-error.log" 2>&1 &
     echo $! > "$dir/nginx.pid"  # nginx writes the same pid there itself (the pid directive)
   fi
-  wait_200 "http://127.0.0.1:$port/readyz" 30 "$dir/nginx.pid" nginx ||
+  wait_200 "http://127.0.0.1:$port/readyz" 30 "$dir/nginx.pid" ||
     die "nginx does not answer on port $port: $(tail -n 1 "$dir/nginx-error.log")"
   echo "http://127.0.0.1:$port"
 }

@@ -225,7 +225,8 @@ TEST(Replicas, AKeyframePostedToOneReplicaIsAnEventAndAViewOnTheOtherAcrossResta
 
   // The database killed (-9) and started again: both replicas reconnect; a keyframe posted through A afterwards
   // (retried while A's connections are made again) reaches B, and each replica holds every keyframe once.
-  ASSERT_TRUE(pg->restart());
+  const auto restarted = pg->restart();
+  ASSERT_TRUE(restarted) << restarted.error().message;
   int status = 0;
   for (int attempt = 0; attempt < 20 && status != 201; ++attempt) {
     auto r = post_keyframe(*ca, "shared", 2, k[2], k[2].glb);
