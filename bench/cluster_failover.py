@@ -7,8 +7,8 @@ its view (pose=capture, 320x240 JPEG) through the front in a loop. Once the miss
 replica that serves it (X-Rgbdcast-Replica), that replica is killed (-9) at KILL_AT_S into the run. A client told
 503 (load shed, "render queue full") waits its Retry-After (at most 1 s), as an operator's page does. Prints, per
 client count: views/s before the kill, the views shed (503) before and after it, the failed views (any other answer
-but 200, or none within 10 s), the time from the kill to the last failure, the time to the first view answered by another replica, and the latency p50/p99 before and
-after the kill.
+but 200, or none within 10 s), the time from the kill to the last failure, the time to the first view answered by
+another replica, and the latency p50/p99 before and after the kill.
   /usr/bin/python3 bench/cluster_failover.py [--clients 8 32] [--duration-s 15] [--kill-at-s 5] [--keyframes 4]
 Needs nginx and PostgreSQL 15 (scripts/setup.sh test), the built binary (RGBDCAST_BIN, else build/app/rgbdcast)
 and ../shared/data. Starts and stops only its own cluster (deploy/cluster.sh down, by pid files).

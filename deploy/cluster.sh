@@ -10,9 +10,10 @@
 #   in DIR/replica-NAME/ and its output in DIR/replica-NAME.log. SERVE_OPTIONS are added to each.
 # - nginx (Debian's) on port P with deploy/nginx.conf.in, written to DIR/nginx.conf.
 # It writes DIR/postgres.pid, DIR/replica-NAME.pid and DIR/nginx.pid, waits until every replica's /readyz answers 200
-# (at most 60 s each) and prints the front URL. `down` stops exactly the processes of those pid files (each checked
-# to still be the program it was: a pid may have been reused), replicas with SIGTERM, nginx with SIGQUIT, PostgreSQL
-# with SIGINT (its fast shutdown), and SIGKILL for any still running 20 s later.
+# (at most 60 s each) and prints the front URL; a start that fails stops what is running in DIR. `down` stops exactly
+# the processes of those pid files (each checked to still be the program it was: a pid may have been reused),
+# replicas with SIGTERM, nginx with SIGQUIT, PostgreSQL with SIGINT (its fast shutdown), and SIGKILL for any still
+# running 20 s later.
 # The rgbdcast binary: $RGBDCAST_BIN, else build/app/rgbdcast of this checkout, else `rgbdcast` on PATH.
 set -euo pipefail
 
@@ -123,7 +124,7 @@ start_postgres() {
   echo $! > "$dir/postgres.pid"
   for i in $(seq 300); do
     "$pg_bin/pg_isready" -q -h "$dir/pg" -U postgres && break
-    alive "$dir/postgres.pid" postgres || die "postgres exited at start: see $dir/pg/postgres.log"
+    running "$dir/postgres.pid" || die "postgres exited at start: see $dir/pg/postgres.log"
     sleep 0.1
   done
   "$pg_bin/pg_isready" -q -h "$dir/pg" -U postgres || die "postgres did not answer within 30 s"
@@ -140,6 +141,10 @@ up() {
   command -v nginx >/dev/null || [ -x /usr/sbin/nginx ] || die "nginx is not installed (scripts/setup.sh test)"
   mkdir -p "$dir"
   dir="$(cd "$dir" && pwd)"
+  # A start that fails half-way (a port taken, a replica that does not get ready) stops the cluster in DIR again,
+  # rather than leaving some of its processes running.
+  trap 'echo "cluster.sh: the start failed; stopping the cluster in $dir" >&2
+        down "$dir" > /dev/null 2>&1 || true' EXIT
   start_postgres "$dir"
   uri="postgresql:///rgbdcast?host=$dir/pg&user=postgres"
   for i in $(seq "$replicas"); do
@@ -175,6 +180,7 @@ up() {
   fi
   wait_200 "http://127.0.0.1:$port/readyz" 30 "$dir/nginx.pid" ||
     die "nginx does not answer on port $port: $(tail -n 1 "$dir/nginx-error.log")"
+  trap - EXIT
   echo "http://127.0.0.1:$port"
 }
 
