@@ -5,7 +5,8 @@
 # them (640x480 JPEG from a ring of viewpoints). Then keyframe POSTs through the front: p50 and p95 of 40 sequential
 # posts (curl's total time). Prints a table.
 #   bench/cluster_load.sh [--duration 15s] [--connections 8] [--scenes 6] [--configs "direct 1 2 3"]
-# "direct" is one replica on the same PostgreSQL store, asked directly; N is N replicas behind nginx.
+# "direct" is one replica on the same PostgreSQL store, asked directly; "dir" one server on the embedded directory
+# store (--data-dir), asked directly; N is N replicas behind nginx.
 # Needs wrk, curl, jq, nginx and PostgreSQL 15 (scripts/setup.sh test) and ../shared/data.
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
@@ -26,8 +27,19 @@ TUM="${RGBDCAST_DATA:-$ROOT/../shared/data}/tum/rgbd_dataset_freiburg1_xyz"
 WORK="$(mktemp -d /tmp/rgbdcast-cluster-load.XXXXXX)"
 chmod 0755 "$WORK"  # PostgreSQL runs as its own user and must reach its folder inside
 current=""
+dir_pid=""
+# Stops the directory-store server this script started (by its pid), SIGKILL after 20 s.
+stop_dir_server() {
+  [ -n "$dir_pid" ] || return 0
+  kill -TERM "$dir_pid" 2> /dev/null || true
+  for _ in $(seq 200); do kill -0 "$dir_pid" 2> /dev/null || break; sleep 0.1; done
+  kill -KILL "$dir_pid" 2> /dev/null || true
+  wait "$dir_pid" 2> /dev/null || true
+  dir_pid=""
+}
 cleanup() {
-  if [ -n "$current" ]; then deploy/cluster.sh down "$current" > /dev/null || true; fi
+  stop_dir_server
+  if [ -n "$current" ] && [ -f "$current/nginx.conf" ]; then deploy/cluster.sh down "$current" > /dev/null || true; fi
   rm -rf "$WORK"
 }
 trap cleanup EXIT
@@ -42,9 +54,22 @@ for config in $configs; do
   replicas="$config"
   [ "$config" = direct ] && replicas=1
   current="$WORK/$config"
-  front="$(deploy/cluster.sh up "$current" --replicas "$replicas" --port "$port" | tail -n 1)"
-  url="$front"
-  [ "$config" = direct ] && url="http://127.0.0.1:$((port + 1))"
+  if [ "$config" = dir ]; then
+    mkdir -p "$current"
+    "$RGBDCAST_BIN" serve --data-dir "$current/data" --port "$((port + 1))" > "$current/serve.log" 2>&1 &
+    dir_pid=$!
+    url="http://127.0.0.1:$((port + 1))"
+    for _ in $(seq 600); do
+      [ "$(curl -s -o /dev/null -w '%{http_code}' --max-time 2 "$url/readyz" || true)" = 200 ] && break
+      kill -0 "$dir_pid" 2> /dev/null ||
+        { echo "cluster_load.sh: serve exited: $(tail -n 1 "$current/serve.log")" >&2; exit 1; }
+      sleep 0.1
+    done
+  else
+    front="$(deploy/cluster.sh up "$current" --replicas "$replicas" --port "$port" | tail -n 1)"
+    url="$front"
+    [ "$config" = direct ] && url="http://127.0.0.1:$((port + 1))"
+  fi
   ids=()
   for _ in $(seq "$scenes"); do
     ids+=("$(curl -fsS -F "color=@$TUM/rgb/1305031102.175304.png;type=image/png" \
@@ -71,7 +96,7 @@ for config in $configs; do
     done | sort -n | awk '{v[NR] = $1 * 1000} END {printf "%.1f %.1f", v[int(NR * 0.5 + 0.5)], v[int(NR * 0.95 + 0.5)]}')"
   fi
   rows+=("| $config | $connections | $scenes | $(get views_per_s) | $(get p50_ms) | $(get p99_ms) | $(get errors) | ${post_ms% *} | ${post_ms#* } |")
-  deploy/cluster.sh down "$current" > /dev/null
+  if [ "$config" = dir ]; then stop_dir_server; else deploy/cluster.sh down "$current" > /dev/null; fi
   current=""
 done
 echo "| replicas | connections | scenes | views/s | p50 ms | p99 ms | errors | keyframe POST p50 ms | p95 ms |"

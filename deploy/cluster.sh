@@ -10,9 +10,10 @@
 #   in DIR/replica-NAME/ and its output in DIR/replica-NAME.log. SERVE_OPTIONS are added to each.
 # - nginx (Debian's) on port P with deploy/nginx.conf.in, written to DIR/nginx.conf.
 # It writes DIR/postgres.pid, DIR/replica-NAME.pid and DIR/nginx.pid, waits until every replica's /readyz answers 200
-# (at most 60 s each) and prints the front URL. `down` stops exactly the processes of those pid files (each checked
-# to still be the program it was: a pid may have been reused), replicas with SIGTERM, nginx with SIGQUIT, PostgreSQL
-# with SIGINT (its fast shutdown), and SIGKILL for any still running 20 s later.
+# (at most 60 s each) and prints the front URL; a start that fails stops what is running in DIR. `down` stops exactly
+# the processes of those pid files (each checked to still be the program it was: a pid may have been reused),
+# replicas with SIGTERM, nginx with SIGQUIT, PostgreSQL with SIGINT (its fast shutdown), and SIGKILL for any still
+# running 20 s later.
 # The rgbdcast binary: $RGBDCAST_BIN, else build/app/rgbdcast of this checkout, else `rgbdcast` on PATH.
 set -euo pipefail
 
@@ -50,6 +51,19 @@ alive() {
   [ -r "/proc/$pid/cmdline" ] && tr '\0' ' ' < "/proc/$pid/cmdline" | grep -q -- "$2"
 }
 
+# Whether the process of pid file $1 still runs (neither gone nor a zombie), whatever its command line: for a process
+# this script has just started in the background, which may not have reached its exec yet (its command line is then
+# still this script's, and alive() would say it is not the program).
+running() {
+  local pid stat
+  [ -f "$1" ] || return 1
+  pid="$(cat "$1")"
+  [[ "$pid" =~ ^[0-9]+$ ]] || return 1
+  stat="$(cat "/proc/$pid/stat" 2>/dev/null)" || return 1
+  stat="${stat##*) }"
+  [ "${stat%% *}" != Z ]
+}
+
 # Stops the process of pid file $1 (command line containing $2) with signal $3, SIGKILL after 20 s; removes the file.
 stop_one() {
   local file="$1" what="$2" sig="$3" pid i
@@ -79,13 +93,13 @@ down() {
   echo "cluster.sh: stopped the cluster in $dir"
 }
 
-# Polls `curl URL` until it answers 200, at most $2 seconds, while pid file $3 (when given) names a live process
-# whose command line contains $4; false otherwise.
+# Polls `curl URL` until it answers 200, at most $2 seconds, while pid file $3 (when given) names a process that
+# runs (running()); false otherwise.
 wait_200() {
-  local url="$1" seconds="$2" file="${3:-}" what="${4:-}" i
+  local url="$1" seconds="$2" file="${3:-}" i
   for i in $(seq $((seconds * 10))); do
     [ "$(curl -s -o /dev/null -w '%{http_code}' --max-time 2 "$url" || true)" = 200 ] && return 0
-    if [ -n "$file" ] && ! alive "$file" "$what"; then return 1; fi
+    if [ -n "$file" ] && ! running "$file"; then return 1; fi
     sleep 0.1
   done
   return 1
@@ -110,7 +124,7 @@ start_postgres() {
   echo $! > "$dir/postgres.pid"
   for i in $(seq 300); do
     "$pg_bin/pg_isready" -q -h "$dir/pg" -U postgres && break
-    alive "$dir/postgres.pid" postgres || die "postgres exited at start: see $dir/pg/postgres.log"
+    running "$dir/postgres.pid" || die "postgres exited at start: see $dir/pg/postgres.log"
     sleep 0.1
   done
   "$pg_bin/pg_isready" -q -h "$dir/pg" -U postgres || die "postgres did not answer within 30 s"
@@ -127,6 +141,10 @@ up() {
   command -v nginx >/dev/null || [ -x /usr/sbin/nginx ] || die "nginx is not installed (scripts/setup.sh test)"
   mkdir -p "$dir"
   dir="$(cd "$dir" && pwd)"
+  # A start that fails half-way (a port taken, a replica that does not get ready) stops the cluster in DIR again,
+  # rather than leaving some of its processes running.
+  trap 'echo "cluster.sh: the start failed; stopping the cluster in $dir" >&2
+        down "$dir" > /dev/null 2>&1 || true' EXIT
   start_postgres "$dir"
   uri="postgresql:///rgbdcast?host=$dir/pg&user=postgres"
   for i in $(seq "$replicas"); do
@@ -139,7 +157,7 @@ up() {
     echo $! > "$dir/replica-$i.pid"
   done
   for i in $(seq "$replicas"); do
-    wait_200 "http://127.0.0.1:$((port + i))/readyz" 60 "$dir/replica-$i.pid" serve ||
+    wait_200 "http://127.0.0.1:$((port + i))/readyz" 60 "$dir/replica-$i.pid" ||
       die "replica $i is not ready: $(tail -n 1 "$dir/replica-$i.log")"
   done
   mkdir -p "$dir/nginx/body" "$dir/nginx/proxy" "$dir/nginx/fastcgi" "$dir/nginx/uwsgi" "$dir/nginx/scgi"
@@ -160,8 +178,9 @@ up() {
     nginx -c "$dir/nginx.conf" -e "$dir/nginx-error.log" >> "$dir/nginx-error.log" 2>&1 &
     echo $! > "$dir/nginx.pid"  # nginx writes the same pid there itself (the pid directive)
   fi
-  wait_200 "http://127.0.0.1:$port/readyz" 30 "$dir/nginx.pid" nginx ||
+  wait_200 "http://127.0.0.1:$port/readyz" 30 "$dir/nginx.pid" ||
     die "nginx does not answer on port $port: $(tail -n 1 "$dir/nginx-error.log")"
+  trap - EXIT
   echo "http://127.0.0.1:$port"
 }
 

@@ -389,6 +389,7 @@ void MissionRoutes::get_view(const httplib::Request& req, httplib::Response& res
   res.set_header("X-Tiles", std::to_string(plan->tiles));
   res.set_header("X-Max-Error", nlohmann::json(plan->max_error_px).dump());
   res.set_header("X-Pending-Keyframes", std::to_string(plan->pending));
+  res.set_header("X-Stale-Tiles", std::to_string(plan->stale_tiles));
   if (plan->pending_left_out > 0) res.set_header("X-Pending-Left-Out", std::to_string(plan->pending_left_out));
   render_view_(req, *request, [this, plan, request = *request] {
     return pool_.render_parts(std::move(plan->parts), plan->camera, request);

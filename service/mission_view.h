@@ -35,6 +35,7 @@ struct MissionViewPlan {
   std::uint64_t tileset_version = 0;  // 0: no tileset yet
   double max_error_px = 0.0;          // the screen-space error the tiles were selected at
   size_t tiles = 0, pending = 0, pending_left_out = 0;
+  size_t stale_tiles = 0;  // the tileset's inner tiles still to be rebuilt: drawn from their descendants meanwhile
   std::uint64_t tile_triangles = 0;
 };
 

@@ -8,6 +8,8 @@ using steady = std::chrono::steady_clock;
 
 namespace {
 
+double system_steady_s() { return std::chrono::duration<double>(steady::now().time_since_epoch()).count(); }
+
 double unix_now() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
@@ -48,8 +50,10 @@ double CameraReader::stamp(size_t i) const {
 }
 
 void CameraReader::run() {
+  const std::function<double()> steady_s = options_.steady_s ? options_.steady_s : system_steady_s;
   const auto start = steady::now();
-  const double start_unix = unix_now(), first = stamp(options_.from);
+  const std::function<double()> unix_s = options_.unix_s ? options_.unix_s : unix_now;
+  const double start_s = steady_s(), start_unix = unix_s(), first = stamp(options_.from);
   auto due = [&](size_t i) {
     return start + std::chrono::duration_cast<steady::duration>(std::chrono::duration<double>(stamp(i) - first));
   };
@@ -66,14 +70,14 @@ void CameraReader::run() {
         cv_.notify_all();
         if (cv_.wait_until(lock, due(i), [&] { return stopping_; })) break;
         out.captured = start_unix + (stamp(i) - first);
-        out.began = due(i);
+        out.began_s = start_s + (stamp(i) - first);
       } else {
         // On demand: the frame is read when the tracker asks for it, so that "captured" is not a frame's wait in
         // the slot while the tracker waited for a reduction (keyframe_stream.h).
         cv_.wait(lock, [&] { return stopping_ || (wanted_ && *wanted_ >= i); });
         if (stopping_) break;
-        out.captured = unix_now();
-        out.began = steady::now();
+        out.captured = unix_s();
+        out.began_s = steady_s();
       }
     }
     const double cpu0 = thread_cpu_ms();

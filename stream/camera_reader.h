@@ -19,6 +19,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -31,12 +32,15 @@ struct CameraReaderOptions {
   bool realtime = false;
   double fps_without_timestamps = 30;
   size_t from = 0, last = 0;  // the frames read: from..last (inclusive)
+  // The clocks of CameraFrame::began_s (steady s) and captured (Unix s): the stream runtime's (StreamOptions::steady_s,
+  // unix_s); empty: the system's. The reader paces itself on the system's steady clock either way.
+  std::function<double()> steady_s, unix_s;
 };
 
 struct CameraFrame {
   RgbdFrame frame;
   double captured = 0;                          // Unix s
-  std::chrono::steady_clock::time_point began;  // due (realtime) or when its read started
+  double began_s = 0;                           // on steady_s: due (realtime) or when its read started
   double read_cpu_ms = 0;                       // the reader thread's CPU time for it
 };
 

@@ -112,6 +112,7 @@ class StreamRun {
                                                          bool& beside_keyframe);
   bool add_refinement(const RefineChoice& c, const EncodedKeyframe& fine, bool beside_keyframe, double window_s,
                       int only_seq);
+  bool await_answer(const RefineChoice& c, int only_seq);
   void count_refinement(bool made_ahead, bool beside_keyframe);
 
   // The tracker (the caller's thread) and the drain.
@@ -155,7 +156,7 @@ class StreamRun {
   // Per frame read (the tracker's thread only): its capture time, when its work began, the reader's CPU time for it
   // and the tracker thread's CPU clock when the tracker took it.
   double captured_ = 0;
-  std::optional<steady::time_point> frame_began_;
+  std::optional<double> frame_began_s_;  // on steady_s_
   double frame_read_cpu_ms_ = 0, frame_cpu_began_ = 0;
   size_t sender_lanes_ = 1;
   std::optional<CapFile> cap_file_;
@@ -256,6 +257,8 @@ void StreamRun::start_camera() {
   ro.realtime = options_.realtime;
   ro.fps_without_timestamps = options_.fps_without_timestamps;
   ro.from = params_.from;
+  ro.steady_s = steady_s_;
+  ro.unix_s = unix_s_;
   ro.last = source_.size() == 0 ? 0 : std::min(params_.to, source_.size() - 1);
   if (source_.size() > 0 && ro.from <= ro.last) camera_.emplace(source_, ro, source_mu_);
 }
@@ -266,7 +269,7 @@ Result<RgbdFrame> StreamRun::load(size_t i) {
   auto taken = camera_->take(i);
   if (!taken) return taken.error();
   captured_ = taken->captured;
-  frame_began_ = taken->began;
+  frame_began_s_ = taken->began_s;
   frame_read_cpu_ms_ = taken->read_cpu_ms;
   frame_cpu_began_ = thread_cpu_ms();
   return std::move(taken->frame);
@@ -496,18 +499,20 @@ void StreamRun::refiner_loop() {
   refiner_tid_ = idle_this_thread();
   SmoothedDuration took(0.5);
   for (;;) {
-    double free_s = 0;
+    RefinerTurn turn;
     const LinkSnapshot l = link();
     {
       std::unique_lock lock(mu_);
       jobs_cv_.wait_for(lock, std::chrono::milliseconds(50), [&] { return tracking_done_; });
       if (tracking_done_ || should_stop_()) return;
-      if (!queues_.empty() || reducing_ || holding_ || summary_.keyframes == 0) continue;
-      free_s = refiner_window_s(l, options_.refine_window_s, last_keyframe_s_, interval_.seconds(),
-                                reduce_s_.value(), took.value(), since_start_s());
+      turn.keyframe_work = !queues_.empty() || reducing_ || holding_;
+      turn.keyframes = summary_.keyframes;
+      turn.window_s = refiner_window_s(l, options_.refine_window_s, last_keyframe_s_, interval_.seconds(),
+                                       reduce_s_.value(), took.value(), since_start_s());
     }
-    if (free_s <= 0 || sender_.owed_s(true) > 0.05) continue;
-    if (!refine_one(free_s, took, false)) {
+    turn.owed_s = sender_.owed_s(true);
+    if (!refiner_may_refine(turn)) continue;
+    if (!refine_one(turn.window_s, took, false)) {
       std::unique_lock lock(mu_);  // nothing to refine at this window: wait for the next keyframe or answer
       jobs_cv_.wait_for(lock, std::chrono::milliseconds(100), [&] { return tracking_done_; });
     }
@@ -573,11 +578,45 @@ void StreamRun::count_refinement(bool made_ahead, bool beside_keyframe) {
   if (!tracking_done_for_refiner_) ++summary_.refined_while_tracking;
 }
 
+// Made ahead, the refinement waits for the answer to the revision it replaces (refinement_ahead_step). The
+// reduction thread (only_seq >= 0) does not wait (the next keyframe would wait with it): the drain or the refiner
+// thread makes the refinement again once the keyframe qualifies there. An outage is not worth holding the drain (its
+// cap polls) for. True: answered, to be added.
+bool StreamRun::await_answer(const RefineChoice& c, int only_seq) {
+  const int seq = c.entry.seq, rev = c.entry.rev;
+  const bool waits = only_seq < 0;
+  std::optional<OutboxEntry> now = !waits && !c.entry.acked ? outbox_.entry(seq) : c.entry;
+  for (;;) {
+    AheadSnapshot s;
+    s.now = std::move(now);
+    s.rev = rev;
+    s.waits = waits;
+    if (waits && s.now && !s.now->acked) {
+      const SenderStats stats = sender_.stats();
+      s.stopping = should_stop_() || !stats.fatal.empty();
+      s.link_down = stats.link_down;
+    }
+    switch (refinement_ahead_step(s)) {
+      case AheadStep::kAdd:
+        return true;
+      case AheadStep::kDrop:
+        return false;
+      case AheadStep::kRedoLater:
+        forget_tried(seq);
+        return false;
+      case AheadStep::kWait:
+        break;
+    }
+    now = sender_.wait_entry(
+        seq, [&](const auto& e) { return !e || !e->rejected.empty() || e->rev != rev || e->acked; },
+        std::chrono::milliseconds(10));
+  }
+}
+
 bool StreamRun::add_refinement(const RefineChoice& c, const EncodedKeyframe& fine, bool beside_keyframe,
                                double window_s, int only_seq) {
-  const int seq = c.entry.seq;
-  std::optional<OutboxEntry> best = c.entry;
-  if (judge_refinement(fine.glb.size(), best->bytes, false, false, 0) == RefinementVerdict::kTooSmall) {
+  const int seq = c.entry.seq, rev = c.entry.rev;
+  if (judge_refinement(fine.glb.size(), c.entry.bytes, false, false, 0) == RefinementVerdict::kTooSmall) {
     std::lock_guard lock(mu_);
     ++summary_.refined_not_kept;
     return true;
@@ -590,38 +629,15 @@ bool StreamRun::add_refinement(const RefineChoice& c, const EncodedKeyframe& fin
     auto now = outbox_.entry(seq);
     if (beside_keyframe && !should_stop_())
       now = sender_.wait_entry(
-          seq, [&](const auto& e) { return !e || e->rev != best->rev || !e->pending() || e->attempted; },
-          std::chrono::milliseconds(300));
-    if (now && now->rev == best->rev && now->attempted && now->pending() &&
-        outbox_.revise_in_flight(seq, fine.glb, c.budget_kb, fine.triangles)) {
+          seq, [&](const auto& e) { return post_start_settled(e, rev); }, std::chrono::milliseconds(300));
+    if (revise_beside_post(now, rev) && outbox_.revise_in_flight(seq, fine.glb, c.budget_kb, fine.triangles)) {
       note_revision(seq, fine, c.budget_kb);
       count_refinement(true, beside_keyframe);
       sender_.notify();
       return true;
     }
   }
-  // The reduction thread does not wait for an answer (the next keyframe would wait with it): the drain or the
-  // refiner thread makes the refinement again once the keyframe qualifies there.
-  if (only_seq >= 0 && !best->acked) {
-    auto now = outbox_.entry(seq);
-    if (!now || !now->acked || now->rev != best->rev) {
-      forget_tried(seq);
-      return true;
-    }
-    best = std::move(now);  // answered meanwhile: checked against the measured link below
-  }
-  while (!best->acked) {  // made ahead: wait for the answer to the revision it replaces
-    if (should_stop_() || !sender_.stats().fatal.empty()) return true;
-    if (sender_.stats().link_down) {  // an outage: not worth holding the drain (its cap polls) for; made again later
-      forget_tried(seq);
-      return true;
-    }
-    auto now = sender_.wait_entry(
-        seq, [&](const auto& e) { return !e || !e->rejected.empty() || e->rev != best->rev || e->acked; },
-        std::chrono::milliseconds(10));
-    if (!now || !now->rejected.empty() || now->rev != best->rev) return true;
-    best = std::move(now);
-  }
+  if (!await_answer(c, only_seq)) return true;
   // Sized to the cap before the link was measured: added only if the measured link carries it in the window;
   // otherwise the next call refines the keyframe at the measured budget (as without a cap).
   const double measured_kb = carried_kb(planner_.limits(), window_s, sender_.line_kbps(), sender_.post_fixed_s());
@@ -665,21 +681,21 @@ Status StreamRun::on_keyframe(const RgbdFrame& frame, const FrameRecord& record)
     // As fast as it can: no camera to keep up with, so the tracker waits for the reduction instead of taking the
     // CPU it needs (but not while the keyframe is held back for the link: a newer one may supersede it).
     std::unique_lock lock(mu_);
-    jobs_cv_.wait(lock, [&] { return holding_ || (queues_.waiting() == 0 && !reducing_) || should_stop_(); });
+    jobs_cv_.wait(lock, [&] { return tracker_may_go_on(holding_, queues_.waiting(), reducing_) || should_stop_(); });
   }
   return ok_status();
 }
 
 void StreamRun::on_frame(const FrameRecord& r, size_t done, size_t total) {
-  if (frame_began_) {  // this frame was read (not dropped)
-    const double wall = std::chrono::duration<double, std::milli>(steady::now() - *frame_began_).count();
+  if (frame_began_s_) {  // this frame was read (not dropped)
+    const double wall = 1000.0 * (steady_s_() - *frame_began_s_);
     const double cpu = thread_cpu_ms() - frame_cpu_began_;
     std::lock_guard lock(mu_);
     summary_.frame_wall_ms.push_back(wall);
     summary_.frame_cpu_ms.push_back(cpu);
     summary_.read_cpu_ms.push_back(frame_read_cpu_ms_);
   }
-  frame_began_.reset();
+  frame_began_s_.reset();
   poll_cap();
   StreamProgress copy;
   {
@@ -721,7 +737,7 @@ void StreamRun::drain() {
     if (link_has_room(sender_.owed_s(true), refine_s_.value()) && refine_one(options_.refine_window_s, refine_s_, true))
       continue;
     if (sender_.stats().pending == 0) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    sender_.wait_delivered(std::chrono::milliseconds(20));  // the cap file and stop are polled at that period
   }
 }
 

@@ -58,6 +58,17 @@ std::optional<OutboxEntry> Sender::wait_entry(int seq,
   return e;
 }
 
+bool Sender::wait_delivered(std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mu_);
+  auto delivered = [&] {
+    for (const OutboxEntry& e : outbox_.entries())
+      if (e.pending()) return false;
+    return true;
+  };
+  cv_.wait_for(lock, timeout, [&] { return stopping_ || delivered(); });
+  return delivered();
+}
+
 bool Sender::claim(int seq) {
   std::lock_guard lock(mu_);
   auto e = outbox_.entry(seq);
@@ -222,39 +233,45 @@ bool Sender::first_revision_waiting_locked() const {
   return false;
 }
 
+std::optional<OutboxEntry> Sender::next_post(bool& paced_chunks) {
+  std::unique_lock lock(mu_);
+  std::optional<OutboxEntry> entry;
+  for (;;) {
+    if (stopping_) return std::nullopt;
+    const auto now = clock::now();
+    const auto not_before = std::max(retry_not_before_, estimator_.cap_kbps() > 0 ? line_free_ : now);
+    if (now < not_before) {
+      cv_.wait_until(lock, not_before);
+      continue;
+    }
+    entry = pick_locked();
+    if (entry) break;
+    cv_.wait_for(lock, std::chrono::milliseconds(200));
+  }
+  flight_begin_locked(entry->seq, entry->rev);
+  // Pacing: a first revision's body takes bytes / cap on the virtual line, after the bodies already on it; a
+  // refinement's is put on it chunk by chunk as it is written (run's gate), so that a first revision that comes
+  // meanwhile goes ahead of the rest of it.
+  paced_chunks = false;
+  if (estimator_.cap_kbps() > 0) {
+    if (entry->rev > 0) {
+      paced_chunks = true;
+      refinement_writing_ = true;
+      refinement_writer_ = entry->seq;
+      refinement_left_bytes_ = entry->bytes;
+    } else {
+      line_free_ = std::max(line_free_, clock::now()) + line_time(entry->bytes);
+    }
+  }
+  return entry;
+}
+
 void Sender::run(Uplink& uplink) {
   for (;;) {
-    std::optional<OutboxEntry> entry;  // the revision this lane posts (as picked: a newer one may come meanwhile)
     bool paced_chunks = false;  // a refinement's body under a cap: written through the gate
-    {
-      std::unique_lock lock(mu_);
-      for (;;) {
-        if (stopping_) return;
-        const auto now = clock::now();
-        const auto not_before = std::max(retry_not_before_, estimator_.cap_kbps() > 0 ? line_free_ : now);
-        if (now < not_before) {
-          cv_.wait_until(lock, not_before);
-          continue;
-        }
-        entry = pick_locked();
-        if (entry) break;
-        cv_.wait_for(lock, std::chrono::milliseconds(200));
-      }
-      flight_begin_locked(entry->seq, entry->rev);
-      // Pacing: a first revision's body takes bytes / cap on the virtual line, after the bodies already on it; a
-      // refinement's is put on it chunk by chunk as it is written (the gate below), so that a first revision that
-      // comes meanwhile goes ahead of the rest of it.
-      if (estimator_.cap_kbps() > 0) {
-        if (entry->rev > 0) {
-          paced_chunks = true;
-          refinement_writing_ = true;
-          refinement_writer_ = entry->seq;
-          refinement_left_bytes_ = entry->bytes;
-        } else {
-          line_free_ = std::max(line_free_, clock::now()) + line_time(entry->bytes);
-        }
-      }
-    }
+    // The revision this lane posts (as picked: a newer one may come meanwhile).
+    const std::optional<OutboxEntry> entry = next_post(paced_chunks);
+    if (!entry) return;
     const int seq = entry->seq;
     cv_.notify_all();  // a refinement paused for this first revision recomputes its next chunk's start
     // The gate of a paced refinement: each chunk waits until the virtual line is free and no first revision is
@@ -307,13 +324,7 @@ void Sender::run(Uplink& uplink) {
       cv_.notify_all();  // another lane may wait for this entry (a retry) or for the stop
     };
     const double post_started = unix_now();
-    // A first revision's wait only: a refinement's `reduced` is its keyframe's, seconds or minutes ago, and would
-    // make the latency rule starve the keyframes that follow it.
-    if (!entry->attempted && entry->rev == 0 && entry->reduced > 0) {
-      const double wait = std::max(0.0, post_started - entry->reduced);
-      std::lock_guard lock(mu_);
-      queue_wait_s_ = queue_wait_s_ ? 0.3 * wait + 0.7 * *queue_wait_s_ : wait;
-    }
+    note_queue_wait(*entry, post_started);
     // The GLB is read before the entry is marked attempted, so that a revision added beside this POST once it is
     // marked (Outbox::revise_in_flight, which removes the older GLB) cannot take its body's place.
     auto glb = outbox_.read_glb(seq, entry->rev);
@@ -334,11 +345,7 @@ void Sender::run(Uplink& uplink) {
       std::lock_guard lock(mu_);  // (a waiter checks the entry under mu_: this notify cannot fall between)
     }
     cv_.notify_all();  // the producer may wait for this entry to be attempted (wait_entry)
-    // The wait for an answer: 3 s plus 4 x the transfer time at the estimate, but not at an estimate that failures
-    // pushed below 64 kbit/s: after an outage a blackholed request must be given up on within seconds.
-    const double estimate = std::max(estimate_kbps(), 64.0);
-    const double transfer_s = static_cast<double>(glb->size()) * 8.0 / 1000.0 / estimate;
-    const double io_timeout_s = std::clamp(3.0 + 4.0 * transfer_s, 3.0, 60.0);
+    const double io_timeout_s = answer_timeout_s(glb->size(), estimate_kbps());
     if (paced_chunks) {
       std::lock_guard lock(mu_);
       refinement_bytes_total_ = glb->size();
@@ -347,27 +354,7 @@ void Sender::run(Uplink& uplink) {
     PostResult r = uplink.post_keyframe(params_.mission, *entry, *glb, io_timeout_s,
                                         paced_chunks ? gate : ChunkGate{});
     end_writing();
-    if (r.outcome == PostOutcome::kConflict) {
-      // Ours from an earlier run whose answer was lost and whose bytes changed since? Read the mission back.
-      auto mission = uplink.get_mission(params_.mission);
-      if (!mission) {
-        r.outcome = PostOutcome::kRetry;
-        r.error += "; reading the mission back: " + mission.error().message;
-      } else {
-        auto j = nlohmann::json::parse(*mission, nullptr, false);
-        bool same = false;
-        if (j.is_object() && j.contains("keyframes") && j["keyframes"].is_array())
-          for (const auto& k : j["keyframes"]) {
-            if (k.value("seq", -1) != seq) continue;
-            const int stored_rev = k.value("rev", 0);
-            if ((stored_rev == entry->rev && k.value("bytes", size_t{0}) == glb->size()) || stored_rev > entry->rev) {
-              same = true;
-              r.body = k.dump();
-            }
-          }
-        r.outcome = same ? PostOutcome::kStored : PostOutcome::kRejected;
-      }
-    }
+    if (r.outcome == PostOutcome::kConflict) resolve_conflict(uplink, *entry, glb->size(), r);
     // The link's sample goes in before the outbox says acknowledged: a thread that sees the answer must see what it
     // measured (keyframe_stream.cpp checks a refinement made ahead against the measured link then; in between it
     // read the initial guess and kept a revision the measured link could not carry).
@@ -380,36 +367,7 @@ void Sender::run(Uplink& uplink) {
     if (r.outcome == PostOutcome::kRejected) written = outbox_.mark_rejected(seq, r.error, entry->rev);
     {
       std::lock_guard lock(mu_);
-      ++stats_.posts;
-      post_log_.push_back({seq, entry->rev, glb->size(), post_started, unix_now(),
-                                 r.outcome == PostOutcome::kStored});
-      switch (r.outcome) {
-        case PostOutcome::kStored:  // (the link's sample went in above)
-          backoff_.reset();
-          stats_.acked_bytes += glb->size();
-          if (entry->rev > 0) {
-            ++stats_.refinements_acked;
-            stats_.refinement_bytes += glb->size();
-          }
-          stats_.link_down = false;
-          break;
-        case PostOutcome::kRetry: {
-          estimator_.on_failure();
-          ++stats_.failures;
-          stats_.link_down = true;
-          stats_.last_error = r.error;
-          const double delay = backoff_.next_delay_s(rng_, r.retry_after_s);
-          retry_not_before_ = std::max(retry_not_before_, clock::now() + std::chrono::microseconds(
-                                                                         static_cast<long long>(delay * 1e6)));
-          break;
-        }
-        case PostOutcome::kRejected:
-          stats_.last_error = "keyframe " + std::to_string(seq) + " rejected: " + r.error;
-          break;
-        case PostOutcome::kConflict:  // resolved above
-        case PostOutcome::kFatal:
-          break;
-      }
+      record_post_locked(*entry, glb->size(), post_started, r);
     }
     if (r.outcome == PostOutcome::kFatal) {
       finish("the server refused the sender: " + r.error);
@@ -418,6 +376,78 @@ void Sender::run(Uplink& uplink) {
     finish(written ? std::string() : written.error().message);
     if (!written) return;
   }
+}
+
+// A first revision's wait only: a refinement's `reduced` is its keyframe's, seconds or minutes ago, and would make
+// the latency rule starve the keyframes that follow it.
+void Sender::note_queue_wait(const OutboxEntry& entry, double post_started) {
+  if (entry.attempted || entry.rev != 0 || !(entry.reduced > 0)) return;
+  const double wait = std::max(0.0, post_started - entry.reduced);
+  std::lock_guard lock(mu_);
+  queue_wait_s_ = queue_wait_s_ ? 0.3 * wait + 0.7 * *queue_wait_s_ : wait;
+}
+
+// Ours from an earlier run whose answer was lost and whose bytes changed since? The mission is read back: stored
+// (stored_keyframe) or rejected; a failed read is retried.
+void Sender::resolve_conflict(Uplink& uplink, const OutboxEntry& entry, size_t bytes, PostResult& r) {
+  auto mission = uplink.get_mission(params_.mission);
+  if (!mission) {
+    r.outcome = PostOutcome::kRetry;
+    r.error += "; reading the mission back: " + mission.error().message;
+    return;
+  }
+  auto stored = stored_keyframe(*mission, entry.seq, entry.rev, bytes);
+  if (stored) r.body = std::move(*stored);
+  r.outcome = stored ? PostOutcome::kStored : PostOutcome::kRejected;
+}
+
+void Sender::record_post_locked(const OutboxEntry& entry, size_t bytes, double post_started, const PostResult& r) {
+  ++stats_.posts;
+  post_log_.push_back({entry.seq, entry.rev, bytes, post_started, unix_now(), r.outcome == PostOutcome::kStored});
+  switch (r.outcome) {
+    case PostOutcome::kStored:  // (the link's sample went in before the outbox was told)
+      backoff_.reset();
+      stats_.acked_bytes += bytes;
+      if (entry.rev > 0) {
+        ++stats_.refinements_acked;
+        stats_.refinement_bytes += bytes;
+      }
+      stats_.link_down = false;
+      break;
+    case PostOutcome::kRetry: {
+      estimator_.on_failure();
+      ++stats_.failures;
+      stats_.link_down = true;
+      stats_.last_error = r.error;
+      const double delay = backoff_.next_delay_s(rng_, r.retry_after_s);
+      retry_not_before_ = std::max(retry_not_before_,
+                                   clock::now() + std::chrono::microseconds(static_cast<long long>(delay * 1e6)));
+      break;
+    }
+    case PostOutcome::kRejected:
+      stats_.last_error = "keyframe " + std::to_string(entry.seq) + " rejected: " + r.error;
+      break;
+    case PostOutcome::kConflict:  // resolved before (resolve_conflict)
+    case PostOutcome::kFatal:
+      break;
+  }
+}
+
+double answer_timeout_s(size_t bytes, double estimate_kbps) {
+  const double transfer_s = static_cast<double>(bytes) * 8.0 / 1000.0 / std::max(estimate_kbps, 64.0);
+  return std::clamp(3.0 + 4.0 * transfer_s, 3.0, 60.0);
+}
+
+std::optional<std::string> stored_keyframe(const std::string& mission_json, int seq, int rev, size_t bytes) {
+  auto j = nlohmann::json::parse(mission_json, nullptr, false);
+  std::optional<std::string> out;
+  if (!j.is_object() || !j.contains("keyframes") || !j["keyframes"].is_array()) return out;
+  for (const auto& k : j["keyframes"]) {
+    if (k.value("seq", -1) != seq) continue;
+    const int stored_rev = k.value("rev", 0);
+    if ((stored_rev == rev && k.value("bytes", size_t{0}) == bytes) || stored_rev > rev) out = k.dump();
+  }
+  return out;
 }
 
 }  // namespace rgbdcast::stream

@@ -80,6 +80,15 @@ struct SenderStats {
   std::string fatal;          // non-empty: the sender stopped for good
 };
 
+// The wait for a POST's answer: 3 s plus 4 x the transfer time of `bytes` at the estimate, but not at an estimate
+// that failures pushed below 64 kbit/s (after an outage a blackholed request must be given up on within seconds);
+// at most 60 s.
+double answer_timeout_s(size_t bytes, double estimate_kbps);
+// A POST answered 409 (the mission has seq with other bytes): the keyframe is ours from an earlier run whose answer
+// was lost when mission_json (GET /missions/<id>) stores revision rev of seq with these bytes, or a newer revision.
+// Then: that keyframe's JSON, the answer's body; otherwise (or for JSON that is not a mission) nothing.
+std::optional<std::string> stored_keyframe(const std::string& mission_json, int seq, int rev, size_t bytes);
+
 class Sender {
  public:
   Sender(Outbox& outbox, Uplink& uplink, const SenderParams& params);  // one lane
@@ -122,10 +131,20 @@ class Sender {
   // and returns the entry as last read. The lanes wake it when they mark an entry attempted or answered, so the
   // producer need not poll the outbox for that.
   std::optional<OutboxEntry> wait_entry(int seq, const std::function<bool(const std::optional<OutboxEntry>&)>& done,
-                                        std::chrono::milliseconds timeout);  // every POST of this run, in the order they ended
+                                        std::chrono::milliseconds timeout);
+  // Waits at most `timeout` until no outbox entry is pending (each one answered: stored or rejected) or the sender
+  // stops; true when none is pending. The lanes wake it as they answer, so a drain need not poll for that.
+  bool wait_delivered(std::chrono::milliseconds timeout);  // every POST of this run, in the order they ended
 
  private:
   void run(Uplink& uplink);
+  // Waits for this lane's next POST (pacing, backoff, nothing to pick) and marks it in flight; nothing once the
+  // sender stops. paced_chunks: a refinement's body under a cap, written through the chunk gate.
+  std::optional<OutboxEntry> next_post(bool& paced_chunks);
+  void note_queue_wait(const OutboxEntry& entry, double post_started);  // before the POST starts
+  // A 409: the outcome becomes kStored (body: the stored keyframe), kRejected or kRetry.
+  void resolve_conflict(Uplink& uplink, const OutboxEntry& entry, size_t bytes, PostResult& r);
+  void record_post_locked(const OutboxEntry& entry, size_t bytes, double post_started, const PostResult& r);
   std::optional<OutboxEntry> pick_locked() const;
   // A pending rev 0 that no lane is posting and no backoff holds, with two lanes or more (see the .cpp).
   bool first_revision_waiting_locked() const;

@@ -47,6 +47,10 @@ bool hold_keyframe(bool supersede, double owed_s, double reduce_s) {
   return supersede && !link_has_room(owed_s, reduce_s);
 }
 
+bool tracker_may_go_on(bool holding, size_t keyframes_waiting, bool reducing) {
+  return holding || (keyframes_waiting == 0 && !reducing);
+}
+
 CoarsenPlan::CoarsenPlan(std::vector<OutboxEntry> entries, int newest, double estimate_kbps, double interval_s,
                          const CoarsenRule& rule)
     : entries_(std::move(entries)),
@@ -160,6 +164,27 @@ ResumePlan plan_resume(const std::vector<OutboxEntry>& entries, const std::vecto
   for (const OutboxEntry& e : entries)
     if (e.rejected.empty()) plan.view_seqs.push_back(e.seq);
   return plan;
+}
+
+bool refiner_may_refine(const RefinerTurn& t) {
+  return !t.keyframe_work && t.keyframes > 0 && t.window_s > 0 && t.owed_s <= kRefinerOwedS;
+}
+
+bool post_start_settled(const std::optional<OutboxEntry>& now, int rev) {
+  return !now || now->rev != rev || !now->pending() || now->attempted;
+}
+
+bool revise_beside_post(const std::optional<OutboxEntry>& now, int rev) {
+  return now && now->rev == rev && now->attempted && now->pending();
+}
+
+AheadStep refinement_ahead_step(const AheadSnapshot& s) {
+  if (!s.waits) return s.now && s.now->acked && s.now->rev == s.rev ? AheadStep::kAdd : AheadStep::kRedoLater;
+  if (!s.now || !s.now->rejected.empty() || s.now->rev != s.rev) return AheadStep::kDrop;
+  if (s.now->acked) return AheadStep::kAdd;
+  if (s.stopping) return AheadStep::kDrop;
+  if (s.link_down) return AheadStep::kRedoLater;
+  return AheadStep::kWait;
 }
 
 }  // namespace rgbdcast::stream

@@ -70,6 +70,11 @@ bool link_has_room(double owed_s, double expected_s);
 // Hold the next keyframe back (newest first, older ones deferred): supersede is on and the link has no room.
 bool hold_keyframe(bool supersede, double owed_s, double reduce_s);
 
+// Without realtime the tracker waits for the reduction instead of taking the CPU it needs (no camera to keep up
+// with): it goes on once no keyframe waits or is being reduced, or while one is held back for the link (a newer one
+// may supersede it).
+bool tracker_may_go_on(bool holding, size_t keyframes_waiting, bool reducing);
+
 // Tracked keyframes waiting for the reduction thread, and the deferred ones. Job is the runtime's keyframe job (any
 // copyable type; the tests use small structs).
 template <class Job>
@@ -225,6 +230,40 @@ RefinementVerdict judge_refinement(size_t bytes, size_t replaced_bytes, bool mad
 // refinement's own reduction). Seconds; <= 0: not now.
 double refiner_window_s(const LinkSnapshot& link, double window_s, double last_keyframe_s, double interval_s,
                         double reduce_s, double refine_s, double now_s);
+
+// The refiner thread's turn while tracking. A refinement made while a keyframe waits, is being reduced or is held
+// back would delay that keyframe; one made while the sender owes more than kRefinerOwedS (refinements included)
+// would only wait for the line.
+inline constexpr double kRefinerOwedS = 0.05;
+struct RefinerTurn {
+  bool keyframe_work = false;  // a keyframe waits for the reduction thread, is being reduced or is held back
+  size_t keyframes = 0;        // written to the outbox by this run
+  double window_s = 0;         // refiner_window_s
+  double owed_s = 0;           // what the sender owes, refinements included
+};
+bool refiner_may_refine(const RefinerTurn& t);
+
+// A refinement sized to the cap goes beside its keyframe's first POST (Outbox::revise_in_flight) when that revision
+// is still the entry's, its POST has started and is not answered. The runtime may wait for the POST to start while
+// post_start_settled is false (the entry is unchanged, pending and not yet attempted).
+bool post_start_settled(const std::optional<OutboxEntry>& now, int rev);
+bool revise_beside_post(const std::optional<OutboxEntry>& now, int rev);
+
+// A refinement of revision `rev` made ahead (its POST out when it was chosen), as the entry changes.
+enum class AheadStep {
+  kAdd,        // the revision it replaces is answered: judge it against the measured link and add it
+  kWait,       // not answered yet: wait for the answer and ask again
+  kDrop,       // the entry was removed, rejected or revised meanwhile, or the run is stopping: nothing to add
+  kRedoLater,  // not worth waiting for (an outage; a caller that does not wait): forget it, make it again later
+};
+struct AheadSnapshot {
+  std::optional<OutboxEntry> now;  // the entry as the outbox has it
+  int rev = 0;                     // the revision the refinement replaces
+  bool waits = true;               // false: the reduction thread, which does not wait (the next keyframe would)
+  bool stopping = false;           // stop was asked or the sender failed for good
+  bool link_down = false;
+};
+AheadStep refinement_ahead_step(const AheadSnapshot& s);
 
 // ---- Resume -------------------------------------------------------------------------------------------------------
 

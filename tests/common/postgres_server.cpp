@@ -133,13 +133,21 @@ Result<std::string> PostgresServer::create_database() {
 
 Status PostgresServer::restart() {
   if (pid_ > 0) {
-    ::kill(pid_, SIGKILL);
+    // The postmaster and its children (its process group: spawn() made it a session leader), as a crash of the
+    // database's host would end them. Killing the postmaster alone leaves its children attached to the shared
+    // memory for a moment, and a postmaster started meanwhile refuses to run.
+    ::kill(-pid_, SIGKILL);
     int status = 0;
     ::waitpid(pid_, &status, 0);
     pid_ = -1;
-    // The postmaster's children notice it is gone and exit; a new postmaster waits for them (shared memory).
   }
-  return launch();
+  // A child of the old postmaster still exiting makes the new one exit at start: tried again, for at most 30 s.
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (true) {
+    auto st = launch();
+    if (st || std::chrono::steady_clock::now() >= end) return st;
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
 }
 
 void PostgresServer::stop() {

@@ -22,7 +22,8 @@ class PostgresServer {
   std::string uri(const std::string& db) const;
   // A new empty database with a unique name; returns its URI.
   Result<std::string> create_database();
-  // SIGKILL of the postmaster, then a new one on the same data: a crash and a restart of the database.
+  // SIGKILL of the postmaster and its children, then a new postmaster on the same data: a crash and a restart of
+  // the database.
   Status restart();
   void stop();
   pid_t pid() const { return pid_; }

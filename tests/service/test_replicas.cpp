@@ -48,12 +48,13 @@ struct TestDir {
   }
 };
 
-// A PNG view of mission "shared" once it is drawn from its tileset alone (at most 30 s); empty when it never is.
+// A PNG view of mission "shared" once it is drawn from its settled tileset alone (no pending keyframe, no inner tile
+// waiting to be rebuilt: two replicas then draw the same image), at most 30 s; empty when it never is.
 std::string tileset_view(httplib::Client& c) {
   for (int i = 0; i < 300; ++i) {
     auto v = c.Get("/v1/missions/shared/view?pose=capture&width=64&height=48&format=png");
     if (v && v->status == 200 && v->get_header_value("X-Pending-Keyframes") == "0" &&
-        v->get_header_value("X-Tileset-Version") != "0")
+        v->get_header_value("X-Tileset-Version") != "0" && v->get_header_value("X-Stale-Tiles") == "0")
       return v->body;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
@@ -224,7 +225,8 @@ TEST(Replicas, AKeyframePostedToOneReplicaIsAnEventAndAViewOnTheOtherAcrossResta
 
   // The database killed (-9) and started again: both replicas reconnect; a keyframe posted through A afterwards
   // (retried while A's connections are made again) reaches B, and each replica holds every keyframe once.
-  ASSERT_TRUE(pg->restart());
+  const auto restarted = pg->restart();
+  ASSERT_TRUE(restarted) << restarted.error().message;
   int status = 0;
   for (int attempt = 0; attempt < 20 && status != 201; ++attempt) {
     auto r = post_keyframe(*ca, "shared", 2, k[2], k[2].glb);

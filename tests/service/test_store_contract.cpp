@@ -351,7 +351,8 @@ TEST(PostgresStores, ADatabaseRestartLosesAndDuplicatesNothing) {
   auto store = pgstore::PgMissionStore::open(backend.uri, 2, 0.2);
   ASSERT_TRUE(store);
   for (std::int64_t seq = 0; seq < 5; ++seq) ASSERT_TRUE((*store)->put(keyframe("r", seq), bytes("k")));
-  ASSERT_TRUE(postgres->server()->restart());
+  const auto restarted = postgres->server()->restart();
+  ASSERT_TRUE(restarted) << restarted.error().message;
   // The pooled connections died with the server: at most one failed attempt each, then new ones.
   int acknowledged = 5, failures = 0;
   for (std::int64_t seq = 5; seq < 10; ++seq) {

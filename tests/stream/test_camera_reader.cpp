@@ -16,6 +16,10 @@ namespace {
 
 const char* kTum = "tum/rgbd_dataset_freiburg1_xyz_200_319";
 
+double steady_now_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
 TEST(CameraReader, AsFastAsTheTrackerTakesThemEveryFrameComesInOrder) {
   REQUIRE_DATA(kTum);
   auto source = open_frame_source(test::data_path(kTum), SourceOptions{});
@@ -24,6 +28,7 @@ TEST(CameraReader, AsFastAsTheTrackerTakesThemEveryFrameComesInOrder) {
   CameraReaderOptions o;
   o.from = 3;
   o.last = 12;
+  o.steady_s = [] { return 42.0; };  // the runtime's clock, held still
   CameraReader reader(**source, o, source_mu);
   for (size_t i = o.from; i <= o.last; ++i) {
     auto f = reader.take(i);
@@ -32,6 +37,7 @@ TEST(CameraReader, AsFastAsTheTrackerTakesThemEveryFrameComesInOrder) {
     EXPECT_EQ(f->frame.depth_m.cols, 640);
     EXPECT_GT(f->read_cpu_ms, 0.0);
     EXPECT_GT(f->captured, 1.5e9);  // Unix seconds of the read
+    EXPECT_EQ(f->began_s, 42.0);    // on the clock it was given
     std::this_thread::sleep_for(std::chrono::milliseconds(20));  // a tracker's work
   }
   EXPECT_EQ(reader.dropped(), 0u);
@@ -51,9 +57,9 @@ TEST(CameraReader, InRealtimeASlowTrackerGetsTheNewestFrameAndTheMissedOnesAreDr
   CameraReader reader(**source, o, source_mu);
   size_t taken = 0, dropped = 0;
   double first_captured = 0;
-  std::optional<std::chrono::steady_clock::time_point> last_take;  // just before the last frame handed over was taken
+  std::optional<double> last_take_s;  // just before the last frame handed over was taken (the reader's clock)
   for (size_t i = o.from; i <= o.last; ++i) {
-    const auto before_take = std::chrono::steady_clock::now();
+    const double before_take_s = steady_now_s();
     auto f = reader.take(i);
     if (!f) {
       EXPECT_NE(f.error().message.find("dropped"), std::string::npos) << f.error().message;
@@ -68,13 +74,12 @@ TEST(CameraReader, InRealtimeASlowTrackerGetsTheNewestFrameAndTheMissedOnesAreDr
     // Not a backlog of old frames: the reader picks the next frame once the tracker took the last one, and picks
     // the newest already due, so the frame after this one was not yet due when the last one was taken (an order
     // of the reader's own clock, however slow the machine).
-    if (last_take && i < o.last) {
+    if (last_take_s && i < o.last) {
       const double next_due_after_take_s =
-          std::chrono::duration<double>(f->began - *last_take).count() +
-          (entries[i + 1].color_timestamp - entries[i].color_timestamp);
+          f->began_s - *last_take_s + (entries[i + 1].color_timestamp - entries[i].color_timestamp);
       EXPECT_GT(next_due_after_take_s, -1e-6) << i;
     }
-    last_take = before_take;
+    last_take_s = before_take_s;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));  // a tracker three times slower than the camera
   }
   EXPECT_EQ(reader.dropped(), dropped);

@@ -16,7 +16,10 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "stream/sender.h"
 #include "tests/common/test_data.h"
@@ -291,6 +294,49 @@ TEST(SenderOutage, ARefusedTokenStopsTheSender) {
   EXPECT_EQ(server.posts().size(), 1u);  // not retried
   EXPECT_TRUE(server.keyframes("auth").empty());
   test::remove_tree_quietly(dir);
+}
+
+TEST(Sender, TheWaitForAnAnswerIsThreeSecondsPlusFourTransfersAtAnEstimateOfAtLeast64Kbps) {
+  struct Case {
+    size_t bytes;
+    double estimate_kbps, timeout_s;
+  };
+  const std::vector<Case> cases = {
+      {0, 1000, 3.0},
+      {125000, 1000, 7.0},      // 1 s at 1 Mbit/s: 3 + 4
+      {8000, 10, 7.0},          // an estimate that failures pushed to 10 kbit/s counts as 64: 1 s
+      {8000, 64, 7.0},
+      {10000000, 1000, 60.0},   // 80 s of transfer: at most 60
+  };
+  for (const Case& c : cases)
+    EXPECT_NEAR(answer_timeout_s(c.bytes, c.estimate_kbps), c.timeout_s, 1e-9) << c.bytes << " " << c.estimate_kbps;
+}
+
+TEST(Sender, AConflictIsOursWhenTheMissionStoresThisRevisionWithTheseBytesOrANewerOne) {
+  const std::string mission =
+      R"({"keyframes":[{"seq":3,"rev":1,"bytes":5000},{"seq":4,"rev":0,"bytes":7000}]})";
+  struct Case {
+    std::string name, json;
+    int seq, rev;
+    size_t bytes;
+    bool ours;
+  };
+  const std::vector<Case> cases = {
+      {"same revision and bytes", mission, 4, 0, 7000, true},
+      {"same revision, other bytes", mission, 4, 0, 6999, false},
+      {"a newer revision is stored", mission, 3, 0, 1, true},
+      {"an older revision is stored", mission, 3, 2, 5000, false},
+      {"another seq", mission, 5, 0, 7000, false},
+      {"no keyframes", R"({"id":"m"})", 4, 0, 7000, false},
+      {"not JSON", "<html>", 4, 0, 7000, false},
+  };
+  for (const Case& c : cases) {
+    const auto stored = stored_keyframe(c.json, c.seq, c.rev, c.bytes);
+    EXPECT_EQ(stored.has_value(), c.ours) << c.name;
+    if (stored) {
+      EXPECT_NE(stored->find("\"seq\":" + std::to_string(c.seq)), std::string::npos) << c.name;
+    }
+  }
 }
 
 TEST(Uplink, BadUrlsAndTokenFilesGetOneLineErrors) {

@@ -3,7 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <string>
+#include <vector>
 
 namespace rgbdcast::stream {
 namespace {
@@ -146,6 +148,23 @@ TEST(BacklogRule, TheNewestGoesFirstOlderOnesAreDeferredAndReducedNewestFirstAnd
   while (auto next = q.take()) order.push_back(*next);
   EXPECT_EQ(order, (std::vector<std::pair<int, bool>>{{50, false}, {40, true}, {30, true}}));
   EXPECT_TRUE(q.empty());
+}
+
+TEST(BacklogRule, WithoutRealtimeTheTrackerWaitsForTheReductionUnlessTheKeyframeIsHeldBack) {
+  struct Case {
+    bool holding;
+    size_t waiting;
+    bool reducing, goes_on;
+  };
+  const std::vector<Case> cases = {
+      {false, 0, false, true},  // nothing left to reduce
+      {false, 1, false, false}, {false, 0, true, false}, {false, 2, true, false},
+      {true, 1, false, true},   // held back: a newer keyframe may supersede it
+      {true, 0, true, true},
+  };
+  for (const Case& c : cases)
+    EXPECT_EQ(tracker_may_go_on(c.holding, c.waiting, c.reducing), c.goes_on)
+        << c.holding << " " << c.waiting << " " << c.reducing;
 }
 
 TEST(BacklogRule, ResumedDeferredKeyframesBeyondTheLimitAreTrimmedOldestFirst) {
@@ -324,6 +343,89 @@ TEST(RefinementPlanner, TheRefinerWindowEndsWhenTheNextKeyframesPostIsExpectedUn
   EXPECT_TRUE(link_has_room(0.5, 0.5));
   EXPECT_FALSE(link_has_room(0.51, 0.5));
   EXPECT_TRUE(link_has_room(0.1, 0.0));
+}
+
+TEST(RefinementPlanner, TheRefinerTakesItsTurnOnlyWithNoKeyframeWorkAWindowAndALinkThatOwesAlmostNothing) {
+  struct Case {
+    std::string name;
+    RefinerTurn turn;
+    bool refines;
+  };
+  const std::vector<Case> cases = {
+      {"idle", {false, 1, 0.5, 0.0}, true},
+      {"owes exactly the threshold", {false, 1, 0.5, kRefinerOwedS}, true},
+      {"owes more", {false, 1, 0.5, kRefinerOwedS + 0.01}, false},
+      {"a keyframe waits, is reduced or held", {true, 1, 0.5, 0.0}, false},
+      {"no keyframe written yet", {false, 0, 0.5, 0.0}, false},
+      {"the window is over", {false, 3, 0.0, 0.0}, false},
+  };
+  for (const Case& c : cases) EXPECT_EQ(refiner_may_refine(c.turn), c.refines) << c.name;
+}
+
+// An entry whose POST of revision `rev` is out, and what its answer or a newer revision makes of it.
+struct EntryStates {
+  OutboxEntry out, answered, revised, rejected;
+};
+EntryStates states_of(int seq, int rev) {
+  EntryStates s;
+  s.out = entry(seq, 20000, 20, false, 1);
+  s.out.attempted = true;
+  s.out.rev = rev;
+  s.answered = s.out;
+  s.answered.acked = true;
+  s.revised = s.out;
+  s.revised.rev = rev + 1;
+  s.rejected = s.out;
+  s.rejected.rejected = "refused";
+  return s;
+}
+
+TEST(RefinementPlanner, ARefinementFromTheCapGoesBesideItsKeyframesPostOnceStartedAndUnanswered) {
+  const auto [out, answered, revised, rejected] = states_of(4, 0);
+  OutboxEntry waiting = out;
+  waiting.attempted = false;
+  struct Case {
+    std::string name;
+    std::optional<OutboxEntry> now;
+    bool settled, beside;
+  };
+  const std::vector<Case> cases = {
+      {"not started: wait", waiting, false, false},
+      {"its POST is out", out, true, true},
+      {"answered already", answered, true, false},
+      {"another revision", revised, true, false},
+      {"rejected", rejected, true, false},
+      {"removed", std::nullopt, true, false},
+  };
+  for (const Case& c : cases) {
+    EXPECT_EQ(post_start_settled(c.now, 0), c.settled) << c.name;
+    EXPECT_EQ(revise_beside_post(c.now, 0), c.beside) << c.name;
+  }
+}
+
+TEST(RefinementPlanner, ARefinementMadeAheadWaitsForItsAnswerUnlessTheEntryChangedTheRunStopsOrTheLinkIsDown) {
+  const auto [out, answered, newer, rejected] = states_of(2, 1);
+  struct Case {
+    std::string name;
+    AheadSnapshot s;
+    AheadStep step;
+  };
+  const std::vector<Case> cases = {
+      {"answered", {answered, 1, true, false, false}, AheadStep::kAdd},
+      {"answered while stopping", {answered, 1, true, true, true}, AheadStep::kAdd},
+      {"out", {out, 1, true, false, false}, AheadStep::kWait},
+      {"out, stopping", {out, 1, true, true, false}, AheadStep::kDrop},
+      {"out, the link is down", {out, 1, true, false, true}, AheadStep::kRedoLater},
+      {"rejected", {rejected, 1, true, false, false}, AheadStep::kDrop},
+      {"revised meanwhile", {newer, 1, true, false, false}, AheadStep::kDrop},
+      {"removed", {std::nullopt, 1, true, false, false}, AheadStep::kDrop},
+      // The reduction thread does not wait: answered, added; anything else, made again later.
+      {"no wait, answered", {answered, 1, false, false, false}, AheadStep::kAdd},
+      {"no wait, out", {out, 1, false, false, false}, AheadStep::kRedoLater},
+      {"no wait, revised meanwhile", {newer, 1, false, false, false}, AheadStep::kRedoLater},
+      {"no wait, removed", {std::nullopt, 1, false, false, false}, AheadStep::kRedoLater},
+  };
+  for (const Case& c : cases) EXPECT_EQ(refinement_ahead_step(c.s), c.step) << c.name;
 }
 
 // ---- Resume -------------------------------------------------------------------------------------------------------
