@@ -60,8 +60,7 @@ MissionViewPlan plan_mission_view(const MissionStore& store, const MissionTiles&
       plan.parts.push_back({prefix + "tile/" + file, [path = dir + "/" + file] { return load_tile(path); }});
     }
     plan.tiles = selection.tiles.size();
-    plan.stale_tiles = std::count_if(snapshot->records.begin(), snapshot->records.end(),
-                                     [](const auto& entry) { return entry.second.stale; });
+    plan.stale_tiles = snapshot->stale;
     plan.tile_triangles = selection.triangles;
   }
   std::vector<const MissionKeyframe*> pending;

@@ -536,6 +536,7 @@ void TileHierarchy::publish() {
   for (const auto& [seq, k] : keyframes_) s->keyframes.emplace(seq, k.rev);
   s->top_level = options_.top_level;
   for (const auto& [key, r] : tiles_) {
+    s->stale += r.stale;
     if (!r.has_content()) continue;
     s->files[r.file()] = r.bytes;  // a stale tile's too: a client may hold the tileset that named it
     if (r.stale) continue;

@@ -87,6 +87,7 @@ struct TilesetSnapshot {
   std::string tileset_json;                      // 3D Tiles 1.1, tile URIs relative to it ("tiles/<file>")
   std::map<std::string, std::uint64_t> files;    // tile file name -> bytes, this version's and the previous one's
   std::uint64_t tiles = 0, triangles = 0, bytes = 0;  // this version's
+  std::uint64_t stale = 0;  // this version's inner tiles still to be rebuilt (drawn from their descendants meanwhile)
   std::map<TileKey, TileRecord> records;         // this version's tiles (what a view selects from)
   std::map<std::int64_t, std::int64_t> keyframes;  // seq -> rev of the keyframes this version holds
   int top_level = 0;

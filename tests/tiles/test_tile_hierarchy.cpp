@@ -262,6 +262,7 @@ TEST(TileHierarchyTest, AStepShowsANewKeyframeAtOnceAndSweepsEndWhereOneBuildDoe
     EXPECT_EQ(s->leaves_built, 1u);
     EXPECT_EQ(s->inner_built, 0u);
     EXPECT_GT(s->stale, 0u);
+    EXPECT_EQ(live->snapshot()->stale, s->stale);  // what a view reports (X-Stale-Tiles)
     EXPECT_GE(s->next_sweep_s, t);
     EXPECT_LE(s->next_sweep_s, t + settle_s);
     const TileKey leaf = live->keyframes().at(static_cast<std::int64_t>(n - 1)).leaves.at(0);
@@ -302,6 +303,7 @@ TEST(TileHierarchyTest, AStepShowsANewKeyframeAtOnceAndSweepsEndWhereOneBuildDoe
     if (sweep->stale == 0) break;
   }
   for (const auto& [key, r] : live->tiles()) EXPECT_FALSE(r.stale) << key.name();
+  EXPECT_EQ(live->snapshot()->stale, 0u);
   EXPECT_EQ(contents(*once), contents(*live)) << "after " << sweeps << " sweeps";
   auto idle = live->step(first(8), loader(), 100.0 * settle_s, nullptr, always);
   ASSERT_TRUE(idle);
