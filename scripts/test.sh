@@ -11,13 +11,16 @@ bash scripts/setup.sh test
 fuzz="${RGBDCAST_FUZZ_SECONDS:-20}"
 
 # The clang build of build-fuzz/ goes on beside the main build and ctest at the lowest priority: they keep the cores
-# they ask for, and it takes the time they leave idle (links, tests waiting on their servers). It has its own process
-# group, so that a failure stops exactly it.
+# they ask for, and it takes the time they leave idle (links, tests waiting on their servers). It has its own session,
+# so that a failure stops exactly it. A new session is a new scheduling autogroup where the kernel has them
+# (/proc/sys/kernel/sched_autogroup_enabled), and autogroups share the cores equally whatever their processes' nice
+# values: so the group itself is set to nice 19 too, or the build would take half the cores from the tests.
 clang_pid=""
 if [ "$fuzz" != 0 ]; then
   mkdir -p build-fuzz
-  setsid nice -n 19 env RGBDCAST_BUILD_ONLY=1 \
-    bash -c 'bash scripts/fuzz.sh && bash scripts/sanitized_subset.sh' >build-fuzz/clang-build.log 2>&1 &
+  setsid bash -c '{ echo 19 >/proc/self/autogroup; } 2>/dev/null || true
+    exec nice -n 19 env RGBDCAST_BUILD_ONLY=1 bash -c "bash scripts/fuzz.sh && bash scripts/sanitized_subset.sh"' \
+    >build-fuzz/clang-build.log 2>&1 &
   clang_pid=$!
 fi
 stop_clang() { [ -z "$clang_pid" ] || kill -- "-$clang_pid" 2>/dev/null || true; }
