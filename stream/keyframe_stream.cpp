@@ -20,6 +20,9 @@ double system_unix_s() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
+// How often a wait that nothing else ends polls should_stop (a flag set by a signal handler, which cannot notify).
+constexpr std::chrono::milliseconds kStopPollPeriod{50};
+
 Eigen::Matrix4d tum_pose(const std::array<double, 7>& p) {
   return pose_from_tum(p[0], p[1], p[2], p[3], p[4], p[5], p[6]);
 }
@@ -635,9 +638,11 @@ bool StreamRun::await_answer(const RefineChoice& c, int only_seq) {
       case AheadStep::kWait:
         break;
     }
+    // The entry's answer, a POST failing (link_down) and the sender's stop wake it; the timeout is only the period
+    // at which should_stop_ is polled.
     now = sender_.wait_entry(
         seq, [&](const auto& e) { return !e || !e->rejected.empty() || e->rev != rev || e->acked; },
-        std::chrono::milliseconds(10));
+        kStopPollPeriod, s.link_down);
   }
 }
 

@@ -67,12 +67,12 @@ void Sender::changed() {
 
 std::optional<OutboxEntry> Sender::wait_entry(int seq,
                                               const std::function<bool(const std::optional<OutboxEntry>&)>& done,
-                                              std::chrono::milliseconds timeout) {
+                                              std::chrono::milliseconds timeout, std::optional<bool> link_down_was) {
   std::unique_lock lock(mu_);
   std::optional<OutboxEntry> e;
   cv_.wait_for(lock, timeout, [&] {
     e = outbox_.entry(seq);
-    return stopping_ || done(e);
+    return stopping_ || (link_down_was && *link_down_was != stats_.link_down) || done(e);
   });
   return e;
 }

@@ -289,7 +289,8 @@ struct OnManualClock {
 
 // On a manual clock (stream/clock.h) the pacing at the cap is a deadline on that clock: three keyframes of 10 kB
 // at 800 kbit/s (0.1 s each); each POST after the first starts only when the clock reaches the time the bodies
-// before it take at the cap, and the lane sleeps on the clock until then (no POST meanwhile).
+// before it take at the cap, and the lane sleeps on the clock until then (no POST meanwhile). What the link owes
+// drains with that clock.
 TEST(SenderLanes, PacingAtTheCapWaitsOnTheInjectedClock) {
   OnManualClock t("clocked");
   ASSERT_TRUE(t.box);
@@ -312,6 +313,15 @@ TEST(SenderLanes, PacingAtTheCapWaitsOnTheInjectedClock) {
       const Clock::time_point next = t.clock.next_deadline();
       EXPECT_EQ(next, t0 + std::chrono::milliseconds(100) * posted);
       EXPECT_EQ(server.posts().size(), posted);  // the next one waits for the clock
+      if (posted == 1) {
+        // What the link owes: 0.1 s left on the paced line, and the pending bytes at the estimate, which the clock
+        // alone does not bring down (owed_falls_to).
+        const double bytes_s = sender.owed_s() - 0.1;
+        EXPECT_EQ(sender.owed_falls_to(bytes_s + 0.2), t.clock.now());
+        EXPECT_EQ(sender.owed_falls_to(bytes_s - 0.01), Clock::kNever);
+        const std::chrono::duration<double> at = sender.owed_falls_to(bytes_s + 0.04) - t0;
+        EXPECT_NEAR(at.count(), 0.06, 1e-6);
+      }
       t.clock.set(next);
     }
     wait_until_delivered(sender);
