@@ -32,7 +32,10 @@ struct KeyframeJob {
   RgbdFrame frame;
   int frame_index = 0;
   Eigen::Matrix4d pose;   // camera to world, in the mission's world
-  double captured = 0, tracked = 0;
+  double captured = 0, tracked = 0;  // Unix s, for the records
+  // Its capture on the runtime's clock (CameraFrame::began_s), which its age is measured on; none for a resumed one
+  // (captured by an earlier run: only its Unix time is known).
+  std::optional<double> captured_s;
   bool resumed = false;   // a deferred keyframe reloaded from the outbox's records
 };
 
@@ -171,6 +174,7 @@ class StreamRun {
   // and the tracker thread's CPU clock when the tracker took it.
   double captured_ = 0;
   std::optional<double> frame_began_s_;  // on clock_
+  double frame_captured_s_ = 0;          // on clock_ (frame_began_s_ is reset once the frame's work is counted)
   double frame_read_cpu_ms_ = 0, frame_cpu_began_ = 0;
   size_t sender_lanes_ = 1;
   std::optional<CapFile> cap_file_;
@@ -283,7 +287,7 @@ Result<RgbdFrame> StreamRun::load(size_t i) {
   auto taken = camera_->take(i);
   if (!taken) return taken.error();
   captured_ = taken->captured;
-  frame_began_s_ = taken->began_s;
+  frame_began_s_ = frame_captured_s_ = taken->began_s;
   frame_read_cpu_ms_ = taken->read_cpu_ms;
   frame_cpu_began_ = thread_cpu_ms();
   return std::move(taken->frame);
@@ -403,7 +407,7 @@ int StreamRun::reduce_keyframe(const KeyframeJob& job, bool was_deferred) {
     in.interval_s = interval_.seconds();
     in.reduce_s = reduce_s_.value();
   }
-  in.age_s = unix_s_() - job.captured;
+  in.age_s = job.captured_s ? clock_.now_s() - *job.captured_s : unix_s_() - job.captured;
   in.deferred = was_deferred;
   const KeyframeBudget plan =
       plan_keyframe_budget(link(), in, options_.budget, options_.latency, options_.coarse_factor);
@@ -657,7 +661,8 @@ bool StreamRun::add_refinement(const RefineChoice& c, const EncodedKeyframe& fin
   // From the cap, with refinements that yield: beside the first revision's POST if it is still out. Reduced beside
   // its keyframe, the refinement can be ready before a lane has taken the keyframe and marked it attempted (it reads
   // the GLB first, stream/sender.cpp): wait for that (a lane takes it at once when nothing else waits), not for the
-  // answer.
+  // answer. The lanes wake the wait; its 300 ms is a bound: a keyframe not started by then waits for pacing or a
+  // lane, and the refinement then goes after its answer (await_answer).
   if (c.made_from_cap && sender_.refinements_yield()) {
     auto now = outbox_.entry(seq);
     if (beside_keyframe && !should_stop_())
@@ -701,6 +706,7 @@ Status StreamRun::on_keyframe(const RgbdFrame& frame, const FrameRecord& record)
   job.frame_index = static_cast<int>(record.index);
   job.pose = anchor_ * record.pose;
   job.captured = captured_;
+  job.captured_s = frame_captured_s_;
   job.tracked = unix_s_();
   {
     std::lock_guard lock(mu_);

@@ -70,7 +70,7 @@ std::optional<OutboxEntry> Sender::wait_entry(int seq,
                                               std::chrono::milliseconds timeout, std::optional<bool> link_down_was) {
   std::unique_lock lock(mu_);
   std::optional<OutboxEntry> e;
-  cv_.wait_for(lock, timeout, [&] {
+  clock_.wait_until(lock, cv_, clock_.now() + timeout, [&] {
     e = outbox_.entry(seq);
     return stopping_ || (link_down_was && *link_down_was != stats_.link_down) || done(e);
   });
@@ -84,7 +84,7 @@ bool Sender::wait_delivered(std::chrono::milliseconds timeout) {
       if (e.pending()) return false;
     return true;
   };
-  cv_.wait_for(lock, timeout, [&] { return stopping_ || delivered(); });
+  clock_.wait_until(lock, cv_, clock_.now() + timeout, [&] { return stopping_ || delivered(); });
   return delivered();
 }
 

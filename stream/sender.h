@@ -139,15 +139,17 @@ class Sender {
   Clock& clock() const { return clock_; }
   SenderStats stats() const;
   std::vector<PostRecord> post_log() const;  // every POST of this run, in the order they ended
-  // Waits at most `timeout` until `done` holds for seq's outbox entry (nullopt: there is none), the sender stops, or
-  // (given link_down_was) SenderStats::link_down differs from link_down_was, and returns the entry as last read. The
-  // lanes wake it when they mark an entry attempted or answered or a POST fails, so the producer need not poll.
+  // Waits at most `timeout` (on the sender's clock, as wait_delivered) until `done` holds for seq's outbox entry
+  // (nullopt: there is none), the sender stops, or (given link_down_was) SenderStats::link_down differs from
+  // link_down_was, and returns the entry as last read. The lanes wake it when they mark an entry attempted or
+  // answered or a POST fails, so the producer need not poll.
   std::optional<OutboxEntry> wait_entry(int seq, const std::function<bool(const std::optional<OutboxEntry>&)>& done,
                                         std::chrono::milliseconds timeout,
                                         std::optional<bool> link_down_was = std::nullopt);
   // Waits at most `timeout` until no outbox entry is pending (each one answered: stored or rejected) or the sender
   // stops; true when none is pending. The lanes wake it as they answer, so a drain need not poll for that.
-  // Both are polls of the caller's own sources (a stop flag, a cap file) at the timeout's period, on real time.
+  // The timeouts are the callers' bounds, or the period at which they poll sources that cannot notify (a stop flag,
+  // a cap file).
   bool wait_delivered(std::chrono::milliseconds timeout);
 
  private:
