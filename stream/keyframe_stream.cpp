@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <mutex>
 #include <thread>
+#include <utility>
 
 #include "keyframes/trajectory_io.h"
 #include "stream/camera_reader.h"
@@ -120,6 +121,7 @@ class StreamRun {
   // Refinements: the refiner thread, the reduction thread right after the first keyframe, the drain.
   void refiner_loop();
   bool refine_one(double window_s, SmoothedDuration& took_s, bool ahead, int only_seq = -1);
+  bool refine_chosen(double window_s, SmoothedDuration& took_s, bool ahead, int only_seq);  // refine_mu_ held
   std::optional<Result<EncodedKeyframe>> make_refinement(const RefineChoice& c, int only_seq, SmoothedDuration& took_s,
                                                          bool& beside_keyframe);
   bool add_refinement(const RefineChoice& c, const EncodedKeyframe& fine, bool beside_keyframe, double window_s,
@@ -182,6 +184,7 @@ class StreamRun {
   std::mutex planner_mu_;
   RefinementPlanner planner_;
   std::mutex refine_mu_;  // one refinement at a time
+  bool refine_turned_away_ = false;  // (under mu_) refine_one found refine_mu_ held since the last one ended
   std::atomic<bool> tracking_done_for_refiner_{false};  // the drain's refinements are not counted as while tracking
 
   // The first keyframe's refinement, reduced beside the keyframe itself and taken by refine_one instead of reducing
@@ -556,11 +559,32 @@ void StreamRun::refiner_loop() {
 
 // The refinement planner's choice, reduced (or taken from the prefetch) and added as the next revision when
 // judge_refinement keeps it. Returns false when no keyframe qualifies (or another thread is refining); true when
-// one was handled, kept or not. One at a time (refine_mu_).
+// one was handled, kept or not. One at a time (refine_mu_): a thread turned away waits for a change, so the one
+// refining counts one (changes_) when it is done, whether or not its refinement reached the sender.
 bool StreamRun::refine_one(double window_s, SmoothedDuration& took_s, bool ahead, int only_seq) {
   if (!(options_.refine_ceiling_kb > 0)) return false;
-  std::unique_lock refining(refine_mu_, std::try_to_lock);
-  if (!refining) return false;
+  // Turning away and marking it, and ending and reading the mark, are each one step under mu_, so no mark is missed.
+  std::unique_lock refining(refine_mu_, std::defer_lock);
+  {
+    std::lock_guard lock(mu_);
+    if (!refining.try_lock()) {
+      refine_turned_away_ = true;
+      return false;
+    }
+  }
+  const bool handled = refine_chosen(window_s, took_s, ahead, only_seq);
+  bool wake = false;
+  {
+    std::lock_guard lock(mu_);
+    refining.unlock();
+    wake = std::exchange(refine_turned_away_, false);
+    if (wake) ++changes_;
+  }
+  if (wake) jobs_cv_.notify_all();
+  return handled;
+}
+
+bool StreamRun::refine_chosen(double window_s, SmoothedDuration& took_s, bool ahead, int only_seq) {
   const std::vector<OutboxEntry> all = outbox_.entries();
   RefinementPlanner::Result choice;
   {
