@@ -4,11 +4,7 @@
 
 namespace rgbdcast::stream {
 
-using steady = std::chrono::steady_clock;
-
 namespace {
-
-double system_steady_s() { return std::chrono::duration<double>(steady::now().time_since_epoch()).count(); }
 
 double unix_now() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
@@ -23,7 +19,11 @@ double thread_cpu_ms() {
 }  // namespace
 
 CameraReader::CameraReader(const FrameSource& source, const CameraReaderOptions& options, std::mutex& source_mu)
-    : source_(source), options_(options), source_mu_(source_mu), next_to_read_(options.from) {
+    : source_(source),
+      options_(options),
+      clock_(options.clock ? *options.clock : system_steady_clock()),
+      source_mu_(source_mu),
+      next_to_read_(options.from) {
   thread_ = std::thread([this] { run(); });
 }
 
@@ -50,13 +50,10 @@ double CameraReader::stamp(size_t i) const {
 }
 
 void CameraReader::run() {
-  const std::function<double()> steady_s = options_.steady_s ? options_.steady_s : system_steady_s;
-  const auto start = steady::now();
   const std::function<double()> unix_s = options_.unix_s ? options_.unix_s : unix_now;
-  const double start_s = steady_s(), start_unix = unix_s(), first = stamp(options_.from);
-  auto due = [&](size_t i) {
-    return start + std::chrono::duration_cast<steady::duration>(std::chrono::duration<double>(stamp(i) - first));
-  };
+  const Clock::time_point start = clock_.now();
+  const double start_unix = unix_s(), first = stamp(options_.from);
+  auto due = [&](size_t i) { return start + Clock::from_seconds(stamp(i) - first); };
   for (size_t i = options_.from; i <= options_.last; ++i) {
     CameraFrame out;
     {
@@ -64,20 +61,25 @@ void CameraReader::run() {
       cv_.wait(lock, [&] { return stopping_ || !slot_index_; });  // one frame ahead of the tracker, no more
       if (stopping_) break;
       if (options_.realtime) {
-        // The newest frame already due; the ones before it are passed over (dropped) without being read.
-        while (i < options_.last && steady::now() >= due(i + 1)) ++i;
-        next_to_read_ = i;
-        cv_.notify_all();
-        if (cv_.wait_until(lock, due(i), [&] { return stopping_; })) break;
+        // The newest frame already due; the ones before it are passed over (dropped) without being read. Again
+        // after a wait: woken late (past the next frame's time), it reads the newest one, not a stale one.
+        for (;;) {
+          while (i < options_.last && clock_.now() >= due(i + 1)) ++i;
+          next_to_read_ = i;
+          cv_.notify_all();
+          if (stopping_ || clock_.now() >= due(i)) break;
+          clock_.wait_until(lock, cv_, due(i));
+        }
+        if (stopping_) break;
         out.captured = start_unix + (stamp(i) - first);
-        out.began_s = start_s + (stamp(i) - first);
+        out.began_s = clock_.seconds(due(i));
       } else {
         // On demand: the frame is read when the tracker asks for it, so that "captured" is not a frame's wait in
         // the slot while the tracker waited for a reduction (keyframe_stream.h).
         cv_.wait(lock, [&] { return stopping_ || (wanted_ && *wanted_ >= i); });
         if (stopping_) break;
         out.captured = unix_s();
-        out.began_s = steady_s();
+        out.began_s = clock_.now_s();
       }
     }
     const double cpu0 = thread_cpu_ms();

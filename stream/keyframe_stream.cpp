@@ -4,8 +4,10 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <cstdint>
 #include <mutex>
 #include <thread>
+#include <utility>
 
 #include "keyframes/trajectory_io.h"
 #include "stream/camera_reader.h"
@@ -15,12 +17,12 @@ namespace rgbdcast::stream {
 
 namespace {
 
-using steady = std::chrono::steady_clock;
-
-double system_steady_s() { return std::chrono::duration<double>(steady::now().time_since_epoch()).count(); }
 double system_unix_s() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
+
+// How often a wait that nothing else ends polls should_stop (a flag set by a signal handler, which cannot notify).
+constexpr std::chrono::milliseconds kStopPollPeriod{50};
 
 Eigen::Matrix4d tum_pose(const std::array<double, 7>& p) {
   return pose_from_tum(p[0], p[1], p[2], p[3], p[4], p[5], p[6]);
@@ -31,7 +33,10 @@ struct KeyframeJob {
   RgbdFrame frame;
   int frame_index = 0;
   Eigen::Matrix4d pose;   // camera to world, in the mission's world
-  double captured = 0, tracked = 0;
+  double captured = 0, tracked = 0;  // Unix s, for the records
+  // Its capture on the runtime's clock (CameraFrame::began_s), which its age is measured on; none for a resumed one
+  // (captured by an earlier run: only its Unix time is known).
+  std::optional<double> captured_s;
   bool resumed = false;   // a deferred keyframe reloaded from the outbox's records
 };
 
@@ -58,9 +63,9 @@ class StreamRun {
         options_(options),
         on_progress_(on_progress),
         should_stop_(should_stop),
-        steady_s_(options.steady_s ? options.steady_s : system_steady_s),
+        clock_(sender.clock()),
         unix_s_(options.unix_s ? options.unix_s : system_unix_s),
-        t_start_(steady_s_()),
+        t_start_(clock_.now_s()),
         params_(options.sequence),
         queues_(options.max_deferred),
         planner_(RefineLimits{options.refine_ceiling_kb, options.refine_window_s, options.budget.headroom},
@@ -69,7 +74,7 @@ class StreamRun {
   Result<StreamSummary> run();
 
  private:
-  double since_start_s() const { return steady_s_() - t_start_; }
+  double since_start_s() const { return clock_.now_s() - t_start_; }
   LinkSnapshot link() const;
   void note_error(std::string message) {
     std::lock_guard lock(mu_);
@@ -93,10 +98,18 @@ class StreamRun {
   void start_camera();
   Result<RgbdFrame> load(size_t i);
   void poll_cap();
+  // The sender's on_change: a POST started or was answered, or the sender stopped (a lane's thread, no lock held).
+  void link_changed() {
+    {
+      std::lock_guard lock(mu_);
+      ++changes_;
+    }
+    jobs_cv_.notify_all();
+  }
 
   // The reduction thread.
   void reducer_loop();
-  bool hold_back(std::unique_lock<std::mutex>& lock);
+  bool hold_back(std::unique_lock<std::mutex>& lock, std::uint64_t seen);
   int reduce_keyframe(const KeyframeJob& job, bool was_deferred);
   int add_keyframe(const KeyframeJob& job, bool was_deferred, const EncodedKeyframe& encoded,
                    const KeyframeBudget& plan, double interval_s);
@@ -108,6 +121,7 @@ class StreamRun {
   // Refinements: the refiner thread, the reduction thread right after the first keyframe, the drain.
   void refiner_loop();
   bool refine_one(double window_s, SmoothedDuration& took_s, bool ahead, int only_seq = -1);
+  bool refine_chosen(double window_s, SmoothedDuration& took_s, bool ahead, int only_seq);  // refine_mu_ held
   std::optional<Result<EncodedKeyframe>> make_refinement(const RefineChoice& c, int only_seq, SmoothedDuration& took_s,
                                                          bool& beside_keyframe);
   bool add_refinement(const RefineChoice& c, const EncodedKeyframe& fine, bool beside_keyframe, double window_s,
@@ -127,11 +141,16 @@ class StreamRun {
   const StreamOptions& options_;
   const std::function<void(const StreamProgress&)>& on_progress_;
   const std::function<bool()>& should_stop_;
-  std::function<double()> steady_s_, unix_s_;
+  Clock& clock_;  // the sender's
+  std::function<double()> unix_s_;
   const double t_start_;
 
-  std::mutex mu_;  // summary_, progress_, interval_, last_keyframe_s_, queues_ and the flags below
+  std::mutex mu_;  // summary_, progress_, interval_, last_keyframe_s_, queues_, changes_ and the flags below
+  // Notified after each change of what the threads wait for: a keyframe queued or taken, a reduction done, a hold,
+  // the cap, the end of tracking, the sender's state (Sender::set_on_change). Each such change also counts in
+  // changes_, under mu_, so that a thread that read the state outside mu_ waits only if nothing changed since.
   std::condition_variable jobs_cv_;
+  std::uint64_t changes_ = 0;
   StreamSummary summary_;
   StreamProgress progress_;
   SequenceParams params_;
@@ -156,7 +175,8 @@ class StreamRun {
   // Per frame read (the tracker's thread only): its capture time, when its work began, the reader's CPU time for it
   // and the tracker thread's CPU clock when the tracker took it.
   double captured_ = 0;
-  std::optional<double> frame_began_s_;  // on steady_s_
+  std::optional<double> frame_began_s_;  // on clock_
+  double frame_captured_s_ = 0;          // on clock_ (frame_began_s_ is reset once the frame's work is counted)
   double frame_read_cpu_ms_ = 0, frame_cpu_began_ = 0;
   size_t sender_lanes_ = 1;
   std::optional<CapFile> cap_file_;
@@ -164,6 +184,7 @@ class StreamRun {
   std::mutex planner_mu_;
   RefinementPlanner planner_;
   std::mutex refine_mu_;  // one refinement at a time
+  bool refine_turned_away_ = false;  // (under mu_) refine_one found refine_mu_ held since the last one ended
   std::atomic<bool> tracking_done_for_refiner_{false};  // the drain's refinements are not counted as while tracking
 
   // The first keyframe's refinement, reduced beside the keyframe itself and taken by refine_one instead of reducing
@@ -257,7 +278,7 @@ void StreamRun::start_camera() {
   ro.realtime = options_.realtime;
   ro.fps_without_timestamps = options_.fps_without_timestamps;
   ro.from = params_.from;
-  ro.steady_s = steady_s_;
+  ro.clock = &clock_;
   ro.unix_s = unix_s_;
   ro.last = source_.size() == 0 ? 0 : std::min(params_.to, source_.size() - 1);
   if (source_.size() > 0 && ro.from <= ro.last) camera_.emplace(source_, ro, source_mu_);
@@ -269,7 +290,7 @@ Result<RgbdFrame> StreamRun::load(size_t i) {
   auto taken = camera_->take(i);
   if (!taken) return taken.error();
   captured_ = taken->captured;
-  frame_began_s_ = taken->began_s;
+  frame_began_s_ = frame_captured_s_ = taken->began_s;
   frame_read_cpu_ms_ = taken->read_cpu_ms;
   frame_cpu_began_ = thread_cpu_ms();
   return std::move(taken->frame);
@@ -279,14 +300,18 @@ Result<RgbdFrame> StreamRun::load(size_t i) {
 void StreamRun::poll_cap() {
   if (!cap_file_) return;
   auto changed = cap_file_->poll();
-  std::lock_guard lock(mu_);
-  if (!changed) {
-    summary_.errors.push_back(changed.error().message);
-    return;
+  {
+    std::lock_guard lock(mu_);
+    if (!changed) {
+      summary_.errors.push_back(changed.error().message);
+      return;
+    }
+    if (!*changed) return;
+    sender_.set_cap_kbps(**changed);
+    ++summary_.cap_changes;
+    ++changes_;
   }
-  if (!*changed) return;
-  sender_.set_cap_kbps(**changed);
-  ++summary_.cap_changes;
+  jobs_cv_.notify_all();  // what the link owes, and whether refinements yield, changed
 }
 
 // ---- The reduction thread -----------------------------------------------------------------------------------------
@@ -295,22 +320,22 @@ void StreamRun::reducer_loop() {
   renice_this_thread(options_.reduce_nice);
   for (;;) {
     std::unique_lock lock(mu_);
-    jobs_cv_.wait_for(lock, std::chrono::milliseconds(50), [&] { return !queues_.empty() || tracking_done_; });
+    // on_keyframe and finish_reductions notify; a stop ends tracking, which ends this wait (finish_reductions).
+    jobs_cv_.wait(lock, [&] { return !queues_.empty() || tracking_done_; });
     // Stopped: queued keyframes never reached the outbox (a resumed run tracks their frames again); deferred ones
     // have their records beside it (a resumed run reduces them).
     if (should_stop_()) return;
-    // Nothing to reduce: refinements wait for the drain. One made here between keyframes would delay the next
-    // keyframe's reduction, which the latency rule pays for in that keyframe's bytes.
-    if (queues_.empty()) {
-      if (tracking_done_) return;
-      continue;
-    }
+    // Nothing to reduce and tracking is done. Between keyframes refinements wait for the drain (or the refiner
+    // thread): one made here would delay the next keyframe's reduction, which the latency rule pays for in that
+    // keyframe's bytes.
+    if (queues_.empty()) return;
+    std::uint64_t seen = changes_;  // before the link is read: a change after it ends the hold-back's wait
     lock.unlock();
     const bool hold = hold_keyframe(options_.supersede, sender_.owed_s(), reduce_s_.value());
     lock.lock();
     if (should_stop_()) return;
     if (hold) {
-      if (!hold_back(lock)) return;
+      if (!hold_back(lock, seen)) return;
       continue;
     }
     holding_ = false;
@@ -323,6 +348,7 @@ void StreamRun::reducer_loop() {
     reducing_ = false;
     if (next->second && written) ++(next->first.resumed ? summary_.resumed_deferred_sent : summary_.deferred_sent);
     const bool idle = queues_.empty();
+    ++changes_;
     lock.unlock();
     jobs_cv_.notify_all();
     // Before any answer, under a cap with refinements that yield: the keyframe just written (sized to the initial
@@ -337,13 +363,18 @@ void StreamRun::reducer_loop() {
 
 // The link owes too much: a newer keyframe tracked meanwhile goes first, the older ones are deferred (their records
 // written so that a stop does not lose them) and the oldest beyond max_deferred dropped. `lock` holds mu_ on entry
-// and on return. False: the sender stopped for good, the link will not free.
-bool StreamRun::hold_back(std::unique_lock<std::mutex>& lock) {
+// and on return. False: the sender stopped for good, the link will not free. Then it waits for the link to have
+// room or a keyframe to come: until a change after `seen` (changes_) or the clock reaches when the sender's paced
+// line has drained enough (Sender::owed_falls_to) with nothing else changing.
+bool StreamRun::hold_back(std::unique_lock<std::mutex>& lock, std::uint64_t seen) {
   lock.unlock();
   if (!sender_.stats().fatal.empty()) return false;
+  const Clock::time_point room_at = sender_.owed_falls_to(room_owed_s(reduce_s_.value()));
   lock.lock();
   if (!holding_) {
     holding_ = true;
+    ++changes_;
+    ++seen;  // its own change does not end its wait; one that came before still does
     jobs_cv_.notify_all();  // a tracker waiting for this reduction goes on (and may supersede it)
   }
   auto held = queues_.hold();
@@ -360,7 +391,7 @@ bool StreamRun::hold_back(std::unique_lock<std::mutex>& lock) {
     for (const KeyframeJob& job : held.dropped) forget_deferred(job.frame_index);
     lock.lock();
   }
-  jobs_cv_.wait_for(lock, std::chrono::milliseconds(50));
+  clock_.wait_until(lock, jobs_cv_, room_at, [&] { return changes_ != seen; });
   return true;
 }
 
@@ -379,7 +410,7 @@ int StreamRun::reduce_keyframe(const KeyframeJob& job, bool was_deferred) {
     in.interval_s = interval_.seconds();
     in.reduce_s = reduce_s_.value();
   }
-  in.age_s = unix_s_() - job.captured;
+  in.age_s = job.captured_s ? clock_.now_s() - *job.captured_s : unix_s_() - job.captured;
   in.deferred = was_deferred;
   const KeyframeBudget plan =
       plan_keyframe_budget(link(), in, options_.budget, options_.latency, options_.coarse_factor);
@@ -389,9 +420,9 @@ int StreamRun::reduce_keyframe(const KeyframeJob& job, bool was_deferred) {
   if (prefetch_.seq < 0)
     if (auto ahead_kb = beside_keyframe_budget_kb(link(), planner_.limits(), plan.budget_kb, was_deferred))
       start_prefetch(job, seq, *ahead_kb);
-  const double t0 = steady_s_();
+  const double t0 = clock_.now_s();
   auto encoded = encode_keyframe(job.frame, reduction_for(plan.budget_kb), plan.budget_kb, job.pose, earlier_than(seq));
-  const double took = steady_s_() - t0;
+  const double took = clock_.now_s() - t0;
   {
     std::lock_guard lock(mu_);  // (the refiner reads reduce_s_ under mu_)
     reduce_s_.on_sample(took);
@@ -480,9 +511,9 @@ void StreamRun::start_prefetch(const KeyframeJob& job, int seq, double budget_kb
   prefetch_.thread = std::thread([this, frame = job.frame, pose = job.pose, views = earlier_than(seq),
                                   nice = std::max(1, options_.reduce_nice)] {
     renice_this_thread(nice);
-    const double t0 = steady_s_();
+    const double t0 = clock_.now_s();
     prefetch_.result = encode_keyframe(frame, reduction_for(prefetch_.budget_kb), prefetch_.budget_kb, pose, views);
-    prefetch_.took_s = steady_s_() - t0;
+    prefetch_.took_s = clock_.now_s() - t0;
   });
 }
 
@@ -494,38 +525,66 @@ void StreamRun::drop_prefetch() {
 // ---- Refinements --------------------------------------------------------------------------------------------------
 
 // While tracking, in the idle scheduling class: when no keyframe waits or is being reduced and the sender owes
-// nothing (refinements included), one refinement sized to refiner_window_s.
+// nothing (refinements included), one refinement sized to refiner_window_s. A turn that made none waits for what
+// it read to change (changes_: a keyframe, a reduction, a hold, an answer or POST of the sender, the end of
+// tracking) or for the clock to reach when the sender's paced line owes little enough. Time alone does not open a
+// window (refiner_window_s only shrinks with it) nor qualify a keyframe.
 void StreamRun::refiner_loop() {
   refiner_tid_ = idle_this_thread();
   SmoothedDuration took(0.5);
   for (;;) {
     RefinerTurn turn;
+    std::uint64_t seen = 0;
+    {
+      std::lock_guard lock(mu_);
+      if (tracking_done_ || should_stop_()) return;
+      seen = changes_;  // before anything is read: a change after it ends this turn's wait
+    }
     const LinkSnapshot l = link();
     {
-      std::unique_lock lock(mu_);
-      jobs_cv_.wait_for(lock, std::chrono::milliseconds(50), [&] { return tracking_done_; });
-      if (tracking_done_ || should_stop_()) return;
+      std::lock_guard lock(mu_);
       turn.keyframe_work = !queues_.empty() || reducing_ || holding_;
       turn.keyframes = summary_.keyframes;
       turn.window_s = refiner_window_s(l, options_.refine_window_s, last_keyframe_s_, interval_.seconds(),
                                        reduce_s_.value(), took.value(), since_start_s());
     }
     turn.owed_s = sender_.owed_s(true);
-    if (!refiner_may_refine(turn)) continue;
-    if (!refine_one(turn.window_s, took, false)) {
-      std::unique_lock lock(mu_);  // nothing to refine at this window: wait for the next keyframe or answer
-      jobs_cv_.wait_for(lock, std::chrono::milliseconds(100), [&] { return tracking_done_; });
-    }
+    if (refiner_may_refine(turn) && refine_one(turn.window_s, took, false)) continue;
+    const Clock::time_point room_at =
+        turn.owed_s > kRefinerOwedS ? sender_.owed_falls_to(kRefinerOwedS, true) : Clock::kNever;
+    std::unique_lock lock(mu_);
+    clock_.wait_until(lock, jobs_cv_, room_at, [&] { return tracking_done_ || changes_ != seen; });
   }
 }
 
 // The refinement planner's choice, reduced (or taken from the prefetch) and added as the next revision when
 // judge_refinement keeps it. Returns false when no keyframe qualifies (or another thread is refining); true when
-// one was handled, kept or not. One at a time (refine_mu_).
+// one was handled, kept or not. One at a time (refine_mu_): a thread turned away waits for a change, so the one
+// refining counts one (changes_) when it is done, whether or not its refinement reached the sender.
 bool StreamRun::refine_one(double window_s, SmoothedDuration& took_s, bool ahead, int only_seq) {
   if (!(options_.refine_ceiling_kb > 0)) return false;
-  std::unique_lock refining(refine_mu_, std::try_to_lock);
-  if (!refining) return false;
+  // Turning away and marking it, and ending and reading the mark, are each one step under mu_, so no mark is missed.
+  std::unique_lock refining(refine_mu_, std::defer_lock);
+  {
+    std::lock_guard lock(mu_);
+    if (!refining.try_lock()) {
+      refine_turned_away_ = true;
+      return false;
+    }
+  }
+  const bool handled = refine_chosen(window_s, took_s, ahead, only_seq);
+  bool wake = false;
+  {
+    std::lock_guard lock(mu_);
+    refining.unlock();
+    wake = std::exchange(refine_turned_away_, false);
+    if (wake) ++changes_;
+  }
+  if (wake) jobs_cv_.notify_all();
+  return handled;
+}
+
+bool StreamRun::refine_chosen(double window_s, SmoothedDuration& took_s, bool ahead, int only_seq) {
   const std::vector<OutboxEntry> all = outbox_.entries();
   RefinementPlanner::Result choice;
   {
@@ -563,10 +622,10 @@ std::optional<Result<EncodedKeyframe>> StreamRun::make_refinement(const RefineCh
     note_error("refining keyframe " + std::to_string(c.entry.seq) + ": " + frame.error().message);
     return std::nullopt;
   }
-  const double t0 = steady_s_();
+  const double t0 = clock_.now_s();
   out = encode_keyframe(*frame, reduction_for(c.budget_kb), c.budget_kb, tum_pose(c.entry.pose),
                         earlier_than(c.entry.seq));
-  took_s.on_sample(steady_s_() - t0);
+  took_s.on_sample(clock_.now_s() - t0);
   return out;
 }
 
@@ -607,9 +666,11 @@ bool StreamRun::await_answer(const RefineChoice& c, int only_seq) {
       case AheadStep::kWait:
         break;
     }
+    // The entry's answer, a POST failing (link_down) and the sender's stop wake it; the timeout is only the period
+    // at which should_stop_ is polled.
     now = sender_.wait_entry(
         seq, [&](const auto& e) { return !e || !e->rejected.empty() || e->rev != rev || e->acked; },
-        std::chrono::milliseconds(10));
+        kStopPollPeriod, s.link_down);
   }
 }
 
@@ -624,7 +685,8 @@ bool StreamRun::add_refinement(const RefineChoice& c, const EncodedKeyframe& fin
   // From the cap, with refinements that yield: beside the first revision's POST if it is still out. Reduced beside
   // its keyframe, the refinement can be ready before a lane has taken the keyframe and marked it attempted (it reads
   // the GLB first, stream/sender.cpp): wait for that (a lane takes it at once when nothing else waits), not for the
-  // answer.
+  // answer. The lanes wake the wait; its 300 ms is a bound: a keyframe not started by then waits for pacing or a
+  // lane, and the refinement then goes after its answer (await_answer).
   if (c.made_from_cap && sender_.refinements_yield()) {
     auto now = outbox_.entry(seq);
     if (beside_keyframe && !should_stop_())
@@ -668,6 +730,7 @@ Status StreamRun::on_keyframe(const RgbdFrame& frame, const FrameRecord& record)
   job.frame_index = static_cast<int>(record.index);
   job.pose = anchor_ * record.pose;
   job.captured = captured_;
+  job.captured_s = frame_captured_s_;
   job.tracked = unix_s_();
   {
     std::lock_guard lock(mu_);
@@ -675,6 +738,7 @@ Status StreamRun::on_keyframe(const RgbdFrame& frame, const FrameRecord& record)
     interval_.on_keyframe(last_keyframe_s_);
     queues_.push(std::move(job));
     summary_.reduce_queue_max = std::max(summary_.reduce_queue_max, queues_.waiting());
+    ++changes_;
   }
   jobs_cv_.notify_all();
   if (!options_.realtime) {
@@ -688,7 +752,7 @@ Status StreamRun::on_keyframe(const RgbdFrame& frame, const FrameRecord& record)
 
 void StreamRun::on_frame(const FrameRecord& r, size_t done, size_t total) {
   if (frame_began_s_) {  // this frame was read (not dropped)
-    const double wall = 1000.0 * (steady_s_() - *frame_began_s_);
+    const double wall = 1000.0 * (clock_.now_s() - *frame_began_s_);
     const double cpu = thread_cpu_ms() - frame_cpu_began_;
     std::lock_guard lock(mu_);
     summary_.frame_wall_ms.push_back(wall);
@@ -713,6 +777,7 @@ void StreamRun::finish_reductions() {
   {
     std::lock_guard lock(mu_);
     tracking_done_ = true;
+    ++changes_;
   }
   jobs_cv_.notify_all();
   if (reducer_.joinable()) reducer_.join();
@@ -743,6 +808,7 @@ void StreamRun::drain() {
 
 Result<StreamSummary> StreamRun::run() {
   if (Status st = resume(); !st) return st.error();
+  sender_.set_on_change([this] { link_changed(); });
   sender_.start();
   start_camera();
   sender_lanes_ = sender_.stats().lanes;
@@ -768,12 +834,14 @@ Result<StreamSummary> StreamRun::run() {
   finish_reductions();
   if (!result) {
     sender_.stop();
+    sender_.set_on_change(nullptr);
     return result.error();
   }
   summary_.frames = result->frames.size();
   summary_.tracked = result->tracked;
   drain();
   sender_.stop();
+  sender_.set_on_change(nullptr);  // the lanes ended: none calls it any more
   summary_.sender = sender_.stats();
   summary_.deferred_waiting = outbox_.deferred().size();
   summary_.stopped = summary_.stopped || should_stop_();

@@ -39,8 +39,10 @@ struct StreamOptions {
   // idle scheduling class (docs/streaming.md).
   bool refine_while_tracking = true;
   FineReduction fine;
-  // The runtime's clocks, seconds: steady (durations, the keyframe interval) and Unix (the entries' times).
-  std::function<double()> steady_s, unix_s;  // empty: the system's
+  // The entries' times (Unix s, wall-clock facts written into the records); empty: the system's. The runtime's
+  // steady clock (durations, the keyframe interval, the camera's pacing, the hold-back's deadlines) is the
+  // sender's (SenderParams::clock), so that one clock drives the camera, the producer and the link.
+  std::function<double()> unix_s;
 };
 
 struct StreamProgress {

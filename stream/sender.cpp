@@ -5,8 +5,6 @@
 
 namespace rgbdcast::stream {
 
-using clock = std::chrono::steady_clock;
-
 namespace {
 double unix_now() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
@@ -20,6 +18,7 @@ Sender::Sender(Outbox& outbox, std::vector<Uplink*> uplinks, const SenderParams&
     : outbox_(outbox),
       uplinks_(std::move(uplinks)),
       params_(params),
+      clock_(params.clock ? *params.clock : system_steady_clock()),
       estimator_(params.link),
       backoff_(params.backoff),
       rng_(params.seed ? params.seed : std::random_device{}()) {
@@ -44,16 +43,36 @@ void Sender::stop() {
     if (t.joinable()) t.join();
 }
 
-void Sender::notify() { cv_.notify_all(); }
+// The outbox is changed outside mu_: taking it here orders the change before a lane's next look (a lane checks the
+// outbox and starts waiting under mu_, so the notification cannot fall between the two).
+void Sender::notify() {
+  { std::lock_guard lock(mu_); }
+  cv_.notify_all();
+}
+
+void Sender::set_on_change(std::function<void()> on_change) {
+  std::lock_guard lock(mu_);
+  on_change_ = std::move(on_change);
+}
+
+void Sender::changed() {
+  std::function<void()> on_change;
+  {
+    std::lock_guard lock(mu_);
+    on_change = on_change_;
+  }
+  cv_.notify_all();
+  if (on_change) on_change();
+}
 
 std::optional<OutboxEntry> Sender::wait_entry(int seq,
                                               const std::function<bool(const std::optional<OutboxEntry>&)>& done,
-                                              std::chrono::milliseconds timeout) {
+                                              std::chrono::milliseconds timeout, std::optional<bool> link_down_was) {
   std::unique_lock lock(mu_);
   std::optional<OutboxEntry> e;
-  cv_.wait_for(lock, timeout, [&] {
+  clock_.wait_until(lock, cv_, clock_.now() + timeout, [&] {
     e = outbox_.entry(seq);
-    return stopping_ || done(e);
+    return stopping_ || (link_down_was && *link_down_was != stats_.link_down) || done(e);
   });
   return e;
 }
@@ -65,15 +84,18 @@ bool Sender::wait_delivered(std::chrono::milliseconds timeout) {
       if (e.pending()) return false;
     return true;
   };
-  cv_.wait_for(lock, timeout, [&] { return stopping_ || delivered(); });
+  clock_.wait_until(lock, cv_, clock_.now() + timeout, [&] { return stopping_ || delivered(); });
   return delivered();
 }
 
 bool Sender::claim(int seq) {
-  std::lock_guard lock(mu_);
-  auto e = outbox_.entry(seq);
-  if (!e || e->attempted || in_flight_.count({seq, e->rev})) return false;
-  claimed_.insert(seq);
+  {
+    std::lock_guard lock(mu_);
+    auto e = outbox_.entry(seq);
+    if (!e || e->attempted || in_flight_.count({seq, e->rev})) return false;
+    claimed_.insert(seq);
+  }
+  cv_.notify_all();  // a refinement's chunk waiting for this first revision to start goes on (the gate in run)
   return true;
 }
 
@@ -112,6 +134,21 @@ double Sender::post_fixed_s() const {
 
 double Sender::owed_s(bool include_refinements) const {
   std::lock_guard lock(mu_);
+  const auto [line_s, bytes_s] = owed_parts_locked(include_refinements);
+  return line_s + bytes_s;
+}
+
+Clock::time_point Sender::owed_falls_to(double s, bool include_refinements) const {
+  std::lock_guard lock(mu_);
+  const auto [line_s, bytes_s] = owed_parts_locked(include_refinements);
+  if (line_s + bytes_s <= s) return clock_.now();
+  if (bytes_s > s) return Clock::kNever;
+  // Not now or before: owed_s said more than s at this time (a rounding of the two parts must not make a caller's
+  // wait return at once, again and again, on a clock that does not move by itself).
+  return std::max(line_free_ - Clock::from_seconds(s - bytes_s), clock_.now() + Clock::duration(1));
+}
+
+std::pair<double, double> Sender::owed_parts_locked(bool include_refinements) const {
   const double estimate_bps = std::max(estimator_.estimate_kbps(), 1.0) * 1000.0 / 8.0;
   const bool paced = estimator_.cap_kbps() > 0;
   double bytes = 0;
@@ -121,8 +158,8 @@ double Sender::owed_s(bool include_refinements) const {
       bytes += static_cast<double>(e.bytes);
   if (include_refinements) bytes += static_cast<double>(refinement_left_bytes_);  // a refinement being written
   double line_s = 0;
-  if (paced) line_s = std::max(0.0, std::chrono::duration<double>(line_free_ - clock::now()).count());
-  return line_s + bytes / estimate_bps;
+  if (paced) line_s = std::max(0.0, std::chrono::duration<double>(line_free_ - clock_.now()).count());
+  return {line_s, bytes / estimate_bps};
 }
 
 bool Sender::idle() const {
@@ -138,9 +175,13 @@ bool Sender::refinements_yield() const {
   return estimator_.cap_kbps() > 0 && uplinks_.size() >= 2;
 }
 
+// Not on_change: the producer sets the cap itself (under its own lock).
 void Sender::set_cap_kbps(double cap_kbps) {
-  std::lock_guard lock(mu_);
-  estimator_.set_cap_kbps(cap_kbps);
+  {
+    std::lock_guard lock(mu_);
+    estimator_.set_cap_kbps(cap_kbps);
+  }
+  cv_.notify_all();  // a lane pacing at the old cap recomputes when it may start
 }
 
 double Sender::cap_kbps() const {
@@ -164,13 +205,13 @@ SenderStats Sender::stats() const {
   s.line_kbps = estimator_.line_kbps();
   s.post_fixed_s = estimator_.post_fixed_s();
   s.cap_kbps = estimator_.cap_kbps();
-  const auto now = clock::now();  // the intervals still open
+  const auto now = clock_.now();  // the intervals still open
   if (!in_flight_.empty()) s.busy_s += std::chrono::duration<double>(now - busy_since_).count();
   if (in_flight_.size() >= 2) s.overlap_s += std::chrono::duration<double>(now - overlap_since_).count();
   return s;
 }
 
-std::chrono::steady_clock::duration Sender::line_time(size_t bytes) const {
+Clock::duration Sender::line_time(size_t bytes) const {
   return std::chrono::microseconds(
       static_cast<long long>(static_cast<double>(bytes) * 8.0 / (estimator_.cap_kbps() * 1000.0) * 1e6));
 }
@@ -181,7 +222,7 @@ std::vector<PostRecord> Sender::post_log() const {
 }
 
 void Sender::flight_begin_locked(int seq, int rev) {
-  const auto now = clock::now();
+  const auto now = clock_.now();
   in_flight_.insert({seq, rev});
   if (in_flight_.size() == 1) busy_since_ = now;
   if (in_flight_.size() == 2) overlap_since_ = now;
@@ -189,7 +230,7 @@ void Sender::flight_begin_locked(int seq, int rev) {
 
 void Sender::flight_end_locked(int seq, int rev) {
   if (!in_flight_.erase({seq, rev})) return;
-  const auto now = clock::now();
+  const auto now = clock_.now();
   if (in_flight_.empty()) stats_.busy_s += std::chrono::duration<double>(now - busy_since_).count();
   if (in_flight_.size() == 1) stats_.overlap_s += std::chrono::duration<double>(now - overlap_since_).count();
 }
@@ -223,7 +264,7 @@ std::optional<OutboxEntry> Sender::pick_locked() const {
 }
 
 bool Sender::first_revision_waiting_locked() const {
-  if (clock::now() < retry_not_before_) return false;  // backing off: nothing starts meanwhile
+  if (clock_.now() < retry_not_before_) return false;  // backing off: nothing starts meanwhile
   // With one lane the refinement holds it: the keyframe waits for the whole body (as every POST waits for the one
   // before). With more, the other lanes hold first revisions or a refinement whose body is written (pick_locked):
   // each ends with its answer, so a keyframe waiting for one of them starts within a round trip.
@@ -238,15 +279,18 @@ std::optional<OutboxEntry> Sender::next_post(bool& paced_chunks) {
   std::optional<OutboxEntry> entry;
   for (;;) {
     if (stopping_) return std::nullopt;
-    const auto now = clock::now();
+    const auto now = clock_.now();
     const auto not_before = std::max(retry_not_before_, estimator_.cap_kbps() > 0 ? line_free_ : now);
-    if (now < not_before) {
-      cv_.wait_until(lock, not_before);
+    if (now < not_before) {  // pacing or backoff: a deadline on the clock (or a change: a cap set or lifted)
+      clock_.wait_until(lock, cv_, not_before);
       continue;
     }
     entry = pick_locked();
     if (entry) break;
-    cv_.wait_for(lock, std::chrono::milliseconds(200));
+    // Nothing to pick until what pick_locked reads changes, and each writer notifies cv_ under or after mu_: a new
+    // entry or revision (notify), a claim released, an answer or a lane's end (finish), a refinement's body done
+    // (writing_done_locked), the stop.
+    cv_.wait(lock);
   }
   flight_begin_locked(entry->seq, entry->rev);
   // Pacing: a first revision's body takes bytes / cap on the virtual line, after the bodies already on it; a
@@ -260,7 +304,7 @@ std::optional<OutboxEntry> Sender::next_post(bool& paced_chunks) {
       refinement_writer_ = entry->seq;
       refinement_left_bytes_ = entry->bytes;
     } else {
-      line_free_ = std::max(line_free_, clock::now()) + line_time(entry->bytes);
+      line_free_ = std::max(line_free_, clock_.now()) + line_time(entry->bytes);
     }
   }
   return entry;
@@ -273,15 +317,14 @@ void Sender::run(Uplink& uplink) {
     const std::optional<OutboxEntry> entry = next_post(paced_chunks);
     if (!entry) return;
     const int seq = entry->seq;
-    cv_.notify_all();  // a refinement paused for this first revision recomputes its next chunk's start
+    changed();  // a refinement paused for this first revision recomputes its next chunk's start; owed_s changed
     // The gate of a paced refinement: each chunk waits until the virtual line is free and no first revision is
     // waiting to start (a new keyframe goes ahead of the rest of the body), then takes bytes / cap on it. A body
     // that had to wait for another one is `preempted`: its POST's time is not a sample of the link.
     bool preempted = false;
     // Only the refinement being written clears the state: one whose body is done and whose answer comes while the
     // next refinement is being written must not (it would let a third start beside it).
-    // (mu_ held) The body is done, or given up on: a lane waiting for a refinement to write may take the next one now
-    // (it polled every 200 ms before, so the next body started up to 200 ms after the line was free).
+    // (mu_ held) The body is done, or given up on: a lane waiting for a refinement to write may take the next one now.
     auto writing_done_locked = [&] {
       refinement_writing_ = false;
       refinement_writer_ = -1;
@@ -299,16 +342,20 @@ void Sender::run(Uplink& uplink) {
         if (stopping_) return false;
         const double cap = estimator_.cap_kbps();
         if (cap <= 0) break;  // the cap was lifted: written at once
-        const auto now = clock::now();
+        const auto now = clock_.now();
         const bool keyframe_waiting = first_revision_waiting_locked();
         if (!keyframe_waiting && line_free_ <= now) break;
         if (keyframe_waiting || (offset > 0 && line_free_ > own_line_end_)) preempted = true;
-        cv_.wait_until(lock, keyframe_waiting ? now + std::chrono::milliseconds(20) : line_free_);
+        // A waiting first revision stops waiting when it starts (run notifies after next_post), is claimed, or an
+        // answer or backoff comes (finish): each notifies cv_. Otherwise the line frees at line_free_.
+        clock_.wait_until(lock, cv_, keyframe_waiting ? Clock::kNever : line_free_);
       }
-      if (estimator_.cap_kbps() > 0) line_free_ = std::max(line_free_, clock::now()) + line_time(bytes);
+      if (estimator_.cap_kbps() > 0) line_free_ = std::max(line_free_, clock_.now()) + line_time(bytes);
       own_line_end_ = line_free_;
       refinement_left_bytes_ = offset + bytes >= refinement_bytes_total_ ? 0 : refinement_bytes_total_ - offset - bytes;
       if (refinement_left_bytes_ == 0) writing_done_locked();  // its last chunk is on the line
+      lock.unlock();
+      changed();  // owed_s changed: the chunk left the refinement's bytes for the line
       return true;
     };
     auto finish = [&](const std::string& fatal) {
@@ -321,7 +368,7 @@ void Sender::run(Uplink& uplink) {
           stopping_ = true;
         }
       }
-      cv_.notify_all();  // another lane may wait for this entry (a retry) or for the stop
+      changed();  // another lane may wait for this entry (a retry) or for the stop; the producer for the answer
     };
     const double post_started = unix_now();
     note_queue_wait(*entry, post_started);
@@ -341,10 +388,7 @@ void Sender::run(Uplink& uplink) {
       finish(st.error().message);
       return;
     }
-    {
-      std::lock_guard lock(mu_);  // (a waiter checks the entry under mu_: this notify cannot fall between)
-    }
-    cv_.notify_all();  // the producer may wait for this entry to be attempted (wait_entry)
+    changed();  // the producer may wait for this entry to be attempted (wait_entry; changed() takes mu_ first)
     const double io_timeout_s = answer_timeout_s(glb->size(), estimate_kbps());
     if (paced_chunks) {
       std::lock_guard lock(mu_);
@@ -421,7 +465,7 @@ void Sender::record_post_locked(const OutboxEntry& entry, size_t bytes, double p
       stats_.last_error = r.error;
       const double delay = backoff_.next_delay_s(rng_, r.retry_after_s);
       retry_not_before_ = std::max(retry_not_before_,
-                                   clock::now() + std::chrono::microseconds(static_cast<long long>(delay * 1e6)));
+                                   clock_.now() + std::chrono::microseconds(static_cast<long long>(delay * 1e6)));
       break;
     }
     case PostOutcome::kRejected:

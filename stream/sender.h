@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "stream/backoff.h"
+#include "stream/clock.h"
 #include "stream/link_estimator.h"
 #include "stream/outbox.h"
 #include "stream/uplink.h"
@@ -52,6 +53,8 @@ struct SenderParams {
   // First revisions in flight at most (0: one per lane). rgbdcast stream gives refinements a lane more than
   // --max-in-flight, so that a refinement being written never takes the lane a keyframe needs.
   size_t max_first_in_flight = 0;
+  // The clock of the pacing, the backoff and the busy times (null: the system's); must outlive the sender.
+  Clock* clock = nullptr;
 };
 
 // One POST as the sender saw it (Unix s), for a benchmark that wants the line's timeline (rgbdcast stream
@@ -100,7 +103,11 @@ class Sender {
 
   void start();
   void stop();    // returns once the lanes ended (in-flight POSTs finish or time out first)
-  void notify();  // a new entry is in the outbox
+  void notify();  // the outbox changed (a new entry or revision): the lanes look for a POST to start
+  // Called (on a lane's thread, no lock of the sender held) after each change of what owed_s(), idle(), stats() and
+  // the outbox's entries report: a POST started or was marked attempted, an answer or failure came, the sender
+  // stopped. Set before start(); it must not call set_on_change.
+  void set_on_change(std::function<void()> on_change);
   // The producer takes a never-attempted entry out of the sender's reach (to coarsen it); false when it is being
   // sent or was attempted. release() gives it back.
   bool claim(int seq);
@@ -115,6 +122,10 @@ class Sender {
   // plus the pending entries not yet started at the estimate; without, every pending byte at the estimate.
   // Refinements not yet started count only with include_refinements: a new keyframe goes before them.
   double owed_s(bool include_refinements = false) const;
+  // When owed_s(include_refinements) falls to s if nothing but time changes (the paced line drains at one second
+  // per second; pending bytes leave only with a change, which on_change reports); Clock::kNever when time alone
+  // never brings it there. A wait for the link to have room sleeps until then or the next change.
+  Clock::time_point owed_falls_to(double s, bool include_refinements = false) const;
   // The link estimator's POST model (stream/link_estimator.h): line rate (kbit/s) and fixed cost per POST (s).
   double line_kbps() const;
   double post_fixed_s() const;
@@ -125,16 +136,21 @@ class Sender {
   bool refinements_yield() const;
   void set_cap_kbps(double cap_kbps);
   double cap_kbps() const;  // the cap now; 0: none
+  Clock& clock() const { return clock_; }
   SenderStats stats() const;
   std::vector<PostRecord> post_log() const;  // every POST of this run, in the order they ended
-  // Waits at most `timeout` until `done` holds for seq's outbox entry (nullopt: there is none) or the sender stops,
-  // and returns the entry as last read. The lanes wake it when they mark an entry attempted or answered, so the
-  // producer need not poll the outbox for that.
+  // Waits at most `timeout` (on the sender's clock, as wait_delivered) until `done` holds for seq's outbox entry
+  // (nullopt: there is none), the sender stops, or (given link_down_was) SenderStats::link_down differs from
+  // link_down_was, and returns the entry as last read. The lanes wake it when they mark an entry attempted or
+  // answered or a POST fails, so the producer need not poll.
   std::optional<OutboxEntry> wait_entry(int seq, const std::function<bool(const std::optional<OutboxEntry>&)>& done,
-                                        std::chrono::milliseconds timeout);
+                                        std::chrono::milliseconds timeout,
+                                        std::optional<bool> link_down_was = std::nullopt);
   // Waits at most `timeout` until no outbox entry is pending (each one answered: stored or rejected) or the sender
   // stops; true when none is pending. The lanes wake it as they answer, so a drain need not poll for that.
-  bool wait_delivered(std::chrono::milliseconds timeout);  // every POST of this run, in the order they ended
+  // The timeouts are the callers' bounds, or the period at which they poll sources that cannot notify (a stop flag,
+  // a cap file).
+  bool wait_delivered(std::chrono::milliseconds timeout);
 
  private:
   void run(Uplink& uplink);
@@ -148,13 +164,17 @@ class Sender {
   std::optional<OutboxEntry> pick_locked() const;
   // A pending rev 0 that no lane is posting and no backoff holds, with two lanes or more (see the .cpp).
   bool first_revision_waiting_locked() const;
-  std::chrono::steady_clock::duration line_time(size_t bytes) const;  // at the cap (> 0); mu_ held
+  Clock::duration line_time(size_t bytes) const;  // at the cap (> 0); mu_ held
+  // owed_s's two parts: the paced line's time left (first) and the pending bytes at the estimate (second); mu_ held.
+  std::pair<double, double> owed_parts_locked(bool include_refinements) const;
+  void changed();  // notifies the lanes and on_change_; no lock held
   void flight_begin_locked(int seq, int rev);
   void flight_end_locked(int seq, int rev);
 
   Outbox& outbox_;
   std::vector<Uplink*> uplinks_;
   SenderParams params_;
+  Clock& clock_;
   mutable std::mutex mu_;
   std::condition_variable cv_;
   std::vector<std::thread> threads_;
@@ -164,14 +184,15 @@ class Sender {
   std::mt19937 rng_;
   std::set<int> claimed_;
   std::set<std::pair<int, int>> in_flight_;  // (seq, rev) of the POSTs out
-  std::chrono::steady_clock::time_point busy_since_{}, overlap_since_{};
-  std::chrono::steady_clock::time_point retry_not_before_{};  // backoff
-  std::chrono::steady_clock::time_point line_free_{};         // pacing: when the bodies posted so far are across
+  std::function<void()> on_change_;
+  Clock::time_point busy_since_{}, overlap_since_{};
+  Clock::time_point retry_not_before_{};  // backoff
+  Clock::time_point line_free_{};         // pacing: when the bodies posted so far are across
   // The refinement whose body is being written chunk by chunk (at most one: see pick_locked), under a cap.
   bool refinement_writing_ = false;
   int refinement_writer_ = -1;  // its seq
   size_t refinement_bytes_total_ = 0, refinement_left_bytes_ = 0;
-  std::chrono::steady_clock::time_point own_line_end_{};  // where its last chunk ended on the virtual line
+  Clock::time_point own_line_end_{};  // where its last chunk ended on the virtual line
   std::optional<double> queue_wait_s_;
   SenderStats stats_;
   std::vector<PostRecord> post_log_;

@@ -41,7 +41,9 @@ bool refine_right_after_keyframe(const LinkSnapshot& link, bool written, bool qu
   return written && queues_empty && link.acknowledged_posts == 0 && link.cap_kbps > 0 && link.refinements_yield;
 }
 
-bool link_has_room(double owed_s, double expected_s) { return owed_s <= std::max(expected_s, 0.1); }
+double room_owed_s(double expected_s) { return std::max(expected_s, 0.1); }
+
+bool link_has_room(double owed_s, double expected_s) { return owed_s <= room_owed_s(expected_s); }
 
 bool hold_keyframe(bool supersede, double owed_s, double reduce_s) {
   return supersede && !link_has_room(owed_s, reduce_s);

@@ -65,7 +65,8 @@ bool refine_right_after_keyframe(const LinkSnapshot& link, bool written, bool qu
 // ---- The backlog rule ---------------------------------------------------------------------------------------------
 
 // The link has room for work expected to take expected_s when it owes no more than that (at least 0.1 s): done any
-// earlier, the work would only wait for the line.
+// earlier, the work would only wait for the line. room_owed_s: that most it may owe.
+double room_owed_s(double expected_s);
 bool link_has_room(double owed_s, double expected_s);
 // Hold the next keyframe back (newest first, older ones deferred): supersede is on and the link has no room.
 bool hold_keyframe(bool supersede, double owed_s, double reduce_s);

@@ -21,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "stream/clock.h"
 #include "stream/sender.h"
 #include "tests/common/test_data.h"
 #include "tests/stream/fake_mission_server.h"
@@ -263,6 +264,124 @@ TEST(SenderLanes, TwoPostsInFlightArePacedAtTheCapAndStoredExactlyOnce) {
   EXPECT_EQ(one.stats.overlap_s, 0.0);
   EXPECT_GT(two.stats.overlap_s, 0.0);
   EXPECT_GT(two.stats.busy_s, two.stats.overlap_s);
+}
+
+// The setup of the tests on the injected clock: an outbox in a temporary folder, a manual clock, the sender's
+// parameters on it, and the lanes (made by the test, closed before its server stops).
+struct OnManualClock {
+  explicit OnManualClock(const std::string& mission) : dir(test::temp_dir("sender_" + mission)) {
+    auto opened = Outbox::open(dir, mission);
+    EXPECT_TRUE(opened);
+    if (opened) box = std::move(*opened);
+    params.mission = mission;
+    params.clock = &clock;
+  }
+  ~OnManualClock() {
+    close_lanes(lanes);
+    test::remove_tree_quietly(dir);
+  }
+  std::string dir;
+  std::unique_ptr<Outbox> box;
+  ManualClock clock;
+  SenderParams params;
+  Lanes lanes;
+};
+
+// On a manual clock (stream/clock.h) the pacing at the cap is a deadline on that clock: three keyframes of 10 kB
+// at 800 kbit/s (0.1 s each); each POST after the first starts only when the clock reaches the time the bodies
+// before it take at the cap, and the lane sleeps on the clock until then (no POST meanwhile). What the link owes
+// drains with that clock.
+TEST(SenderLanes, PacingAtTheCapWaitsOnTheInjectedClock) {
+  OnManualClock t("clocked");
+  ASSERT_TRUE(t.box);
+  for (int i = 0; i < 3; ++i) {
+    OutboxEntry e;
+    e.frame_index = i;
+    e.captured = 100.0 + i;
+    ASSERT_TRUE(t.box->add(e, std::vector<std::uint8_t>(10000, static_cast<std::uint8_t>(i))));
+  }
+  FakeMissionServer server;
+  const int port = server.start();
+  ASSERT_GT(port, 0);
+  t.lanes = make_lanes(port, 1);
+  const Clock::time_point t0 = t.clock.now();
+  t.params.link.cap_kbps = 800;
+  {
+    Sender sender(*t.box, t.lanes.uplinks, t.params);
+    sender.start();
+    for (size_t posted = 1; posted < 3; ++posted) {
+      const Clock::time_point next = t.clock.next_deadline();
+      EXPECT_EQ(next, t0 + std::chrono::milliseconds(100) * posted);
+      EXPECT_EQ(server.posts().size(), posted);  // the next one waits for the clock
+      if (posted == 1) {
+        // What the link owes: 0.1 s left on the paced line, and the pending bytes at the estimate, which the clock
+        // alone does not bring down (owed_falls_to).
+        const double bytes_s = sender.owed_s() - 0.1;
+        EXPECT_EQ(sender.owed_falls_to(bytes_s + 0.2), t.clock.now());
+        EXPECT_EQ(sender.owed_falls_to(bytes_s - 0.01), Clock::kNever);
+        const std::chrono::duration<double> at = sender.owed_falls_to(bytes_s + 0.04) - t0;
+        EXPECT_NEAR(at.count(), 0.06, 1e-6);
+      }
+      t.clock.set(next);
+    }
+    wait_until_delivered(sender);
+    sender.stop();  // the lane has logged its last POST (the outbox says acknowledged before)
+    EXPECT_EQ(server.posts().size(), 3u);
+    EXPECT_EQ(t.clock.now(), t0 + std::chrono::milliseconds(200));
+    const std::vector<PostRecord> log = sender.post_log();
+    ASSERT_EQ(log.size(), 3u);
+    EXPECT_GT(log[0].seq, log[1].seq);  // newest first
+    EXPECT_GT(log[1].seq, log[2].seq);
+  }
+  close_lanes(t.lanes);
+  server.stop();
+}
+
+// A refused POST is retried after the backoff's delay on the injected clock (0.1-0.2 s for the first failure, a
+// longer one after the second), not before the clock reaches it.
+TEST(SenderOutage, ARetryWaitsForTheBackoffOnTheInjectedClock) {
+  OnManualClock t("backoff");
+  ASSERT_TRUE(t.box);
+  ASSERT_TRUE(t.box->add(OutboxEntry{}, std::vector<std::uint8_t>(100, 1)));
+  const int port = free_port();
+  ASSERT_GT(port, 0);
+  t.lanes = make_lanes(port, 1);
+  const Clock::time_point t0 = t.clock.now();
+  t.params.seed = 5;
+  Sender sender(*t.box, t.lanes.uplinks, t.params);
+  sender.start();
+  const Clock::time_point first = t.clock.next_deadline();
+  EXPECT_GE(first - t0, std::chrono::milliseconds(100));
+  EXPECT_LE(first - t0, std::chrono::milliseconds(200));
+  EXPECT_EQ(sender.stats().failures, 1u);
+  t.clock.set(first);
+  const Clock::time_point second = t.clock.next_deadline();
+  EXPECT_EQ(sender.stats().failures, 2u);
+  EXPECT_GE(second - first, std::chrono::milliseconds(200));  // 0.4 s x [0.5, 1]
+  EXPECT_TRUE(sender.stats().link_down);
+  sender.stop();
+}
+
+// A lane with nothing to post waits for the outbox to change, not on a period: an entry added after start goes
+// once notify() is called, on a clock that never moves.
+TEST(Sender, AnEntryAddedAfterStartIsPostedOnNotify) {
+  OnManualClock t("notify");
+  ASSERT_TRUE(t.box);
+  FakeMissionServer server;
+  const int port = server.start();
+  ASSERT_GT(port, 0);
+  t.lanes = make_lanes(port, 1);
+  {
+    Sender sender(*t.box, t.lanes.uplinks, t.params);
+    sender.start();
+    ASSERT_TRUE(t.box->add(OutboxEntry{}, std::vector<std::uint8_t>(100, 1)));
+    sender.notify();
+    wait_until_delivered(sender);
+    EXPECT_EQ(sender.stats().acked, 1u);
+  }
+  EXPECT_EQ(server.keyframes("notify").size(), 1u);
+  close_lanes(t.lanes);
+  server.stop();
 }
 
 TEST(SenderOutage, ARefusedTokenStopsTheSender) {
