@@ -18,4 +18,13 @@ std::string quote_for_error(const std::string& text, size_t max_bytes) {
   return text.size() > max_bytes ? out + "..." : out;
 }
 
+std::string single_quoted_for_error(const std::string& text, size_t max_bytes) {
+  // Appended, not "'" + quote_for_error(...): GCC 12 takes that operator+(const char*, std::string&&) for a restrict
+  // violation (GCC bug 105651) and the test build makes warnings errors.
+  std::string out = "'";
+  out += quote_for_error(text, max_bytes);
+  out += '\'';
+  return out;
+}
+
 }  // namespace rgbdcast

@@ -9,5 +9,7 @@ namespace rgbdcast {
 // ("..." after a cut), every byte outside printable ASCII (control characters such as a decoded %0A, DEL, backslash,
 // bytes of UTF-8) written as \xNN, so the message stays one printable line whatever the input.
 std::string quote_for_error(const std::string& text, size_t max_bytes = 40);
+// The same between single quotes: 'text'.
+std::string single_quoted_for_error(const std::string& text, size_t max_bytes = 40);
 
 }  // namespace rgbdcast

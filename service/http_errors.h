@@ -25,4 +25,5 @@ std::string redact_paths(const std::string& text);
 
 namespace rgbdcast::service {
 using rgbdcast::quote_for_error;  // scene/error_text.h: what a client sent, quoted in an error text
+using rgbdcast::single_quoted_for_error;
 }  // namespace rgbdcast::service

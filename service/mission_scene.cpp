@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 
 #include "gltf/gltf_io.h"
+#include "scene/error_text.h"
 #include "service/camera_json.h"
 #include "service/view_params.h"  // parse_finite_double
 
@@ -24,7 +25,7 @@ Result<std::array<double, 7>> parse_mission_pose(const std::string& text) {
     const std::string part = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
     if (n == 7) return bad("more than 7 numbers");
     auto v = parse_finite_double("pose", part);
-    if (!v) return bad("'" + part.substr(0, 40) + "' is not a finite number");
+    if (!v) return bad(single_quoted_for_error(part) + " is not a finite number");
     pose[n++] = *v;
     if (comma == std::string::npos) break;
     start = comma + 1;

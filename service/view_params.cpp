@@ -26,8 +26,8 @@ Result<double> parse_finite_double(const std::string& name, const std::string& t
   double v = 0.0;
   const char* end = text.data() + text.size();
   auto [p, ec] = std::from_chars(text.data(), end, v, std::chars_format::general);
-  if (ec != std::errc() || p != end) return bad(name, "'" + shorten(text) + "' is not a number");
-  if (!std::isfinite(v)) return bad(name, "'" + shorten(text) + "' is not a finite number");
+  if (ec != std::errc() || p != end) return bad(name, single_quoted_for_error(text) + " is not a number");
+  if (!std::isfinite(v)) return bad(name, single_quoted_for_error(text) + " is not a finite number");
   return v;
 }
 
@@ -37,7 +37,7 @@ Result<int> parse_int_in_range(const std::string& name, const std::string& text,
   const char* end = text.data() + text.size();
   auto [p, ec] = std::from_chars(text.data(), end, v);
   if (ec == std::errc::result_out_of_range) return bad(name, "out of range " + std::to_string(lo) + ".." + std::to_string(hi));
-  if (ec != std::errc() || p != end) return bad(name, "'" + shorten(text) + "' is not an integer");
+  if (ec != std::errc() || p != end) return bad(name, single_quoted_for_error(text) + " is not an integer");
   if (v < lo || v > hi) return bad(name, std::to_string(v) + " is outside " + std::to_string(lo) + ".." + std::to_string(hi));
   return static_cast<int>(v);
 }
@@ -126,13 +126,13 @@ Result<ViewRequest> parse_view_request(const QueryParams& params) {
     const std::string& m = one["mode"];
     if (m == "mesh") r.mode = RenderMode::kMesh;
     else if (m == "points") r.mode = RenderMode::kPoints;
-    else return bad("mode", "'" + shorten(m) + "' is neither mesh nor points");
+    else return bad("mode", single_quoted_for_error(m) + " is neither mesh nor points");
   }
   if (has("format")) {
     const std::string& f = one["format"];
     if (f == "jpeg" || f == "jpg") r.format = ImageFormat::kJpeg;
     else if (f == "png") r.format = ImageFormat::kPng;
-    else return bad("format", "'" + shorten(f) + "' is neither jpeg nor png");
+    else return bad("format", single_quoted_for_error(f) + " is neither jpeg nor png");
   }
   if (has("quality")) {
     auto q = parse_int_in_range("quality", one["quality"], 1, 100);

@@ -24,7 +24,10 @@ TileKey TileKey::parent() const { return {level + 1, floor_half(x), floor_half(z
 
 std::string TileKey::name() const {
   std::string n = std::to_string(level) + "_" + std::to_string(x) + "_" + std::to_string(z);
-  if (keyframe >= 0) n += "_" + std::to_string(keyframe);
+  if (keyframe >= 0) {  // appended: GCC 12 takes "_" + a temporary string for a restrict violation (bug 105651)
+    n += '_';
+    n += std::to_string(keyframe);
+  }
   return n;
 }
 
