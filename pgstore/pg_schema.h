@@ -6,7 +6,9 @@
 // - Tables: scenes (metadata in columns, the GLB as bytea); missions; keyframes, one row per (mission, seq, rev),
 //   unique on it (the idempotency key) and on (mission, seq) (one revision per seq); change_clock, a one-row counter
 //   that every mission write increments first (so writes of missions are serialized and their change numbers commit
-//   in order); mission_changes, the log replicas catch up from; tiles and tile_hierarchies (per-mission 3D Tiles).
+//   in order); mission_changes, the log replicas catch up from; tiles (one row per tile file) and tile_hierarchies
+//   (one row per mission: the committed record, its version and the files it keeps), deleted with their mission
+//   (pgstore/pg_tile_storage.h).
 #include <string>
 
 #include "pgstore/pg_connection.h"

@@ -94,7 +94,7 @@ std::unique_ptr<TileHierarchy> open_ok(const std::string& dir) {
 
 // A tile's mesh in world coordinates (a leaf's node is placed by its keyframe's pose).
 Mesh tile_mesh(const TileHierarchy& h, const TileRecord& r) {
-  auto scene = read_glb_file(h.dir() + "/" + r.file());
+  auto scene = read_glb_file(h.storage().where() + "/" + r.file());
   EXPECT_TRUE(scene) << r.file();
   if (!scene || scene->nodes.empty()) return {};
   SceneNode& node = scene->nodes.front();
@@ -105,7 +105,7 @@ Mesh tile_mesh(const TileHierarchy& h, const TileRecord& r) {
 std::map<TileKey, std::vector<std::uint8_t>> contents(const TileHierarchy& h) {
   std::map<TileKey, std::vector<std::uint8_t>> out;
   for (const auto& [key, r] : h.tiles()) {
-    auto bytes = read_file_bytes(h.dir() + "/" + r.file(), size_t(1) << 30);
+    auto bytes = read_file_bytes(h.storage().where() + "/" + r.file(), size_t(1) << 30);
     EXPECT_TRUE(bytes) << r.file();
     if (bytes) out[key] = *bytes;
   }
@@ -353,7 +353,7 @@ TEST(TileHierarchyTest, ABuildWhoseChildrenChangedMeanwhileIsDroppedAndPickedAga
   EXPECT_EQ(pending->key.level, 1);
   auto built = live->build_tile(*pending);
   ASSERT_TRUE(built) << built.error().message;
-  const std::string file = live->dir() + "/" + built->file();
+  const std::string file = live->storage().where() + "/" + built->file();
   EXPECT_TRUE(fs::exists(file));
   ASSERT_TRUE(live->add_leaves(revised, loader(), later));  // meanwhile: keyframe 0 revised
   const auto version = live->version();
@@ -608,7 +608,7 @@ TEST(TileHierarchyTest, EveryTileIsAValidCompactGlbAndStorageIsMeasured) {
     for (const auto& id : ids) posted += Keyframes::get().glb_bytes[static_cast<size_t>(id.seq) % 4];
     std::map<int, std::array<double, 5>> levels;  // tiles, triangles, bytes, texture bytes, largest error
     for (const auto& [key, r] : h->tiles()) {
-      const std::string path = h->dir() + "/" + r.file();
+      const std::string path = h->storage().where() + "/" + r.file();
       EXPECT_GLTF_VALID(path);
       auto bytes = read_file_bytes(path, size_t(1) << 30);
       ASSERT_TRUE(bytes);
