@@ -155,8 +155,8 @@ Status PgTileStorage::delete_tiles(const std::set<std::string>& files) {
   const PgParam mission = PgParam::text(mission_);
   Status st = in_transaction(**conn, [&](PgConnection& t) -> Status {
     if (auto version = lock_hierarchy(t, mission); !version) return version.error();
-    return t.run("DELETE FROM tiles WHERE mission = $1 AND file = ANY($2::text[]) AND NOT file = ANY("
-                 "(SELECT keep FROM tile_hierarchies WHERE mission = $1))",
+    return t.run("DELETE FROM tiles WHERE mission = $1 AND file = ANY($2::text[]) AND NOT file = ANY(coalesce("
+                 "(SELECT keep FROM tile_hierarchies WHERE mission = $1), '{}'))",
                  {mission, PgParam::text(text_array(files))});
   });
   (void)cache_->delete_tiles(files);
@@ -169,8 +169,8 @@ Status PgTileStorage::collect(const std::set<std::string>& named, std::uint64_t 
   const PgParam mission = PgParam::text(mission_);
   Status st = in_transaction(**conn, [&](PgConnection& t) -> Status {
     if (auto version = lock_hierarchy(t, mission); !version) return version.error();
-    return t.run("DELETE FROM tiles WHERE mission = $1 AND NOT file = ANY($2::text[]) AND NOT file = ANY("
-                 "(SELECT keep FROM tile_hierarchies WHERE mission = $1)) AND "
+    return t.run("DELETE FROM tiles WHERE mission = $1 AND NOT file = ANY($2::text[]) AND NOT file = ANY(coalesce("
+                 "(SELECT keep FROM tile_hierarchies WHERE mission = $1), '{}')) AND "
                  "coalesce(substring(file from '\\.v([0-9]{1,18})\\.glb$')::bigint, 0) <= $3",
                  {mission, PgParam::text(text_array(named)),
                   PgParam::integer(static_cast<std::int64_t>(committed_version))});
