@@ -122,7 +122,11 @@ Status MissionTiles::open_hierarchy(const std::string& mission, Entry& entry) {
   entry.hierarchy = std::move(*opened);
   std::lock_guard lock(mutex_);
   storages_[mission] = *storage;
-  if (entry.hierarchy->version() > 0) ++stats_.opened_committed;
+  if (entry.hierarchy->version() > 0) {
+    ++stats_.opened_committed;
+    std::cerr << "tiles: mission " << mission << ": opened version " << entry.hierarchy->version() << " from "
+              << (*storage)->where() << "\n";
+  }
   return ok_status();
 }
 
