@@ -102,4 +102,15 @@ Result<int> migrate(PgConnection& conn) {
   return version;
 }
 
+Result<std::unique_ptr<PgPool>> open_migrated_pool(const std::string& uri, size_t connections) {
+  auto pool = PgPool::open(uri, connections);
+  if (!pool) return pool.error();
+  {
+    auto conn = (*pool)->lease();  // given back before the pool is
+    if (!conn) return conn.error();
+    if (auto v = migrate(**conn); !v) return v.error();
+  }
+  return pool;
+}
+
 }  // namespace rgbdcast::pgstore

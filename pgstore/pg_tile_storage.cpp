@@ -1,6 +1,6 @@
 #include "pgstore/pg_tile_storage.h"
 
-#include <filesystem>
+#include <functional>
 
 #include "base/atomic_file.h"
 #include "pgstore/pg_schema.h"
@@ -104,6 +104,18 @@ class PgTileStorage final : public tiles::TileStorage {
     return cache_->local_file(file);
   }
 
+  // f(transaction, mission, committed version) in one transaction that holds the mission's row lock.
+  Status locked(const std::function<Status(PgConnection&, const PgParam&, std::uint64_t)>& f) {
+    auto conn = pool_->lease();
+    if (!conn) return conn.error();
+    const PgParam mission = PgParam::text(mission_);
+    return in_transaction(**conn, [&](PgConnection& t) -> Status {
+      auto version = lock_hierarchy(t, mission);
+      if (!version) return version.error();
+      return f(t, mission, *version);
+    });
+  }
+
   Result<bool> commit(const tiles::TileCommit& c) override;
   Status delete_tiles(const std::set<std::string>& files) override;
   Status collect(const std::set<std::string>& named, std::uint64_t committed_version) override;
@@ -117,19 +129,14 @@ class PgTileStorage final : public tiles::TileStorage {
 };
 
 Result<bool> PgTileStorage::commit(const tiles::TileCommit& c) {
-  auto conn = pool_->lease();
-  if (!conn) return conn.error();
-  const PgParam mission = PgParam::text(mission_);
   bool refused = false;
   std::set<std::string> keep = c.named;
   keep.insert(c.retained.begin(), c.retained.end());
-  Status st = in_transaction(**conn, [&](PgConnection& t) -> Status {
-    auto version = lock_hierarchy(t, mission);
-    if (!version) return version.error();
+  Status st = locked([&](PgConnection& t, const PgParam& mission, std::uint64_t version) -> Status {
     auto stored = t.exec("SELECT count(*) FROM tiles WHERE mission = $1 AND file = ANY($2::text[])",
                          {mission, PgParam::text(text_array(c.named))});
     if (!stored) return stored.error();
-    refused = *version >= c.version || static_cast<size_t>(stored->integer(0, 0)) != c.named.size();
+    refused = version >= c.version || static_cast<size_t>(stored->integer(0, 0)) != c.named.size();
     if (refused) return make_error(ErrorCode::kInvalidInput, "refused");  // rolled back: nothing changes
     if (auto s = t.run("UPDATE tile_hierarchies SET record = $2, version = $3, keep = $4::text[] WHERE mission = $1",
                        {mission, PgParam::bytes(c.record.data(), c.record.size()),
@@ -150,11 +157,7 @@ Result<bool> PgTileStorage::commit(const tiles::TileCommit& c) {
 
 Status PgTileStorage::delete_tiles(const std::set<std::string>& files) {
   if (files.empty()) return ok_status();
-  auto conn = pool_->lease();
-  if (!conn) return conn.error();
-  const PgParam mission = PgParam::text(mission_);
-  Status st = in_transaction(**conn, [&](PgConnection& t) -> Status {
-    if (auto version = lock_hierarchy(t, mission); !version) return version.error();
+  Status st = locked([&](PgConnection& t, const PgParam& mission, std::uint64_t) {
     return t.run("DELETE FROM tiles WHERE mission = $1 AND file = ANY($2::text[]) AND NOT file = ANY(coalesce("
                  "(SELECT keep FROM tile_hierarchies WHERE mission = $1), '{}'))",
                  {mission, PgParam::text(text_array(files))});
@@ -164,11 +167,7 @@ Status PgTileStorage::delete_tiles(const std::set<std::string>& files) {
 }
 
 Status PgTileStorage::collect(const std::set<std::string>& named, std::uint64_t committed_version) {
-  auto conn = pool_->lease();
-  if (!conn) return conn.error();
-  const PgParam mission = PgParam::text(mission_);
-  Status st = in_transaction(**conn, [&](PgConnection& t) -> Status {
-    if (auto version = lock_hierarchy(t, mission); !version) return version.error();
+  Status st = locked([&](PgConnection& t, const PgParam& mission, std::uint64_t) {
     return t.run("DELETE FROM tiles WHERE mission = $1 AND NOT file = ANY($2::text[]) AND NOT file = ANY(coalesce("
                  "(SELECT keep FROM tile_hierarchies WHERE mission = $1), '{}')) AND "
                  "coalesce(substring(file from '\\.v([0-9]{1,18})\\.glb$')::bigint, 0) <= $3",
@@ -184,8 +183,9 @@ Status PgTileStorage::remove() {
   if (!conn) return conn.error();
   const PgParam mission = PgParam::text(mission_);
   Status st = in_transaction(**conn, [&](PgConnection& t) -> Status {
-    if (auto s = t.run("DELETE FROM tiles WHERE mission = $1", {mission}); !s) return s;
-    return t.run("DELETE FROM tile_hierarchies WHERE mission = $1", {mission});
+    const char* gone = " AND NOT EXISTS (SELECT 1 FROM missions WHERE name = $1)";
+    if (auto s = t.run(std::string("DELETE FROM tiles WHERE mission = $1") + gone, {mission}); !s) return s;
+    return t.run(std::string("DELETE FROM tile_hierarchies WHERE mission = $1") + gone, {mission});
   });
   (void)cache_->remove();
   return st;
@@ -194,13 +194,8 @@ Status PgTileStorage::remove() {
 }  // namespace
 
 Result<std::unique_ptr<PgTileStores>> PgTileStores::open(const std::string& uri, size_t connections) {
-  auto pool = PgPool::open(uri, connections);
+  auto pool = open_migrated_pool(uri, connections);
   if (!pool) return pool.error();
-  {
-    auto conn = (*pool)->lease();
-    if (!conn) return conn.error();
-    if (auto v = migrate(**conn); !v) return v.error();
-  }
   return std::unique_ptr<PgTileStores>(new PgTileStores(std::shared_ptr<PgPool>(std::move(*pool))));
 }
 

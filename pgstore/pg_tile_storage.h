@@ -11,6 +11,8 @@
 //   the garbage. Nothing a committed record keeps is ever deleted.
 // - collect() deletes the mission's files that the committed record does not keep and whose version is not above
 //   it (a file of a higher version is another replica's update under way).
+// - remove() leaves the rows of a mission that exists (made again since it was removed): a mission's rows go with
+//   it (ON DELETE CASCADE), remove() only drops this machine's copy and what a replica wrote after the removal.
 // - The files are also kept in a folder of this machine (a cache: read there first, fetched from the database when
 //   missing, written through), which local_file() names.
 #include <memory>

@@ -412,6 +412,10 @@ void ViewService::Impl::routes() {
     g.event_streams_open = static_cast<size_t>(mission_routes->open_streams());
     g.resident_part_bytes = pool->resident_part_bytes();
     g.resident_parts = pool->resident_parts();
+    const MissionTilesStats t = tiles->stats();
+    g.leaves_built = t.leaves_built;
+    g.inner_built = t.inner_built;
+    g.hierarchies_loaded = t.opened_committed;
     res.set_content(metrics.prometheus_text(g), "text/plain; version=0.0.4; charset=utf-8");
   }));
   server->Post("/v1/scenes", guarded_reader([this](Req req, Res res, const httplib::ContentReader& reader) {

@@ -11,7 +11,9 @@
 // - A reader (read_record(), read_tile()) sees the last committed record whole, and every file it names and retains.
 // - collect() deletes what no hierarchy will name: the files neither named nor retained by the committed record,
 //   except, in a storage shared by writers, files of versions above `committed_version` (another writer's update
-//   under way). remove() deletes the record and every file.
+//   under way). remove() deletes the record and every file; in a storage shared by replicas, those of a mission that
+//   is gone (they go with it): a replica that learns of a removal late never takes the tiles of a mission made again
+//   under the same name.
 // Thread-safe: read_tile() and local_file() may run while another thread writes.
 #include <cstdint>
 #include <memory>

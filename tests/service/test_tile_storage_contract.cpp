@@ -13,6 +13,7 @@
 #include "pgstore/pg_tile_storage.h"
 #include "tests/common/postgres_server.h"
 #include "tests/common/test_data.h"
+#include "tests/common/typed_test_names.h"
 #include "tiles/tile_storage.h"
 
 using namespace rgbdcast;
@@ -21,32 +22,10 @@ using rgbdcast::tiles::TileStorage;
 
 namespace {
 
-// One PostgreSQL server for the whole program, started on first use and stopped after the last test.
-class PostgresEnvironment : public ::testing::Environment {
- public:
-  test::PostgresServer* server() {
-    if (!tried_) {
-      tried_ = true;
-      auto s = test::PostgresServer::start();
-      if (s) server_ = std::move(*s);
-      else why_ = s.error().message;
-    }
-    return server_.get();
-  }
-  const std::string& why() const { return why_; }
-  void TearDown() override { server_.reset(); }
-
- private:
-  bool tried_ = false;
-  std::unique_ptr<test::PostgresServer> server_;
-  std::string why_;
-};
-PostgresEnvironment* const postgres =
-    static_cast<PostgresEnvironment*>(::testing::AddGlobalTestEnvironment(new PostgresEnvironment));
-
 constexpr const char* kMission = "m1";
 
 struct DirectoryBackend {
+  static constexpr const char* kName = "Directory";
   static constexpr bool kShared = false;
   Status prepare() {
     dir = test::temp_dir("tile-storage");
@@ -56,15 +35,15 @@ struct DirectoryBackend {
   Result<std::unique_ptr<TileStorage>> open(const std::string& /*cache*/) {
     return tiles::directory_tile_storage(dir + "/tiles");
   }
+  Status remove_mission() { return ok_status(); }
   std::string dir;
 };
 
 struct PostgresBackend {
+  static constexpr const char* kName = "Postgres";
   static constexpr bool kShared = true;
   Status prepare() {
-    auto* server = postgres->server();
-    if (!server) return make_error(ErrorCode::kUnavailable, postgres->why());
-    auto db = server->create_database();
+    auto db = test::fresh_database();
     if (!db) return db.error();
     uri = *db;
     dir = test::temp_dir("tile-storage-pg");
@@ -77,6 +56,7 @@ struct PostgresBackend {
   Result<std::unique_ptr<TileStorage>> open(const std::string& cache) {
     return stores->storage(kMission, dir + "/" + cache);
   }
+  Status remove_mission() { return sql("DELETE FROM missions WHERE name = '" + std::string(kMission) + "'"); }
   Status sql(const std::string& statement) {
     auto conn = pgstore::PgConnection::connect(uri);
     if (!conn) return conn.error();
@@ -101,15 +81,8 @@ class TileStorageContract : public ::testing::Test {
   Backend backend;
 };
 
-class BackendNames {
- public:
-  template <class T>
-  static std::string GetName(int) {
-    return std::is_same_v<T, DirectoryBackend> ? "Directory" : "Postgres";
-  }
-};
 using Backends = ::testing::Types<DirectoryBackend, PostgresBackend>;
-TYPED_TEST_SUITE(TileStorageContract, Backends, BackendNames);
+TYPED_TEST_SUITE(TileStorageContract, Backends, test::SelfNamedTypes);
 
 std::vector<std::uint8_t> bytes(const std::string& s) { return {s.begin(), s.end()}; }
 
@@ -216,6 +189,7 @@ TYPED_TEST(TileStorageContract, RemoveDeletesTheRecordAndEveryFile) {
   ASSERT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("tile")));
   ASSERT_TRUE(s->write_tile("1_0_1.v1.glb", bytes("unnamed")));
   ASSERT_TRUE(*s->commit(record(1, {"1_0_0.v1.glb"})));
+  ASSERT_TRUE(this->backend.remove_mission());  // what removes a mission's tiles in a shared storage
   ASSERT_TRUE(s->remove());
   EXPECT_FALSE(*s->read_record());
   EXPECT_EQ(*s->committed_version(), 0u);
@@ -292,6 +266,17 @@ TEST_F(PgTileRows, ADeletionNeverTakesAFileTheCommittedRecordKeeps) {
   ASSERT_TRUE(b->delete_tiles({"1_0_0.v1.glb", "1_0_1.v1.glb"}));
   EXPECT_TRUE(stored(*b, "1_0_0.v1.glb"));
   EXPECT_FALSE(stored(*b, "1_0_1.v1.glb"));
+}
+
+// A replica that learns of a removal after the mission was made again under the same name leaves its new tiles.
+TEST_F(PgTileRows, ALateRemovalLeavesTheTilesOfAMissionMadeAgain) {
+  auto s = open();
+  ASSERT_TRUE(s);
+  ASSERT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("new mission's")));
+  ASSERT_TRUE(*s->commit(record(1, {"1_0_0.v1.glb"})));
+  ASSERT_TRUE(open("late")->remove());
+  EXPECT_EQ((*s->read_record())->version, 1u);
+  EXPECT_TRUE(stored(*open("fresh"), "1_0_0.v1.glb"));
 }
 
 TEST(TileFileVersion, IsTheNumberAfterDotV) {
