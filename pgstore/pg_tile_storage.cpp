@@ -70,17 +70,13 @@ class PgTileStorage final : public tiles::TileStorage {
     if (!conn) return conn.error();
     const std::vector<PgParam> params = {PgParam::text(mission_), PgParam::text(file),
                                          PgParam::bytes(bytes.data(), bytes.size())};
-    auto r = (*conn)->exec("INSERT INTO tiles (mission, file, bytes) VALUES ($1, $2, $3) ON CONFLICT DO NOTHING",
+    // A file the committed record keeps stays as it is; an uncommitted one (a cut or refused update's) is replaced.
+    auto r = (*conn)->exec("INSERT INTO tiles (mission, file, bytes) VALUES ($1, $2, $3) ON CONFLICT (mission, file) "
+                           "DO UPDATE SET bytes = EXCLUDED.bytes WHERE NOT tiles.file = ANY(coalesce("
+                           "(SELECT keep FROM tile_hierarchies WHERE mission = $1), '{}'))",
                            params);
     if (!r) return r.error();
-    if (r->affected() == 0) {  // stored already: the same bytes are the same tile, others are refused
-      auto same = (*conn)->exec("SELECT bytes = $3 FROM tiles WHERE mission = $1 AND file = $2", params);
-      if (!same) return same.error();
-      if (same->rows() == 0 || same->text(0, 0) != "t")
-        return make_error(ErrorCode::kInvalidInput, "tiles: " + file + " of mission " + mission_ +
-                                                        " is stored with other bytes (or was deleted meanwhile)");
-    }
-    (void)write_file_atomically(cache_dir_ + "/" + file, bytes);  // the cache only: a miss is fetched again
+    if (r->affected() > 0) (void)write_file_atomically(cache_dir_ + "/" + file, bytes);  // a miss is fetched again
     return ok_status();
   }
 
@@ -130,11 +126,18 @@ class PgTileStorage final : public tiles::TileStorage {
 
 Result<bool> PgTileStorage::commit(const tiles::TileCommit& c) {
   bool refused = false;
-  std::set<std::string> keep = c.named;
-  keep.insert(c.retained.begin(), c.retained.end());
+  std::set<std::string> keep = c.retained, named_files;
+  std::string sizes = "{";
+  for (const auto& [f, size] : c.named) {
+    keep.insert(f);
+    named_files.insert(f);
+    sizes += (sizes.size() > 1 ? "," : "") + std::to_string(size);
+  }
+  sizes += "}";
   Status st = locked([&](PgConnection& t, const PgParam& mission, std::uint64_t version) -> Status {
-    auto stored = t.exec("SELECT count(*) FROM tiles WHERE mission = $1 AND file = ANY($2::text[])",
-                         {mission, PgParam::text(text_array(c.named))});
+    auto stored = t.exec("SELECT count(*) FROM tiles t JOIN unnest($2::text[], $3::bigint[]) AS n (file, size) "
+                         "ON t.file = n.file AND length(t.bytes) = n.size WHERE t.mission = $1",
+                         {mission, PgParam::text(text_array(named_files)), PgParam::text(sizes)});
     if (!stored) return stored.error();
     refused = version >= c.version || static_cast<size_t>(stored->integer(0, 0)) != c.named.size();
     if (refused) return make_error(ErrorCode::kInvalidInput, "refused");  // rolled back: nothing changes

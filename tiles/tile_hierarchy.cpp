@@ -522,7 +522,7 @@ Status TileHierarchy::commit(Build& b) {
   c.version = b.version;
   c.record.assign(text.begin(), text.end());
   for (const auto& [key, r] : b.tiles)
-    if (r.has_content()) c.named.insert(r.file());
+    if (r.has_content()) c.named.emplace(r.file(), r.bytes);
   std::map<std::string, std::uint64_t> retired;
   for (const auto& [key, r] : tiles_)
     if (r.has_content() && !c.named.count(r.file())) retired.emplace(r.file(), r.bytes);

@@ -43,14 +43,11 @@ class DirectoryTileStorage final : public TileStorage {
   }
 
   Status write_tile(const std::string& file, const std::vector<std::uint8_t>& bytes) override {
-    const std::string path = dir_ + "/" + file;
-    std::error_code ec;
-    if (fs::exists(path, ec)) {  // immutable: the same bytes again are a no-op, others are refused
-      auto stored = read_file_bytes(path, kMaxTileBytes);
-      if (stored && *stored == bytes) return ok_status();
-      if (stored) return make_error(ErrorCode::kInvalidInput, "tiles: " + path + " is stored with other bytes");
+    {
+      std::lock_guard lock(mutex_);
+      if (kept_.count(file)) return ok_status();  // committed: immutable
     }
-    return write_file_atomically(path, bytes);
+    return write_file_atomically(dir_ + "/" + file, bytes);
   }
 
   Result<std::vector<std::uint8_t>> read_tile(const std::string& file) const override {
@@ -69,12 +66,14 @@ class DirectoryTileStorage final : public TileStorage {
     if (!committed) return committed.error();
     if (*committed >= c.version) return false;
     std::error_code ec;
-    for (const auto& f : c.named)
-      if (!fs::exists(dir_ + "/" + f, ec)) return false;
+    for (const auto& [f, size] : c.named)
+      if (fs::file_size(dir_ + "/" + f, ec) != size || ec) return false;
     if (auto st = write_file_atomically(dir_ + "/" + kRecordFile, c.record); !st) return st.error();
     {
       std::lock_guard lock(mutex_);
       known_version_ = c.version;
+      kept_ = c.retained;
+      for (const auto& [f, size] : c.named) kept_.insert(f);
     }
     for (const auto& f : c.garbage)
       if (!c.named.count(f) && !c.retained.count(f)) fs::remove(dir_ + "/" + f, ec);
@@ -82,13 +81,19 @@ class DirectoryTileStorage final : public TileStorage {
   }
 
   Status delete_tiles(const std::set<std::string>& files) override {
+    std::lock_guard lock(mutex_);
     std::error_code ec;
-    for (const auto& f : files) fs::remove(dir_ + "/" + f, ec);
+    for (const auto& f : files)
+      if (!kept_.count(f)) fs::remove(dir_ + "/" + f, ec);
     return ok_status();
   }
 
   // The folder is this process's alone: whatever the record does not name is a cut update's or an older version's.
   Status collect(const std::set<std::string>& named, std::uint64_t) override {
+    {
+      std::lock_guard lock(mutex_);
+      kept_ = named;
+    }
     std::error_code ec;
     for (const auto& entry : fs::directory_iterator(dir_, ec)) {
       const std::string name = entry.path().filename().string();
@@ -120,6 +125,7 @@ class DirectoryTileStorage final : public TileStorage {
   std::string dir_;
   std::mutex mutex_;
   std::optional<std::uint64_t> known_version_;  // the committed record's, once read or written
+  std::set<std::string> kept_;  // what the committed record names or retains, as this storage learnt it
 };
 
 }  // namespace

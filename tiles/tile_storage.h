@@ -2,11 +2,13 @@
 // Where one mission's tile hierarchy (tiles/tile_hierarchy.h) keeps its record (the commit marker) and its tile files
 // ("<name>.v<version>.glb", immutable: a changed tile is a new name). Two implementations: a folder of this machine
 // (the directory store: directory_tile_storage()), and rows of a database shared by replicas (pgstore/). Contract:
-// - write_tile() stores a file before any record names it; it is idempotent: writing a name again with the same bytes
-//   changes nothing, with other bytes it is refused (kInvalidInput) and the stored bytes stay.
+// - write_tile() stores a file before any record names it, replacing an uncommitted file of that name (a cut or
+//   refused update's); a file the committed record keeps is never replaced (the call changes nothing: that record is
+//   at least the writer's version, so the writer's commit will be refused).
 // - commit() is the commit point: the record replaces the committed one whole, or nothing changes. It is refused
 //   (false, nothing written) when the committed record's version is not lower than the new one (another writer got
-//   there first: an older hierarchy never overwrites a newer one), or when a file it names is not stored. In the same
+//   there first: an older hierarchy never overwrites a newer one), or when a file it names is not stored with the
+//   size the record says (another writer's bytes under the same name: refused rather than served). In the same
 //   step it deletes `garbage`, except the files the committed record keeps (named or retained).
 // - A reader (read_record(), read_tile()) sees the last committed record whole, and every file it names and retains.
 // - collect() deletes what no hierarchy will name: the files neither named nor retained by the committed record,
@@ -16,6 +18,7 @@
 //   under the same name.
 // Thread-safe: read_tile() and local_file() may run while another thread writes.
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -34,7 +37,7 @@ struct TileRecordBytes {
 struct TileCommit {
   std::uint64_t version = 0;          // > the committed one's
   std::vector<std::uint8_t> record;   // a JSON object whose "version" is `version`
-  std::set<std::string> named;        // the files the record names: each stored already
+  std::map<std::string, std::uint64_t> named;  // the files the record names (-> bytes): each stored already
   std::set<std::string> retained;     // files kept while this record is committed (the previous version's)
   std::set<std::string> garbage;      // files to delete now
 };
@@ -62,8 +65,9 @@ class TileStorage {
 };
 
 // The directory store: hierarchy.json (the record, written atomically) and the files in `dir`, created when missing.
-// One process owns the folder; its version check compares with the record on disk when first needed, then with its
-// own commits.
+// One process owns the folder, through one storage per folder: its version check compares with the record on disk
+// when first needed, then with its commits, and what the committed record keeps is known from its commits and
+// collect().
 Result<std::unique_ptr<TileStorage>> directory_tile_storage(const std::string& dir);
 
 // The version in a tile file's name ("3_0_1.v12.glb" -> 12); nullopt for any other name.

@@ -86,12 +86,16 @@ TYPED_TEST_SUITE(TileStorageContract, Backends, test::SelfNamedTypes);
 
 std::vector<std::uint8_t> bytes(const std::string& s) { return {s.begin(), s.end()}; }
 
-TileCommit record(std::uint64_t version, std::set<std::string> named, std::set<std::string> retained = {},
-                  std::set<std::string> garbage = {}) {
+// A commit of `version` whose record names `named` with the sizes `s` stores for them (0 for a file not stored).
+TileCommit record(const TileStorage& s, std::uint64_t version, const std::set<std::string>& named,
+                  std::set<std::string> retained = {}, std::set<std::string> garbage = {}) {
   TileCommit c;
   c.version = version;
   c.record = bytes("{\"version\":" + std::to_string(version) + "}");
-  c.named = std::move(named);
+  for (const auto& f : named) {
+    auto stored = s.read_tile(f);
+    c.named[f] = stored ? stored->size() : 0;
+  }
   c.retained = std::move(retained);
   c.garbage = std::move(garbage);
   return c;
@@ -108,7 +112,7 @@ TYPED_TEST(TileStorageContract, TilesAndTheirRecordAreReadBackAsCommitted) {
   EXPECT_EQ(*s->committed_version(), 0u);
   ASSERT_TRUE(s->write_tile("0_0_0_1.v1.glb", bytes("leaf one")));
   ASSERT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("inner one")));
-  auto committed = s->commit(record(1, {"0_0_0_1.v1.glb", "1_0_0.v1.glb"}));
+  auto committed = s->commit(record(*s, 1, {"0_0_0_1.v1.glb", "1_0_0.v1.glb"}));
   ASSERT_TRUE(committed) << committed.error().message;
   EXPECT_TRUE(*committed);
   auto r = s->read_record();
@@ -124,15 +128,28 @@ TYPED_TEST(TileStorageContract, TilesAndTheirRecordAreReadBackAsCommitted) {
   EXPECT_EQ(s->local_file("2_0_0.v1.glb").error().code, ErrorCode::kNotFound);
 }
 
-TYPED_TEST(TileStorageContract, AFileWrittenAgainIsTheSameTileAndOtherBytesAreRefused) {
+TYPED_TEST(TileStorageContract, AnUncommittedFileIsReplacedAndACommittedOneNever) {
   auto s = this->open();
   ASSERT_TRUE(s);
+  ASSERT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("a cut update's")));
   ASSERT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("tile")));
-  EXPECT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("tile")));
-  auto other = s->write_tile("1_0_0.v1.glb", bytes("another tile"));
-  ASSERT_FALSE(other);
-  EXPECT_EQ(other.error().code, ErrorCode::kInvalidInput);
   EXPECT_EQ(*s->read_tile("1_0_0.v1.glb"), bytes("tile"));
+  ASSERT_TRUE(*s->commit(record(*s, 1, {"1_0_0.v1.glb"})));
+  EXPECT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("tile")));
+  EXPECT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("a stale writer's")));  // changes nothing
+  EXPECT_EQ(*s->read_tile("1_0_0.v1.glb"), bytes("tile"));
+  EXPECT_EQ(*this->open("fresh")->read_tile("1_0_0.v1.glb"), bytes("tile"));
+}
+
+// A record whose file holds other bytes than it says (another writer's build under the same name) is refused.
+TYPED_TEST(TileStorageContract, ARecordWhoseFileHoldsOtherBytesIsRefused) {
+  auto s = this->open();
+  ASSERT_TRUE(s);
+  ASSERT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("another writer's")));
+  TileCommit c = record(*s, 1, {"1_0_0.v1.glb"});
+  c.named["1_0_0.v1.glb"] = 4;  // what this writer built: "tile"
+  EXPECT_FALSE(*s->commit(c));
+  EXPECT_FALSE(*s->read_record());
 }
 
 TYPED_TEST(TileStorageContract, AnOlderRecordNeverOverwritesANewerOne) {
@@ -140,16 +157,16 @@ TYPED_TEST(TileStorageContract, AnOlderRecordNeverOverwritesANewerOne) {
   auto b = this->open("b");
   ASSERT_TRUE(a && b);
   ASSERT_TRUE(a->write_tile("1_0_0.v2.glb", bytes("a's")));
-  ASSERT_TRUE(*a->commit(record(2, {"1_0_0.v2.glb"})));
+  ASSERT_TRUE(*a->commit(record(*a, 2, {"1_0_0.v2.glb"})));
   // b, a second writer of the same mission, still at version 0: its version 1 and its own version 2 are refused.
   ASSERT_TRUE(b->write_tile("1_0_1.v1.glb", bytes("b's")));
-  EXPECT_FALSE(*b->commit(record(1, {"1_0_1.v1.glb"})));
-  EXPECT_FALSE(*b->commit(record(2, {"1_0_1.v1.glb"})));
+  EXPECT_FALSE(*b->commit(record(*b, 1, {"1_0_1.v1.glb"})));
+  EXPECT_FALSE(*b->commit(record(*b, 2, {"1_0_1.v1.glb"})));
   EXPECT_EQ((*b->read_record())->version, 2u);
   EXPECT_EQ(*b->committed_version(), 2u);
   EXPECT_EQ(*a->read_tile("1_0_0.v2.glb"), bytes("a's"));
   // A newer one goes in.
-  EXPECT_TRUE(*b->commit(record(3, {"1_0_0.v2.glb", "1_0_1.v1.glb"})));
+  EXPECT_TRUE(*b->commit(record(*b, 3, {"1_0_0.v2.glb", "1_0_1.v1.glb"})));
   EXPECT_EQ((*a->read_record())->version, 3u);
 }
 
@@ -157,7 +174,7 @@ TYPED_TEST(TileStorageContract, ARecordNamingAFileNotStoredIsRefused) {
   auto s = this->open();
   ASSERT_TRUE(s);
   ASSERT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("tile")));
-  EXPECT_FALSE(*s->commit(record(1, {"1_0_0.v1.glb", "1_0_1.v1.glb"})));
+  EXPECT_FALSE(*s->commit(record(*s, 1, {"1_0_0.v1.glb", "1_0_1.v1.glb"})));
   EXPECT_FALSE(*s->read_record());
 }
 
@@ -165,13 +182,13 @@ TYPED_TEST(TileStorageContract, RetiredAndUnnamedFilesAreCollectedAndKeptOnesSta
   auto s = this->open();
   ASSERT_TRUE(s);
   ASSERT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("v1")));
-  ASSERT_TRUE(*s->commit(record(1, {"1_0_0.v1.glb"})));
+  ASSERT_TRUE(*s->commit(record(*s, 1, {"1_0_0.v1.glb"})));
   ASSERT_TRUE(s->write_tile("1_0_0.v2.glb", bytes("v2")));
-  ASSERT_TRUE(*s->commit(record(2, {"1_0_0.v2.glb"}, {"1_0_0.v1.glb"})));
+  ASSERT_TRUE(*s->commit(record(*s, 2, {"1_0_0.v2.glb"}, {"1_0_0.v1.glb"})));
   EXPECT_TRUE(stored(*s, "1_0_0.v1.glb")) << "the previous version's file stays";
   ASSERT_TRUE(s->write_tile("1_0_0.v3.glb", bytes("v3")));
   // The garbage names a kept file too (the one the new record retains): that one stays.
-  ASSERT_TRUE(*s->commit(record(3, {"1_0_0.v3.glb"}, {"1_0_0.v2.glb"}, {"1_0_0.v1.glb", "1_0_0.v2.glb"})));
+  ASSERT_TRUE(*s->commit(record(*s, 3, {"1_0_0.v3.glb"}, {"1_0_0.v2.glb"}, {"1_0_0.v1.glb", "1_0_0.v2.glb"})));
   EXPECT_FALSE(stored(*s, "1_0_0.v1.glb"));
   EXPECT_TRUE(stored(*s, "1_0_0.v2.glb"));
   EXPECT_TRUE(stored(*s, "1_0_0.v3.glb"));
@@ -188,7 +205,7 @@ TYPED_TEST(TileStorageContract, RemoveDeletesTheRecordAndEveryFile) {
   ASSERT_TRUE(s);
   ASSERT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("tile")));
   ASSERT_TRUE(s->write_tile("1_0_1.v1.glb", bytes("unnamed")));
-  ASSERT_TRUE(*s->commit(record(1, {"1_0_0.v1.glb"})));
+  ASSERT_TRUE(*s->commit(record(*s, 1, {"1_0_0.v1.glb"})));
   ASSERT_TRUE(this->backend.remove_mission());  // what removes a mission's tiles in a shared storage
   ASSERT_TRUE(s->remove());
   EXPECT_FALSE(*s->read_record());
@@ -205,9 +222,9 @@ TYPED_TEST(TileStorageContract, AStorageOpenedAgainSeesTheLastCommittedRecordAnd
     auto s = this->open("a");
     ASSERT_TRUE(s);
     ASSERT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("v1")));
-    ASSERT_TRUE(*s->commit(record(1, {"1_0_0.v1.glb"})));
+    ASSERT_TRUE(*s->commit(record(*s, 1, {"1_0_0.v1.glb"})));
     ASSERT_TRUE(s->write_tile("1_0_0.v2.glb", bytes("v2")));
-    ASSERT_TRUE(*s->commit(record(2, {"1_0_0.v2.glb"}, {"1_0_0.v1.glb"})));
+    ASSERT_TRUE(*s->commit(record(*s, 2, {"1_0_0.v2.glb"}, {"1_0_0.v1.glb"})));
     ASSERT_TRUE(s->write_tile("1_0_0.v3.glb", bytes("uncommitted")));
   }
   // With the directory store the same folder; with PostgreSQL another replica's empty cache.
@@ -230,7 +247,7 @@ TYPED_TEST(TileStorageContract, ACollectionLeavesFilesAboveTheCommittedVersionOn
   auto b = this->open("b");
   ASSERT_TRUE(a && b);
   ASSERT_TRUE(a->write_tile("1_0_0.v1.glb", bytes("v1")));
-  ASSERT_TRUE(*a->commit(record(1, {"1_0_0.v1.glb"})));
+  ASSERT_TRUE(*a->commit(record(*a, 1, {"1_0_0.v1.glb"})));
   ASSERT_TRUE(a->write_tile("1_0_0.v2.glb", bytes("under way")));
   auto collected = b->collect({"1_0_0.v1.glb"}, 1);
   ASSERT_TRUE(collected) << collected.error().message;
@@ -244,7 +261,7 @@ TEST_F(PgTileRows, AMissionsRemovalTakesItsTilesAlong) {
   auto s = open();
   ASSERT_TRUE(s);
   ASSERT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("tile")));
-  ASSERT_TRUE(*s->commit(record(1, {"1_0_0.v1.glb"})));
+  ASSERT_TRUE(*s->commit(record(*s, 1, {"1_0_0.v1.glb"})));
   ASSERT_TRUE(backend.sql("DELETE FROM missions WHERE name = 'm1'"));
   auto fresh = open("fresh");  // an empty cache: what the rows hold
   ASSERT_TRUE(fresh);
@@ -262,7 +279,7 @@ TEST_F(PgTileRows, ADeletionNeverTakesAFileTheCommittedRecordKeeps) {
   ASSERT_TRUE(a && b);
   ASSERT_TRUE(a->write_tile("1_0_0.v1.glb", bytes("tile")));
   ASSERT_TRUE(a->write_tile("1_0_1.v1.glb", bytes("dropped")));
-  ASSERT_TRUE(*a->commit(record(1, {"1_0_0.v1.glb"})));
+  ASSERT_TRUE(*a->commit(record(*a, 1, {"1_0_0.v1.glb"})));
   ASSERT_TRUE(b->delete_tiles({"1_0_0.v1.glb", "1_0_1.v1.glb"}));
   EXPECT_TRUE(stored(*b, "1_0_0.v1.glb"));
   EXPECT_FALSE(stored(*b, "1_0_1.v1.glb"));
@@ -273,7 +290,7 @@ TEST_F(PgTileRows, ALateRemovalLeavesTheTilesOfAMissionMadeAgain) {
   auto s = open();
   ASSERT_TRUE(s);
   ASSERT_TRUE(s->write_tile("1_0_0.v1.glb", bytes("new mission's")));
-  ASSERT_TRUE(*s->commit(record(1, {"1_0_0.v1.glb"})));
+  ASSERT_TRUE(*s->commit(record(*s, 1, {"1_0_0.v1.glb"})));
   ASSERT_TRUE(open("late")->remove());
   EXPECT_EQ((*s->read_record())->version, 1u);
   EXPECT_TRUE(stored(*open("fresh"), "1_0_0.v1.glb"));

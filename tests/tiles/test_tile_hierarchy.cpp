@@ -650,5 +650,37 @@ TEST(TileHierarchyTest, EveryTileIsAValidCompactGlbAndStorageIsMeasured) {
   }
 }
 
+// Two writers of one storage (replicas sharing a database; here one folder's storage shared by two hierarchies): the
+// one that commits second is refused, is superseded, leaves no file of its own behind, and the storage keeps the
+// first one's hierarchy, which a hierarchy opened again serves and goes on from.
+TEST(TileHierarchyTest, AWriterThatCommitsSecondIsSupersededAndLeavesTheFirstOnesHierarchy) {
+  REQUIRE_KEYFRAMES();
+  const std::string dir = test::temp_dir("tiles-two-writers");
+  auto storage = directory_tile_storage(dir);
+  ASSERT_TRUE(storage) << storage.error().message;
+  const std::shared_ptr<TileStorage> shared = std::move(*storage);
+  auto first_writer = TileHierarchy::open(shared, TilingOptions{});
+  auto second_writer = TileHierarchy::open(shared, TilingOptions{});
+  ASSERT_TRUE(first_writer && second_writer);
+  ASSERT_TRUE((*first_writer)->update(first(2), loader()));
+  const auto committed = contents(**first_writer);
+  auto late = (*second_writer)->update(first(3), loader());
+  ASSERT_FALSE(late);
+  EXPECT_TRUE((*second_writer)->superseded()) << late.error().message;
+  EXPECT_EQ((*second_writer)->version(), 0u);
+  size_t files = 0;
+  for (const auto& e : fs::directory_iterator(dir)) files += e.path().extension() == ".glb";
+  EXPECT_EQ(files, (*first_writer)->tiles().size()) << "the refused update's files are deleted";
+
+  auto reopened = TileHierarchy::open(shared, TilingOptions{});
+  ASSERT_TRUE(reopened);
+  EXPECT_EQ((*reopened)->version(), (*first_writer)->version());
+  EXPECT_EQ(contents(**reopened), committed);
+  auto next = (*reopened)->update(first(3), loader());
+  ASSERT_TRUE(next) << next.error().message;
+  EXPECT_EQ(next->keyframes_changed, 1u);
+  EXPECT_GT((*reopened)->version(), (*first_writer)->version());
+}
+
 }  // namespace
 }  // namespace rgbdcast::tiles
