@@ -4,11 +4,15 @@
 // replica that takes a mission over (failover, a restart on another machine, a new replica) loads its tileset
 // instead of building it again, and tiles outlive a replica's disk. TileStorage's contract (tiles/tile_storage.h);
 // besides it:
-// - write_tile() is INSERT ... ON CONFLICT DO NOTHING; a name already stored with other bytes is refused.
+// - write_tile() is one upsert whose update applies only to a row the committed record does not keep, so a kept
+//   tile is never rewritten and an uncommitted one (a crashed or refused replica's) never blocks a writer.
 // - commit() is one transaction under the mission's row lock (every write but write_tile() takes it, so commits,
 //   deletions and collections of one mission are serialized across replicas): it is refused unless the stored
-//   version is lower and every named file is stored; it replaces the record, version and kept files, and deletes
-//   the garbage. Nothing a committed record keeps is ever deleted.
+//   version is lower and every named file is stored with the size the record says; it replaces the record, version
+//   and kept files, and deletes the garbage. Nothing a committed record keeps is ever deleted or rewritten.
+// - Two replicas whose uncommitted builds share a name and a size, one rewriting the other's between its write and
+//   its commit, are not told apart (sizes are compared, not contents); builds are functions of their inputs, so
+//   such a pair is almost always the same bytes.
 // - collect() deletes the mission's files that the committed record does not keep and whose version is not above
 //   it (a file of a higher version is another replica's update under way).
 // - remove() leaves the rows of a mission that exists (made again since it was removed): a mission's rows go with
