@@ -26,7 +26,8 @@ void register_serve(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--store", opts->store,
                   "Where scenes and missions live: \"directory\" (--data-dir) or a PostgreSQL URI "
-                  "(postgresql://...) shared by replicas; --data-dir then holds this replica's tile cache")
+                  "(postgresql://...) shared by replicas, tiles included; --data-dir then holds this replica's copy of "
+                  "the tiles it served")
       ->default_str("directory");
   cmd->add_option("--replica", opts->replica, "This replica's name, sent as X-Rgbdcast-Replica (default: host name)");
   cmd->add_option("--drain-s", opts->drain_s,

@@ -6,8 +6,8 @@
 # - PostgreSQL 15 (Debian's): initdb into DIR/pg/data on first use, then a server listening only on a unix socket in
 #   DIR/pg (no TCP port). PostgreSQL refuses to run as root: as root it runs as the `postgres` user, which must be
 #   able to reach DIR (a folder under /tmp works; one under /root does not).
-# - N replicas of `rgbdcast serve --store postgresql://...`, named 1..N, on ports P+1..P+N, each with its tile cache
-#   in DIR/replica-NAME/ and its output in DIR/replica-NAME.log. SERVE_OPTIONS are added to each.
+# - N replicas of `rgbdcast serve --store postgresql://...`, named 1..N, on ports P+1..P+N, each with its copy of the
+#   tiles in DIR/replica-NAME/ and its output in DIR/replica-NAME.log. SERVE_OPTIONS are added to each.
 # - nginx (Debian's) on port P with deploy/nginx.conf.in, written to DIR/nginx.conf.
 # It writes DIR/postgres.pid, DIR/replica-NAME.pid and DIR/nginx.pid, waits until every replica's /readyz answers 200
 # (at most 60 s each) and prints the front URL; a start that fails stops what is running in DIR. `down` stops exactly

@@ -44,14 +44,9 @@ double now_unix_s() {
 
 Result<std::unique_ptr<PgMissionStore>> PgMissionStore::open(const std::string& uri, size_t connections,
                                                              double poll_interval_s) {
-  auto pool = PgPool::open(uri, connections);
+  auto pool = open_migrated_pool(uri, connections);
   if (!pool) return pool.error();
   std::unique_ptr<PgMissionStore> store(new PgMissionStore(std::move(*pool)));
-  {
-    auto conn = store->pool_->lease();
-    if (!conn) return conn.error();
-    if (auto v = migrate(**conn); !v) return v.error();
-  }
   if (auto st = store->load_all(); !st) return st.error();
   store->listener_ = std::make_unique<PgMissionListener>(uri, *store, poll_interval_s);
   return store;

@@ -7,13 +7,8 @@ namespace rgbdcast::pgstore {
 using service::StoredScene;
 
 Result<std::unique_ptr<PgSceneStore>> PgSceneStore::open(const std::string& uri, size_t connections) {
-  auto pool = PgPool::open(uri, connections);
+  auto pool = open_migrated_pool(uri, connections);
   if (!pool) return pool.error();
-  {
-    auto conn = (*pool)->lease();
-    if (!conn) return conn.error();
-    if (auto v = migrate(**conn); !v) return v.error();
-  }
   return std::unique_ptr<PgSceneStore>(new PgSceneStore(std::move(*pool)));
 }
 

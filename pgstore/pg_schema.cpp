@@ -6,7 +6,7 @@ namespace rgbdcast::pgstore {
 namespace {
 
 // Append only: a released migration is never edited, a change is a new one.
-constexpr std::array<const char*, 1> kMigrations = {
+constexpr std::array<const char*, 2> kMigrations = {
     // 1: scenes, missions with their keyframes and change log, tiles.
     R"sql(
 CREATE TABLE scenes (
@@ -45,6 +45,19 @@ CREATE TABLE tiles (
   file text NOT NULL,
   bytes bytea NOT NULL,
   PRIMARY KEY (mission, file));
+)sql",
+    // 2: a mission's tiles are its rows: the committed hierarchy's version (a commit must be newer) and the files it
+    // keeps (named or retained: never deleted while it is committed); tiles and hierarchies go with their mission.
+    R"sql(
+ALTER TABLE tile_hierarchies
+  ADD COLUMN version bigint NOT NULL DEFAULT 0 CHECK (version >= 0),
+  ADD COLUMN keep text[] NOT NULL DEFAULT '{}';
+DELETE FROM tiles WHERE mission NOT IN (SELECT name FROM missions);
+DELETE FROM tile_hierarchies WHERE mission NOT IN (SELECT name FROM missions);
+ALTER TABLE tiles ADD CONSTRAINT tiles_of_a_mission
+  FOREIGN KEY (mission) REFERENCES missions (name) ON DELETE CASCADE;
+ALTER TABLE tile_hierarchies ADD CONSTRAINT tile_hierarchies_of_a_mission
+  FOREIGN KEY (mission) REFERENCES missions (name) ON DELETE CASCADE;
 )sql",
 };
 
@@ -87,6 +100,17 @@ Result<int> migrate(PgConnection& conn) {
   }
   unlock();
   return version;
+}
+
+Result<std::unique_ptr<PgPool>> open_migrated_pool(const std::string& uri, size_t connections) {
+  auto pool = PgPool::open(uri, connections);
+  if (!pool) return pool.error();
+  {
+    auto conn = (*pool)->lease();  // given back before the pool is
+    if (!conn) return conn.error();
+    if (auto v = migrate(**conn); !v) return v.error();
+  }
+  return pool;
 }
 
 }  // namespace rgbdcast::pgstore

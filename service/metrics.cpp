@@ -88,6 +88,14 @@ std::string Metrics::prometheus_text(const MetricsGauges& g) const {
   out += "# HELP rgbdcast_render_rejected_total Views refused with 503 because the render queue was full.\n";
   out += "# TYPE rgbdcast_render_rejected_total counter\n";
   out += "rgbdcast_render_rejected_total " + std::to_string(g.render_rejected) + "\n";
+  out += "# HELP rgbdcast_tiles_built_total Mission tiles this replica built, by kind (leaf: a keyframe's; inner).\n";
+  out += "# TYPE rgbdcast_tiles_built_total counter\n";
+  out += "rgbdcast_tiles_built_total{kind=\"leaf\"} " + std::to_string(g.leaves_built) + "\n";
+  out += "rgbdcast_tiles_built_total{kind=\"inner\"} " + std::to_string(g.inner_built) + "\n";
+  out += "# HELP rgbdcast_tile_hierarchies_loaded_total Mission tile hierarchies opened as committed (from the disk or "
+         "the database), not built.\n";
+  out += "# TYPE rgbdcast_tile_hierarchies_loaded_total counter\n";
+  out += "rgbdcast_tile_hierarchies_loaded_total " + std::to_string(g.hierarchies_loaded) + "\n";
   auto gauge = [&out](const char* name, const char* help, const std::string& value) {
     out += std::string("# HELP ") + name + " " + help + "\n# TYPE " + name + " gauge\n" + name + " " + value + "\n";
   };

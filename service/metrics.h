@@ -23,6 +23,8 @@ struct MetricsGauges {
   size_t missions_stored = 0;
   size_t event_streams_open = 0;
   size_t resident_part_bytes = 0, resident_parts = 0;  // missions' parts on the renderers (service/render_pool.h)
+  // Missions' tiles (service/mission_tiles.h): built by this replica, and hierarchies it loaded as committed.
+  std::uint64_t leaves_built = 0, inner_built = 0, hierarchies_loaded = 0;
 };
 
 class Histogram {

@@ -78,8 +78,13 @@ void send_tile_model(const httplib::Request& req, httplib::Response& res, const 
     if (!cut) return send_error(res, cut.error());
     files = std::move(*cut);
     std::vector<std::string> paths;
-    for (const auto& f : files) paths.push_back(tiles.tile_dir(mission) + "/" + f);
-    auto opened = glb::GlbFileMerge::open(paths);
+    Result<std::unique_ptr<glb::GlbFileMerge>> opened = make_error(ErrorCode::kNotFound, "no tile");
+    for (const auto& f : files) {
+      auto path = tiles.tile_file(mission, f);
+      if (!path) break;
+      paths.push_back(*path);
+    }
+    if (paths.size() == files.size()) opened = glb::GlbFileMerge::open(paths);
     if (opened) merge = std::move(*opened);
     else if (opened.error().code != ErrorCode::kNotFound) return send_error(res, opened.error());
   }

@@ -511,7 +511,9 @@ void MissionRoutes::get_tile(const httplib::Request& req, httplib::Response& res
   if (answer_not_modified(req, res, etag)) return;
   auto bytes = std::make_shared<std::string>();
   {
-    std::ifstream in(tiles_.tile_dir(*name) + "/" + file, std::ios::binary);
+    auto path = tiles_.tile_file(*name, file);
+    std::ifstream in;
+    if (path) in.open(*path, std::ios::binary);
     if (!in) return send_error(res, 404, "no tile " + file + " in mission " + *name + " (removed meanwhile)");
     bytes->assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   }

@@ -10,10 +10,12 @@ namespace rgbdcast::service {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-MissionTiles::MissionTiles(std::string data_dir, MissionStore& missions, tiles::TilingOptions options)
+MissionTiles::MissionTiles(std::string data_dir, MissionStore& missions, tiles::TilingOptions options,
+                           TileStorageFactory storage)
     : root_((fs::path(data_dir) / "tiles").string()),
       missions_(missions),
       options_(std::move(options)),
+      storage_(std::move(storage)),
       epoch_(Clock::now()) {}
 
 MissionTiles::~MissionTiles() { stop(); }
@@ -73,6 +75,15 @@ void MissionTiles::forget(const std::string& mission) {
   cv_.wait(lock, [&] { return busy_ != mission && sweeping_ != mission; });  // what is under way finishes first
   hierarchies_.erase(mission);
   snapshots_.erase(mission);
+  auto storage = storages_.count(mission) ? storages_[mission] : nullptr;
+  storages_.erase(mission);
+  lock.unlock();
+  if (!storage) {  // never opened here: its folder (and, when shared, its rows) may still hold tiles
+    auto opened = open_storage(mission);
+    if (opened) storage = std::move(*opened);
+  }
+  if (storage)
+    if (auto st = storage->remove(); !st) failed("mission " + mission + ": " + st.error().message);
   std::error_code ec;
   fs::remove_all(tile_dir(mission), ec);
 }
@@ -84,6 +95,51 @@ std::shared_ptr<const tiles::TilesetSnapshot> MissionTiles::snapshot(const std::
 }
 
 std::string MissionTiles::tile_dir(const std::string& mission) const { return root_ + "/" + mission; }
+
+Result<std::string> MissionTiles::tile_file(const std::string& mission, const std::string& file) const {
+  std::shared_ptr<tiles::TileStorage> storage;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = storages_.find(mission);
+    if (it == storages_.end()) return make_error(ErrorCode::kNotFound, "no tiles of mission " + mission + " yet");
+    storage = it->second;
+  }
+  return storage->local_file(file);
+}
+
+Result<std::shared_ptr<tiles::TileStorage>> MissionTiles::open_storage(const std::string& mission) const {
+  auto storage = storage_ ? storage_(mission, tile_dir(mission)) : tiles::directory_tile_storage(tile_dir(mission));
+  if (!storage) return storage.error();
+  return std::shared_ptr<tiles::TileStorage>(std::move(*storage));
+}
+
+// Opens (or opens again) the mission's hierarchy from its storage; entry.lock held.
+Status MissionTiles::open_hierarchy(const std::string& mission, Entry& entry) {
+  auto storage = open_storage(mission);
+  if (!storage) return storage.error();
+  auto opened = tiles::TileHierarchy::open(*storage, options_);
+  if (!opened) return opened.error();
+  entry.hierarchy = std::move(*opened);
+  std::lock_guard lock(mutex_);
+  storages_[mission] = *storage;
+  if (entry.hierarchy->version() > 0) {
+    ++stats_.opened_committed;
+    std::cerr << "tiles: mission " << mission << ": opened version " << entry.hierarchy->version() << " from "
+              << (*storage)->where() << "\n";
+  }
+  return ok_status();
+}
+
+bool MissionTiles::superseded(const std::string& mission, Entry& entry) {
+  if (!entry.hierarchy || !entry.hierarchy->superseded()) return false;
+  entry.hierarchy.reset();  // the next update opens what the other replica committed
+  {
+    std::lock_guard lock(mutex_);
+    ++stats_.superseded;
+  }
+  enqueue(mission);
+  return true;
+}
 
 bool MissionTiles::wait_idle(double timeout_s) const {
   std::unique_lock lock(mutex_);
@@ -178,11 +234,12 @@ void MissionTiles::update_one(const std::string& mission) {
     entry = slot.get();
   }
   std::lock_guard hold(entry->lock);
-  if (!entry->hierarchy) {
-    auto opened = tiles::TileHierarchy::open(tile_dir(mission), options_);
-    if (!opened) return failed("mission " + mission + ": " + opened.error().message);
-    entry->hierarchy = std::move(*opened);
+  if (entry->hierarchy) {  // another replica may have committed since (a storage shared by replicas)
+    auto committed = entry->hierarchy->storage().committed_version();
+    if (committed && *committed > entry->hierarchy->version()) entry->hierarchy.reset();
   }
+  if (!entry->hierarchy)
+    if (auto st = open_hierarchy(mission, *entry); !st) return failed("mission " + mission + ": " + st.error().message);
   std::vector<tiles::KeyframeId> wanted;
   std::map<std::int64_t, const MissionKeyframe*> by_seq;
   for (const auto& k : *keyframes) {
@@ -198,6 +255,7 @@ void MissionTiles::update_one(const std::string& mission) {
       },
       std::chrono::duration<double>(t0 - epoch_).count(), &stop_update_);
   if (!updated && stop_update_) return;  // stopped: uncommitted, not a failure
+  if (!updated && superseded(mission, *entry)) return;
   if (!updated) {
     published(mission, *entry, entry->hierarchy->status(now_s()));
     return failed("mission " + mission + ": " + updated.error().message);
@@ -222,16 +280,24 @@ void MissionTiles::sweep_one(const std::string& mission) {
   }
   const auto t0 = Clock::now();
   std::optional<tiles::TileHierarchy::PendingBuild> pending;
+  std::shared_ptr<tiles::TileHierarchy> hierarchy;
   {
     std::lock_guard hold(entry->lock);
     if (!entry->hierarchy) return;
-    pending = entry->hierarchy->next_build(now_s());
+    hierarchy = entry->hierarchy;
+    pending = hierarchy->next_build(now_s());
     // None due yet (a keyframe came since it was scheduled): come back when one is.
-    if (!pending) return published(mission, *entry, entry->hierarchy->status(now_s()));
+    if (!pending) return published(mission, *entry, hierarchy->status(now_s()));
   }
-  auto built = entry->hierarchy->build_tile(*pending);  // no lock: the leaf worker commits meanwhile
+  auto built = hierarchy->build_tile(*pending);  // no lock: the leaf worker commits meanwhile
   std::lock_guard hold(entry->lock);
+  if (entry->hierarchy != hierarchy) {  // opened again meanwhile: this build is of a hierarchy no longer served
+    if (built) (void)hierarchy->storage().delete_tiles({built->file()});
+    if (entry->hierarchy) published(mission, *entry, entry->hierarchy->status(now_s()));
+    return;
+  }
   auto finished = entry->hierarchy->finish_build(*pending, std::move(built), now_s());
+  if (!finished && superseded(mission, *entry)) return;
   if (!finished) {
     published(mission, *entry, entry->hierarchy->status(now_s()));
     return failed("mission " + mission + ": " + finished.error().message);

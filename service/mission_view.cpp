@@ -52,12 +52,15 @@ MissionViewPlan plan_mission_view(const MissionStore& store, const MissionTiles&
     const tiles::TileSelection selection = tiles::select_tiles_to_fit(
         snapshot->records, snapshot->top_level, plan.camera, max_error_px, fit_bytes, kMaxMaxErrorPx,
         &plan.max_error_px);
-    const std::string dir = tiles.tile_dir(name);
     for (const tiles::TileRecord* r : selection.tiles) {
       const std::string file = r->file();
       // A tile file stays on disk for one more version after it is replaced (tiles/tile_hierarchy.h); a view that
       // loads it later than that leaves it out.
-      plan.parts.push_back({prefix + "tile/" + file, [path = dir + "/" + file] { return load_tile(path); }});
+      plan.parts.push_back({prefix + "tile/" + file, [&tiles, name, file]() -> Result<std::shared_ptr<const Scene>> {
+                              auto path = tiles.tile_file(name, file);
+                              if (!path) return path.error();
+                              return load_tile(*path);
+                            }});
     }
     plan.tiles = selection.tiles.size();
     plan.stale_tiles = snapshot->stale;

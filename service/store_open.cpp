@@ -3,6 +3,7 @@
 #include "pgstore/pg_connection.h"
 #include "pgstore/pg_mission_store.h"
 #include "pgstore/pg_scene_store.h"
+#include "pgstore/pg_tile_storage.h"
 
 namespace rgbdcast::service {
 
@@ -26,11 +27,15 @@ Result<OpenedStores> open_stores(const std::string& store, const std::string& da
   if (!scenes) return scenes.error();
   auto missions = pgstore::PgMissionStore::open(store);
   if (!missions) return missions.error();
+  auto tiles = pgstore::PgTileStores::open(store);
+  if (!tiles) return tiles.error();
   pgstore::PgMissionStore* pg = missions->get();
   out.scenes = std::move(*scenes);
   out.missions = std::move(*missions);
   out.kind = "postgresql";
   out.follow_changes = [pg](std::function<void(const std::string&)> f) { pg->set_on_change(std::move(f)); };
+  out.tile_storage = [stores = std::shared_ptr<pgstore::PgTileStores>(std::move(*tiles))](
+                         const std::string& mission, const std::string& dir) { return stores->storage(mission, dir); };
   return out;
 }
 

@@ -7,6 +7,7 @@
 
 #include "scene/result.h"
 #include "service/mission_store.h"
+#include "service/mission_tiles.h"
 #include "service/scene_store.h"
 
 namespace rgbdcast::service {
@@ -18,6 +19,8 @@ struct OpenedStores {
   // Sets (or, with an empty function, clears) what runs after each mission change made through another replica;
   // clearing waits for a call under way. A no-op for the directory store, whose changes are all this process's.
   std::function<void(std::function<void(const std::string&)>)> follow_changes;
+  // Where missions' tiles are kept: empty for the directory store (--data-dir), the database's rows for PostgreSQL.
+  TileStorageFactory tile_storage;
 };
 
 // `store`: empty or "directory" (data_dir), or postgresql://... / postgres://... Errors: kInvalidArgument for any

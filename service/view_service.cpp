@@ -84,6 +84,7 @@ struct ViewService::Impl {
   std::string replica;     // the name sent as X-Rgbdcast-Replica
   std::string store_kind;  // "directory" or "postgresql"
   std::function<void(std::function<void(const std::string&)>)> follow_changes;  // OpenedStores::follow_changes
+  TileStorageFactory tile_storage;                                             // OpenedStores::tile_storage
   std::atomic<bool> draining{false};
   std::unique_ptr<SceneStore> store;
   std::unique_ptr<RenderPool> pool;
@@ -411,6 +412,10 @@ void ViewService::Impl::routes() {
     g.event_streams_open = static_cast<size_t>(mission_routes->open_streams());
     g.resident_part_bytes = pool->resident_part_bytes();
     g.resident_parts = pool->resident_parts();
+    const MissionTilesStats t = tiles->stats();
+    g.leaves_built = t.leaves_built;
+    g.inner_built = t.inner_built;
+    g.hierarchies_loaded = t.opened_committed;
     res.set_content(metrics.prometheus_text(g), "text/plain; version=0.0.4; charset=utf-8");
   }));
   server->Post("/v1/scenes", guarded_reader([this](Req req, Res res, const httplib::ContentReader& reader) {
@@ -523,6 +528,7 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   impl->missions = std::move(stores->missions);
   impl->store_kind = stores->kind;
   impl->follow_changes = std::move(stores->follow_changes);
+  impl->tile_storage = std::move(stores->tile_storage);
   for (const auto& q : impl->store->quarantined())
     std::fprintf(stderr, "rgbdcast serve: warning: %s\n", q.c_str());
   for (const auto& q : impl->missions->quarantined())
@@ -567,7 +573,8 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   mission_options.event_stream_max_s = options.event_stream_max_s;
   mission_options.keep_alive_s = options.keep_alive_s;
   Impl* raw = impl.get();
-  impl->tiles = std::make_unique<MissionTiles>(options.data_dir, *impl->missions);
+  impl->tiles = std::make_unique<MissionTiles>(options.data_dir, *impl->missions, tiles::TilingOptions{},
+                                               impl->tile_storage);
   impl->tiles->start();
   // Keyframes and removals made through other replicas (a shared store) bring this replica's tiles up to date too.
   MissionTiles* tiles = impl->tiles.get();

@@ -22,7 +22,8 @@ namespace rgbdcast::service {
 struct ServeOptions {
   std::string data_dir = "rgbdcast-data";
   // Where scenes and missions live: empty (or "directory") for the folder data_dir, or a libpq URI
-  // (postgresql://...) for a database shared by replicas (pgstore/); data_dir then holds this replica's tile cache.
+  // (postgresql://...) for a database shared by replicas (pgstore/), tiles included; data_dir then holds this
+  // replica's copy of the tiles it served.
   std::string store;
   std::string replica;  // this replica's name, sent as X-Rgbdcast-Replica on every response; empty: the host name
   double drain_s = 0.0;  // on stop(): seconds /readyz answers 503 while requests are still served, then the stop

@@ -2,27 +2,22 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <list>
 #include <memory>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
-#include "base/atomic_file.h"
 #include "gltf/gltf_io.h"
 #include "scene/render_bytes.h"
 #include "tiles/tileset_json.h"
 
 namespace rgbdcast::tiles {
-namespace fs = std::filesystem;
 namespace {
 
-constexpr const char* kManifest = "hierarchy.json";
 constexpr int kFormat = 6;  // 2: inner tiles are textured; 3: their texels at least twice their children's;
                             // 4: records carry render bytes; 5: keyframes are the leaves, inner tiles can be stale;
                             // 6: inner tiles keep one layer where children overlap
-constexpr size_t kMaxManifestBytes = size_t(256) << 20;
 
 nlohmann::json options_json(const TilingOptions& o) {
   return {{"leaf_size_m", o.leaf_size_m},     {"top_level", o.top_level},
@@ -83,8 +78,20 @@ std::vector<const TileRecord*> children_of(const std::map<TileKey, TileRecord>& 
   return out;
 }
 
-// One commit in the making: the new state, built beside the committed one.
+// One commit in the making: the new state, built beside the committed one. The files it wrote are deleted when it
+// ends uncommitted (an error, a stop), so that a retry may write other bytes under the same names.
 struct TileHierarchy::Build {
+  explicit Build(TileStorage* s) : storage(s) {}
+  Build(Build&& o) noexcept  // begin_build() returns one; o then owns no file
+      : storage(o.storage), written(std::exchange(o.written, {})), version(o.version), tiles(std::move(o.tiles)),
+        keyframes(std::move(o.keyframes)), leaves(std::move(o.leaves)), restaled(std::move(o.restaled)),
+        built(std::move(o.built)), stats(o.stats) {}
+  Build& operator=(const Build&) = delete;
+  ~Build() {
+    if (!written.empty()) (void)storage->delete_tiles(written);
+  }
+  TileStorage* storage;
+  std::set<std::string> written;  // uncommitted files
   std::uint64_t version = 0;
   std::map<TileKey, TileRecord> tiles;
   std::map<std::int64_t, KeyframeEntry> keyframes;
@@ -95,35 +102,37 @@ struct TileHierarchy::Build {
 };
 
 Result<std::unique_ptr<TileHierarchy>> TileHierarchy::open(const std::string& dir, const TilingOptions& options) {
+  auto storage = directory_tile_storage(dir);
+  if (!storage) return storage.error();
+  return open(std::shared_ptr<TileStorage>(std::move(*storage)), options);
+}
+
+Result<std::unique_ptr<TileHierarchy>> TileHierarchy::open(std::shared_ptr<TileStorage> storage,
+                                                           const TilingOptions& options) {
   if (!(options.leaf_size_m > 0.0) || options.top_level < 1 || options.top_level > 30 || options.inner_triangles == 0)
     return make_error(ErrorCode::kInvalidArgument, "tiles: leaf_size_m > 0, top_level 1..30, inner_triangles > 0");
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) return make_error(ErrorCode::kIo, "tiles: cannot create " + dir + ": " + ec.message());
-  std::unique_ptr<TileHierarchy> h(new TileHierarchy(dir, options));
-  if (!h->load_committed()) {  // unreadable or made with other options: start again
+  std::unique_ptr<TileHierarchy> h(new TileHierarchy(std::move(storage), options));
+  auto record = h->storage_->read_record();
+  if (!record) return record.error();
+  if (*record && !h->load_committed((*record)->bytes)) {  // unreadable or made with other options: start again
     h->tiles_.clear();
     h->keyframes_.clear();
-    h->version_ = 0;
+    h->version_ = (*record)->version;  // after the stored one, which the storage compares with
   }
-  // Whatever the committed records do not name is a cut update's (or an older version's): delete it.
-  std::set<std::string> named = {kManifest};
+  // Whatever the committed record does not name is a cut update's (or an older version's).
+  std::set<std::string> named;
   for (const auto& [key, r] : h->tiles_)
     if (r.has_content()) named.insert(r.file());
-  for (const auto& entry : fs::directory_iterator(dir, ec))
-    if (!named.count(entry.path().filename().string())) fs::remove_all(entry.path(), ec);
+  if (auto st = h->storage_->collect(named, h->version_); !st) return st.error();
   h->publish();
   return h;
 }
 
 TileHierarchy::~TileHierarchy() = default;
 
-Status TileHierarchy::load_committed() {
-  const std::string path = dir_ + "/" + kManifest;
-  if (!fs::exists(path)) return ok_status();
-  auto bytes = read_file_bytes(path, kMaxManifestBytes);
-  if (!bytes) return bytes.error();
-  const auto j = nlohmann::json::parse(bytes->begin(), bytes->end(), nullptr, false);
+Status TileHierarchy::load_committed(const std::vector<std::uint8_t>& record) {
+  const std::string path = storage_->where();
+  const auto j = nlohmann::json::parse(record.begin(), record.end(), nullptr, false);
   if (j.is_discarded() || !j.is_object() || j.value("format", 0) != kFormat ||
       j.value("options", nlohmann::json()) != options_json(options_))
     return make_error(ErrorCode::kInvalidInput, "tiles: " + path + " is not this hierarchy's");
@@ -160,7 +169,7 @@ Status TileHierarchy::load_committed() {
 }
 
 TileHierarchy::Build TileHierarchy::begin_build() const {
-  Build b;
+  Build b(storage_.get());
   b.version = version_ + 1;
   b.tiles = tiles_;
   b.keyframes = keyframes_;
@@ -280,7 +289,7 @@ namespace {
 
 // Encodes a tile's node as its GLB (compact: quantized, meshopt-compressed; its texture as the mesh holds it) and
 // writes it; the record gets its size and triangle count, and its box grows to hold the GLB's positions.
-Status write_tile(const std::string& dir, SceneNode node, GeometryCodec codec, TileRecord* r) {
+Status write_tile(TileStorage& storage, SceneNode node, GeometryCodec codec, TileRecord* r) {
   Scene scene;
   node.name = "tile_" + r->key.name();
   scene.nodes.push_back(std::move(node));
@@ -288,7 +297,7 @@ Status write_tile(const std::string& dir, SceneNode node, GeometryCodec codec, T
   options.geometry_codec = codec;
   auto glb = encode_glb(scene, options);
   if (!glb) return make_error(glb.error().code, "tile " + r->key.name() + ": " + glb.error().message);
-  if (auto st = write_file_atomically(dir + "/" + r->file(), *glb); !st) return st.error();
+  if (auto st = storage.write_tile(r->file(), *glb); !st) return st.error();
   r->bytes = glb->size();
   r->triangles = scene.triangle_count();
   r->render_bytes = render_bytes(scene);
@@ -302,8 +311,8 @@ Status write_tile(const std::string& dir, SceneNode node, GeometryCodec codec, T
 
 // A tile's content as its parent reads it, in world coordinates: the stored GLB decoded, whether it was written in
 // this update or an earlier one, so that a parent's input does not depend on which.
-Result<Mesh> read_tile(const std::string& dir, const TileRecord& r) {
-  auto bytes = read_file_bytes(dir + "/" + r.file(), size_t(512) << 20);
+Result<Mesh> read_tile(const TileStorage& storage, const TileRecord& r) {
+  auto bytes = storage.read_tile(r.file());
   if (!bytes) return bytes.error();
   auto scene = decode_glb(bytes->data(), bytes->size());
   if (!scene || scene->nodes.empty())
@@ -352,15 +361,15 @@ void TileHierarchy::mark_ancestors_stale(Build& b, const TileKey& leaf) {
 }
 
 // `key`'s content from `children` (their stored GLBs), written as "<key>.v<version>.glb": its record (box holding
-// the children's, error covering theirs), or kEmpty when no child or no triangle is left. Reads only dir_ and
-// options_, which never change: any thread may run it.
+// the children's, error covering theirs), or kEmpty when no child or no triangle is left. Reads only storage_ (which
+// is thread-safe) and options_, which never change: any thread may run it.
 Result<TileRecord> TileHierarchy::make_inner(const TileKey& key, const std::vector<TileRecord>& child_records,
                                              std::uint64_t version) const {
   std::vector<Mesh> children;
   TileRecord r;
   double child_error = 0.0;
   for (const TileRecord& c : child_records) {
-    auto mesh = read_tile(dir_, c);
+    auto mesh = read_tile(*storage_, c);
     if (!mesh) return mesh.error();
     children.push_back(std::move(*mesh));
     child_error = std::max(child_error, c.geometric_error_m);
@@ -377,7 +386,7 @@ Result<TileRecord> TileHierarchy::make_inner(const TileKey& key, const std::vect
   r.geometric_error_m = child_error + inner->layer_error_m + inner->simplify_error_m;
   SceneNode node;
   node.mesh = std::move(inner->mesh);
-  if (auto st = write_tile(dir_, std::move(node), options_.geometry, &r); !st) return st.error();
+  if (auto st = write_tile(*storage_, std::move(node), options_.geometry, &r); !st) return st.error();
   return r;
 }
 
@@ -396,6 +405,7 @@ Status TileHierarchy::put_inner(Build& b, const TileKey& key, Result<TileRecord>
     return ok_status();
   }
   if (!built) return built.error();
+  b.written.insert(built->file());
   b.stats.bytes_written += built->bytes;
   b.tiles[key] = *built;
   ++b.stats.inner_built;
@@ -435,9 +445,8 @@ Result<UpdateStats> TileHierarchy::finish_build(const PendingBuild& p, Result<Ti
   bool same = self != b.tiles.end() && self->second.stale && now.size() == p.children.size();
   for (size_t i = 0; same && i < now.size(); ++i)
     same = now[i]->key == p.children[i].key && now[i]->version == p.children[i].version && !now[i]->stale;
-  std::error_code ec;
   if (!same) {
-    if (built) fs::remove(dir_ + "/" + built->file(), ec);
+    if (built) (void)storage_->delete_tiles({built->file()});
     b.stats = summarize(b.tiles, b.stats, now_s);
     return b.stats;
   }
@@ -486,7 +495,8 @@ Status TileHierarchy::store_tile(Build& b, const TileKey& key, Result<SceneNode>
   if (!content) return make_error(content.error().code, "tile " + key.name() + ": " + content.error().message);
   record.key = key;
   record.version = b.version;
-  if (auto st = write_tile(dir_, std::move(*content), options_.geometry, &record); !st) return st;
+  if (auto st = write_tile(*storage_, std::move(*content), options_.geometry, &record); !st) return st;
+  b.written.insert(record.file());
   b.stats.bytes_written += record.bytes;
   b.tiles[key] = record;
   ++*built;
@@ -507,19 +517,28 @@ Status TileHierarchy::commit(Build& b) {
   const nlohmann::json manifest = {{"format", kFormat},      {"version", b.version}, {"options", options_json(options_)},
                                    {"keyframes", keyframes}, {"tiles", tiles}};
   const std::string text = manifest.dump();
-  if (auto st = write_file_atomically(dir_ + "/" + kManifest, std::vector<std::uint8_t>(text.begin(), text.end()));
-      !st)
-    return st;
-  // Committed. The previous version's files stay for clients that read its tileset; the ones before it go.
-  std::set<std::string> now;
+  // The previous version's files stay for clients that read its tileset; the ones before it go.
+  TileCommit c;
+  c.version = b.version;
+  c.record.assign(text.begin(), text.end());
   for (const auto& [key, r] : b.tiles)
-    if (r.has_content()) now.insert(r.file());
-  std::error_code ec;
-  for (const auto& f : retired_)
-    if (!now.count(f)) fs::remove(dir_ + "/" + f, ec);
-  retired_.clear();
+    if (r.has_content()) c.named.emplace(r.file(), r.bytes);
+  std::map<std::string, std::uint64_t> retired;
   for (const auto& [key, r] : tiles_)
-    if (r.has_content() && !now.count(r.file())) retired_.insert(r.file());
+    if (r.has_content() && !c.named.count(r.file())) retired.emplace(r.file(), r.bytes);
+  for (const auto& [f, bytes] : retired) c.retained.insert(f);
+  for (const auto& [f, bytes] : retired_)
+    if (!c.named.count(f) && !c.retained.count(f)) c.garbage.insert(f);
+  auto committed = storage_->commit(c);
+  if (!committed) return committed.error();
+  if (!*committed) {
+    superseded_ = true;
+    return make_error(ErrorCode::kInvalidInput, "tiles: " + storage_->where() +
+                                                    " holds a newer hierarchy than version " +
+                                                    std::to_string(version_) + " (another writer committed)");
+  }
+  b.written.clear();
+  retired_ = std::move(retired);
   for (const auto& key : b.built) stale_since_.erase(key);
   version_ = b.version;
   tiles_ = std::move(b.tiles);
@@ -544,11 +563,7 @@ void TileHierarchy::publish() {
     s->triangles += r.triangles;
     s->bytes += r.bytes;
   }
-  std::error_code ec;
-  for (const auto& f : retired_) {
-    const auto size = fs::file_size(dir_ + "/" + f, ec);
-    if (!ec) s->files.emplace(f, size);
-  }
+  for (const auto& [f, bytes] : retired_) s->files.emplace(f, bytes);
   std::lock_guard lock(snapshot_mutex_);
   snapshot_ = std::move(s);
 }

@@ -3,12 +3,15 @@
 // the keyframes' surfaces and whose inner tiles hold their children's, simplified (tiles/tile_content.h), served as
 // an OGC 3D Tiles 1.1 tileset (tiles/tileset_json.h) with GLB content and REPLACE refinement.
 //
-// On disk, in its own folder: one GLB per tile version, "<name>.v<version>.glb" (immutable: a tile that changes is
-// written under the new version's name), and hierarchy.json, the commit marker: the version, the options, every
-// tile's record and the leaf of each keyframe. Contract:
-// - Each commit writes the changed tiles' files first (each atomically: temporary name, fsync, rename, fsync of the
-//   folder), then hierarchy.json atomically. A crash (kill -9) at any point leaves the last committed hierarchy whole:
-//   open() serves it and deletes what a cut update left (files no committed record names).
+// In a TileStorage (tiles/tile_storage.h: a folder, or rows of a database shared by replicas): one GLB per tile
+// version, "<name>.v<version>.glb" (immutable: a tile that changes is written under the new version's name), and the
+// record, the commit marker (in a folder, hierarchy.json): the version, the options, every tile's record and the
+// leaf of each keyframe. Contract:
+// - Each commit writes the changed tiles' files first, then the record (TileStorage::commit). A crash (kill -9) at
+//   any point leaves the last committed hierarchy whole: open() serves it and collects what a cut update left (files
+//   no committed record names). An update that fails or stops deletes the files it wrote.
+// - A commit the storage refuses because another writer committed a newer hierarchy (replicas sharing a database)
+//   fails the call and marks this hierarchy superseded(): it changes nothing more, and its owner opens it again.
 // - After a commit, the files of the version before it stay (a client that read the previous tileset can still fetch
 //   its tiles); older ones are deleted.
 // - Incremental: a new keyframe, a revision that replaces one (a higher rev of a seq), or a keyframe gone, builds or
@@ -38,6 +41,7 @@
 #include "scene/scene.h"
 #include "tiles/tile_content.h"
 #include "tiles/tile_key.h"
+#include "tiles/tile_storage.h"
 
 namespace rgbdcast::tiles {
 
@@ -108,8 +112,12 @@ struct UpdateStats {
 
 class TileHierarchy {
  public:
-  // Opens (or creates) the hierarchy in `dir`. A hierarchy.json that does not parse, or one made with other options,
-  // is started again from empty (its files deleted). kIo when the folder cannot be made or read.
+  // Opens (or creates) the hierarchy in `storage`. A record that does not parse, or one made with other options, is
+  // started again from empty (its files collected), its versions going on from the stored one. The storage's errors
+  // (kIo: the folder cannot be made or read; kUnavailable: the database cannot be reached).
+  static Result<std::unique_ptr<TileHierarchy>> open(std::shared_ptr<TileStorage> storage,
+                                                     const TilingOptions& options);
+  // The directory store in `dir`.
   static Result<std::unique_ptr<TileHierarchy>> open(const std::string& dir, const TilingOptions& options);
   ~TileHierarchy();
 
@@ -162,15 +170,18 @@ class TileHierarchy {
     std::vector<TileKey> leaves;  // its one leaf; none for a keyframe without triangles
   };
   const std::map<std::int64_t, KeyframeEntry>& keyframes() const { return keyframes_; }
-  const std::string& dir() const { return dir_; }
+  TileStorage& storage() const { return *storage_; }
+  // A commit was refused: the storage holds a newer hierarchy than this one (open it again).
+  bool superseded() const { return superseded_; }
   const TilingOptions& options() const { return options_; }
   std::shared_ptr<const TilesetSnapshot> snapshot() const;
 
  private:
-  TileHierarchy(std::string dir, TilingOptions options) : dir_(std::move(dir)), options_(std::move(options)) {}
+  TileHierarchy(std::shared_ptr<TileStorage> storage, TilingOptions options)
+      : storage_(std::move(storage)), options_(std::move(options)) {}
   struct Build;
   class SceneCache;
-  Status load_committed();
+  Status load_committed(const std::vector<std::uint8_t>& record);
   Build begin_build() const;
   Status apply_keyframes(Build& b, const std::vector<KeyframeId>& wanted, SceneCache& scenes);
   Status build_leaves(Build& b, SceneCache& scenes, const std::atomic<bool>* stop);
@@ -188,12 +199,13 @@ class TileHierarchy {
   Status commit(Build& b);
   void publish();
 
-  std::string dir_;
+  std::shared_ptr<TileStorage> storage_;
   TilingOptions options_;
+  bool superseded_ = false;
   std::uint64_t version_ = 0;
   std::map<TileKey, TileRecord> tiles_;
   std::map<std::int64_t, KeyframeEntry> keyframes_;
-  std::set<std::string> retired_;  // files of the previous version that the current one no longer names
+  std::map<std::string, std::uint64_t> retired_;  // files (-> bytes) of the previous version the current one lacks
   int sweep_level_ = 1;            // where step()'s next sweep starts
   struct StaleSince {
     double first_s = 0.0, last_s = 0.0;  // when the tile became stale, and when something under it last changed

@@ -161,4 +161,25 @@ void PostgresServer::stop() {
   pid_ = -1;
 }
 
+PostgresServer* shared_postgres(std::string* why) {
+  static std::string reason;
+  static std::unique_ptr<PostgresServer> server = [] {
+    auto s = PostgresServer::start();
+    if (!s) {
+      reason = s.error().message;
+      return std::unique_ptr<PostgresServer>();
+    }
+    return std::move(*s);
+  }();
+  *why = reason;
+  return server.get();
+}
+
+Result<std::string> fresh_database() {
+  std::string why;
+  auto* server = shared_postgres(&why);
+  if (!server) return make_error(ErrorCode::kUnavailable, why);
+  return server->create_database();
+}
+
 }  // namespace rgbdcast::test

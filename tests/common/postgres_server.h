@@ -36,6 +36,12 @@ class PostgresServer {
   int next_db_ = 0;
 };
 
+// The test program's one server, started on first use and stopped when the program exits; null, with the reason in
+// *why, when it cannot start.
+PostgresServer* shared_postgres(std::string* why);
+// A new empty database on that server (its URI); kUnavailable, with the reason, when the server cannot start.
+Result<std::string> fresh_database();
+
 // The binaries (Debian's postgresql-15): where initdb and postgres are, or empty when not installed.
 std::string postgres_bin_dir();
 

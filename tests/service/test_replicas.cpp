@@ -1,7 +1,8 @@
 // Replicas of the real `rgbdcast serve`: every response names its replica (X-Rgbdcast-Replica), /livez and /readyz
 // say what is up, SIGTERM drains before the stop, and two replicas on one PostgreSQL store (--store postgresql://...,
 // a throwaway server this program starts: tests/common/postgres_server.h) share their missions: a keyframe posted
-// to one is an event and a view on the other, and a re-post through the other is idempotent.
+// to one is an event and a view on the other, and a re-post through the other is idempotent; a replica that takes a
+// mission over loads its tiles from the rows.
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <poll.h>
@@ -11,6 +12,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <map>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -59,21 +61,6 @@ std::string tileset_view(httplib::Client& c) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   return "";
-}
-
-// The PostgreSQL server of this program, started on first use; null (with the reason) when it cannot start.
-rgbdcast::test::PostgresServer* postgres(std::string* why) {
-  static std::string reason;
-  static std::unique_ptr<rgbdcast::test::PostgresServer> server = [] {
-    auto s = rgbdcast::test::PostgresServer::start();
-    if (!s) {
-      reason = s.error().message;
-      return std::unique_ptr<rgbdcast::test::PostgresServer>();
-    }
-    return std::move(*s);
-  }();
-  *why = reason;
-  return server.get();
 }
 
 }  // namespace
@@ -159,11 +146,8 @@ TEST(Replicas, ABadOrUnreachableStoreIsAOneLineErrorAtStart) {
 TEST(Replicas, AKeyframePostedToOneReplicaIsAnEventAndAViewOnTheOtherAcrossRestarts) {
   REQUIRE_DATA(rgbdcast::test::kMissionExcerpt);
   ASSERT_EQ(rgbdcast::test::four_mission_keyframes().size(), 4u);
-  std::string why;
-  auto* pg = postgres(&why);
-  if (!pg) RGBDCAST_MISSING_PREREQUISITE("postgres: " + why);
-  auto uri = pg->create_database();
-  ASSERT_TRUE(uri) << uri.error().message;
+  const auto uri = rgbdcast::test::fresh_database();
+  if (!uri) RGBDCAST_MISSING_PREREQUISITE("postgres: " + uri.error().message);
   const TestDir dir("replica-pg");
   ServerProcess a, b;
   std::string error;
@@ -225,7 +209,8 @@ TEST(Replicas, AKeyframePostedToOneReplicaIsAnEventAndAViewOnTheOtherAcrossResta
 
   // The database killed (-9) and started again: both replicas reconnect; a keyframe posted through A afterwards
   // (retried while A's connections are made again) reaches B, and each replica holds every keyframe once.
-  const auto restarted = pg->restart();
+  std::string why;
+  const auto restarted = rgbdcast::test::shared_postgres(&why)->restart();
   ASSERT_TRUE(restarted) << restarted.error().message;
   int status = 0;
   for (int attempt = 0; attempt < 20 && status != 201; ++attempt) {
@@ -248,4 +233,93 @@ TEST(Replicas, AKeyframePostedToOneReplicaIsAnEventAndAViewOnTheOtherAcrossResta
     EXPECT_EQ(seqs, (std::vector<int>{0, 1, 2}));
   }
   EXPECT_EQ(cb->Get("/readyz")->status, 200);
+}
+
+namespace {
+
+// The tileset version of `mission` once its view is drawn from its settled tileset alone (no pending keyframe, no
+// stale tile), at most 60 s; empty when it never is.
+std::string settled_tileset_version(httplib::Client& c, const std::string& mission) {
+  const std::string path = "/v1/missions/" + mission + "/view?pose=capture&width=64&height=48&format=png";
+  for (int i = 0; i < 600; ++i) {
+    auto v = c.Get(path.c_str());
+    if (v && v->status == 200 && v->get_header_value("X-Pending-Keyframes") == "0" &&
+        v->get_header_value("X-Tileset-Version") != "0" && v->get_header_value("X-Stale-Tiles") == "0")
+      return v->get_header_value("X-Tileset-Version");
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return "";
+}
+
+// The content URIs of a tileset.json, depth first.
+void content_uris(const json& tile, std::vector<std::string>* out) {
+  if (tile.contains("content")) out->push_back(tile["content"]["uri"].get<std::string>());
+  if (tile.contains("children"))
+    for (const auto& child : tile["children"]) content_uris(child, out);
+}
+
+// tileset.json and every tile it names, as one replica serves them.
+std::map<std::string, std::string> tileset_files(httplib::Client& c, const std::string& mission) {
+  std::map<std::string, std::string> out;
+  const std::string base = "/v1/missions/" + mission + "/";
+  auto tileset = c.Get((base + "tileset.json").c_str());
+  if (!tileset || tileset->status != 200) return out;
+  out["tileset.json"] = tileset->body;
+  std::vector<std::string> uris;
+  content_uris(json::parse(tileset->body)["root"], &uris);
+  for (const auto& uri : uris) {
+    auto tile = c.Get((base + uri).c_str());
+    out[uri] = tile && tile->status == 200 ? tile->body : "(" + std::to_string(tile ? tile->status : 0) + ")";
+  }
+  return out;
+}
+
+}  // namespace
+
+// Failover: the replica that built a mission's tiles is killed and its disk lost; a new replica with an empty
+// --data-dir serves the same tileset and tiles, loaded from the rows: it settles at the very version A committed
+// (a tile it built would be a commit of a later version), and its metrics count no tile built and one hierarchy
+// loaded.
+TEST(Replicas, AReplicaTakingAMissionOverLoadsItsTilesFromTheRowsInsteadOfBuildingThem) {
+  REQUIRE_DATA(rgbdcast::test::kMissionExcerpt);
+  ASSERT_EQ(rgbdcast::test::four_mission_keyframes().size(), 4u);
+  const auto uri = rgbdcast::test::fresh_database();
+  if (!uri) RGBDCAST_MISSING_PREREQUISITE("postgres: " + uri.error().message);
+  const TestDir dir("replica-takeover");
+  ServerProcess a, b;
+  std::string error;
+  ASSERT_TRUE(a.start(dir.path + "/a", {"--store", *uri, "--replica", "a"}, &error)) << error;
+  auto ca = client(a.port());
+  const auto& k = rgbdcast::test::four_mission_keyframes();
+  for (int seq = 0; seq < 4; ++seq) {
+    auto r = post_keyframe(*ca, "takeover", seq, k[static_cast<size_t>(seq)], k[static_cast<size_t>(seq)].glb);
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 201) << r->body;
+  }
+  const std::string version = settled_tileset_version(*ca, "takeover");
+  ASSERT_FALSE(version.empty()) << "replica a never settled the mission's tileset";
+  const auto from_a = tileset_files(*ca, "takeover");
+  ASSERT_GT(from_a.size(), 4u) << "tileset.json and at least one tile per keyframe";
+  a.kill9();
+  rgbdcast::test::remove_tree_quietly(dir.path + "/a");
+
+  ASSERT_TRUE(b.start(dir.path + "/b", {"--store", *uri, "--replica", "b"}, &error)) << error;
+  auto cb = client(b.port());
+  EXPECT_EQ(settled_tileset_version(*cb, "takeover"), version) << "replica b built tiles again:\n" << b.output();
+  const auto from_b = tileset_files(*cb, "takeover");
+  EXPECT_EQ(from_b.size(), from_a.size());
+  for (const auto& [file, bytes] : from_a) {
+    auto it = from_b.find(file);
+    ASSERT_NE(it, from_b.end()) << file;
+    EXPECT_TRUE(it->second == bytes) << file << " differs between the replicas";
+  }
+  auto tileset = cb->Get("/v1/missions/takeover/tileset.json");
+  ASSERT_TRUE(tileset);
+  EXPECT_EQ(tileset->get_header_value("ETag"), "\"tileset-" + version + "\"");
+  auto metrics = cb->Get("/metrics");
+  ASSERT_TRUE(metrics);
+  EXPECT_NE(metrics->body.find("\nrgbdcast_tiles_built_total{kind=\"leaf\"} 0\n"), std::string::npos) << metrics->body;
+  EXPECT_NE(metrics->body.find("\nrgbdcast_tiles_built_total{kind=\"inner\"} 0\n"), std::string::npos) << metrics->body;
+  EXPECT_NE(metrics->body.find("\nrgbdcast_tile_hierarchies_loaded_total 1\n"), std::string::npos) << metrics->body;
+  EXPECT_EQ(b.stop(), 0) << b.output();
 }

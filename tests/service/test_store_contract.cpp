@@ -14,36 +14,15 @@
 #include "service/scene_store.h"
 #include "tests/common/postgres_server.h"
 #include "tests/common/test_data.h"
+#include "tests/common/typed_test_names.h"
 
 using namespace rgbdcast;
 using namespace rgbdcast::service;
 
 namespace {
 
-// One PostgreSQL server for the whole program, stopped after the last test.
-class PostgresEnvironment : public ::testing::Environment {
- public:
-  test::PostgresServer* server() {
-    if (!tried_) {
-      tried_ = true;
-      auto s = test::PostgresServer::start();
-      if (s) server_ = std::move(*s);
-      else why_ = s.error().message;
-    }
-    return server_.get();
-  }
-  const std::string& why() const { return why_; }
-  void TearDown() override { server_.reset(); }
-
- private:
-  bool tried_ = false;
-  std::unique_ptr<test::PostgresServer> server_;
-  std::string why_;
-};
-PostgresEnvironment* const postgres =
-    static_cast<PostgresEnvironment*>(::testing::AddGlobalTestEnvironment(new PostgresEnvironment));
-
 struct DirectoryBackend {
+  static constexpr const char* kName = "Directory";
   Status prepare() {
     dir = test::temp_dir("store-contract");
     return ok_status();
@@ -54,10 +33,9 @@ struct DirectoryBackend {
 };
 
 struct PostgresBackend {
+  static constexpr const char* kName = "Postgres";
   Status prepare() {
-    auto* server = postgres->server();
-    if (!server) return make_error(ErrorCode::kUnavailable, postgres->why());
-    auto db = server->create_database();
+    auto db = test::fresh_database();
     if (!db) return db.error();
     uri = *db;
     return ok_status();
@@ -95,15 +73,8 @@ class StoreContract : public ::testing::Test {
   Backend backend;
 };
 
-class BackendNames {
- public:
-  template <class T>
-  static std::string GetName(int) {
-    return std::is_same_v<T, DirectoryBackend> ? "Directory" : "Postgres";
-  }
-};
 using Backends = ::testing::Types<DirectoryBackend, PostgresBackend>;
-TYPED_TEST_SUITE(StoreContract, Backends, BackendNames);
+TYPED_TEST_SUITE(StoreContract, Backends, test::SelfNamedTypes);
 
 std::vector<std::uint8_t> bytes(const std::string& s) { return {s.begin(), s.end()}; }
 
@@ -351,7 +322,8 @@ TEST(PostgresStores, ADatabaseRestartLosesAndDuplicatesNothing) {
   auto store = pgstore::PgMissionStore::open(backend.uri, 2, 0.2);
   ASSERT_TRUE(store);
   for (std::int64_t seq = 0; seq < 5; ++seq) ASSERT_TRUE((*store)->put(keyframe("r", seq), bytes("k")));
-  const auto restarted = postgres->server()->restart();
+  std::string why;
+  const auto restarted = test::shared_postgres(&why)->restart();
   ASSERT_TRUE(restarted) << restarted.error().message;
   // The pooled connections died with the server: at most one failed attempt each, then new ones.
   int acknowledged = 5, failures = 0;

@@ -94,7 +94,7 @@ std::unique_ptr<TileHierarchy> open_ok(const std::string& dir) {
 
 // A tile's mesh in world coordinates (a leaf's node is placed by its keyframe's pose).
 Mesh tile_mesh(const TileHierarchy& h, const TileRecord& r) {
-  auto scene = read_glb_file(h.dir() + "/" + r.file());
+  auto scene = read_glb_file(h.storage().where() + "/" + r.file());
   EXPECT_TRUE(scene) << r.file();
   if (!scene || scene->nodes.empty()) return {};
   SceneNode& node = scene->nodes.front();
@@ -105,7 +105,7 @@ Mesh tile_mesh(const TileHierarchy& h, const TileRecord& r) {
 std::map<TileKey, std::vector<std::uint8_t>> contents(const TileHierarchy& h) {
   std::map<TileKey, std::vector<std::uint8_t>> out;
   for (const auto& [key, r] : h.tiles()) {
-    auto bytes = read_file_bytes(h.dir() + "/" + r.file(), size_t(1) << 30);
+    auto bytes = read_file_bytes(h.storage().where() + "/" + r.file(), size_t(1) << 30);
     EXPECT_TRUE(bytes) << r.file();
     if (bytes) out[key] = *bytes;
   }
@@ -353,7 +353,7 @@ TEST(TileHierarchyTest, ABuildWhoseChildrenChangedMeanwhileIsDroppedAndPickedAga
   EXPECT_EQ(pending->key.level, 1);
   auto built = live->build_tile(*pending);
   ASSERT_TRUE(built) << built.error().message;
-  const std::string file = live->dir() + "/" + built->file();
+  const std::string file = live->storage().where() + "/" + built->file();
   EXPECT_TRUE(fs::exists(file));
   ASSERT_TRUE(live->add_leaves(revised, loader(), later));  // meanwhile: keyframe 0 revised
   const auto version = live->version();
@@ -608,7 +608,7 @@ TEST(TileHierarchyTest, EveryTileIsAValidCompactGlbAndStorageIsMeasured) {
     for (const auto& id : ids) posted += Keyframes::get().glb_bytes[static_cast<size_t>(id.seq) % 4];
     std::map<int, std::array<double, 5>> levels;  // tiles, triangles, bytes, texture bytes, largest error
     for (const auto& [key, r] : h->tiles()) {
-      const std::string path = h->dir() + "/" + r.file();
+      const std::string path = h->storage().where() + "/" + r.file();
       EXPECT_GLTF_VALID(path);
       auto bytes = read_file_bytes(path, size_t(1) << 30);
       ASSERT_TRUE(bytes);
@@ -648,6 +648,38 @@ TEST(TileHierarchyTest, EveryTileIsAValidCompactGlbAndStorageIsMeasured) {
     for (const auto& [level, l] : levels)
       std::printf("%5d %6.0f %10.0f %10.0f %10.0f %12.4f\n", level, l[0], l[1], l[2], l[3], l[4]);
   }
+}
+
+// Two writers of one storage (replicas sharing a database; here one folder's storage shared by two hierarchies): the
+// one that commits second is refused, is superseded, leaves no file of its own behind, and the storage keeps the
+// first one's hierarchy, which a hierarchy opened again serves and goes on from.
+TEST(TileHierarchyTest, AWriterThatCommitsSecondIsSupersededAndLeavesTheFirstOnesHierarchy) {
+  REQUIRE_KEYFRAMES();
+  const std::string dir = test::temp_dir("tiles-two-writers");
+  auto storage = directory_tile_storage(dir);
+  ASSERT_TRUE(storage) << storage.error().message;
+  const std::shared_ptr<TileStorage> shared = std::move(*storage);
+  auto first_writer = TileHierarchy::open(shared, TilingOptions{});
+  auto second_writer = TileHierarchy::open(shared, TilingOptions{});
+  ASSERT_TRUE(first_writer && second_writer);
+  ASSERT_TRUE((*first_writer)->update(first(2), loader()));
+  const auto committed = contents(**first_writer);
+  auto late = (*second_writer)->update(first(3), loader());
+  ASSERT_FALSE(late);
+  EXPECT_TRUE((*second_writer)->superseded()) << late.error().message;
+  EXPECT_EQ((*second_writer)->version(), 0u);
+  size_t files = 0;
+  for (const auto& e : fs::directory_iterator(dir)) files += e.path().extension() == ".glb";
+  EXPECT_EQ(files, (*first_writer)->tiles().size()) << "the refused update's files are deleted";
+
+  auto reopened = TileHierarchy::open(shared, TilingOptions{});
+  ASSERT_TRUE(reopened);
+  EXPECT_EQ((*reopened)->version(), (*first_writer)->version());
+  EXPECT_EQ(contents(**reopened), committed);
+  auto next = (*reopened)->update(first(3), loader());
+  ASSERT_TRUE(next) << next.error().message;
+  EXPECT_EQ(next->keyframes_changed, 1u);
+  EXPECT_GT((*reopened)->version(), (*first_writer)->version());
 }
 
 }  // namespace
