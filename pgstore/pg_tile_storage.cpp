@@ -131,7 +131,8 @@ Result<bool> PgTileStorage::commit(const tiles::TileCommit& c) {
   for (const auto& [f, size] : c.named) {
     keep.insert(f);
     named_files.insert(f);
-    sizes += (sizes.size() > 1 ? "," : "") + std::to_string(size);
+    if (sizes.size() > 1) sizes += ',';
+    sizes += std::to_string(size);
   }
   sizes += "}";
   Status st = locked([&](PgConnection& t, const PgParam& mission, std::uint64_t version) -> Status {
