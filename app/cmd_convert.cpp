@@ -39,8 +39,8 @@ void run_convert(const ConvertArgs& a) {
   std::cout << "rgbdcast convert: " << a.input << " (" << bytes->size() << " bytes) -> " << a.out << " ("
             << to_string(a.glb.flavor)
             << (a.glb.flavor == GlbFlavor::kCompact ? std::string(" ") + to_string(a.glb.geometry_codec) : "") << ", "
-            << out->size() << " bytes: geometry " << stats.geometry_bytes
-            << ", texture " << stats.texture_bytes << ", " << static_cast<int>(stats.ms) << " ms)\n";
+            << out->size() << " bytes: geometry " << stats.geometry_bytes << ", texture " << stats.texture_bytes << ", "
+            << static_cast<int>(stats.ms) << " ms)\n";
 }
 
 }  // namespace
@@ -51,7 +51,8 @@ void register_convert(CLI::App& app) {
   cmd->add_option("input", args->input, "Input GLB")->required();
   add_flavor_option(cmd, &args->glb, "compat");
   add_geometry_codec_option(cmd, &args->glb);
-  cmd->add_option("--jpeg-quality", args->glb.jpeg_quality, "JPEG quality 1..100 for PNG textures re-encoded for compat")
+  cmd->add_option("--jpeg-quality", args->glb.jpeg_quality,
+                  "JPEG quality 1..100 for PNG textures re-encoded for compat")
       ->capture_default_str();
   cmd->add_option("-o,--out", args->out, "Output GLB (written atomically)")->required();
   cmd->callback([args] { run_convert(*args); });

@@ -27,7 +27,8 @@ struct EvalArgs {
 
 void run_eval(const EvalArgs& a) {
   auto fail = [](const Error& e) { app::fail("eval", e); };
-  if (a.scene.empty() == !a.full_cloud) fail(make_error(ErrorCode::kInvalidArgument, "give --scene S.glb or --full-cloud"));
+  if (a.scene.empty() == !a.full_cloud)
+    fail(make_error(ErrorCode::kInvalidArgument, "give --scene S.glb or --full-cloud"));
   auto options = render_options(a.view);
   if (!options) fail(options.error());
   SourceOptions so;
@@ -65,7 +66,8 @@ void run_eval(const EvalArgs& a) {
     auto loaded = read_glb_file(a.scene);
     if (!loaded) fail(loaded.error());
     scene = std::move(*loaded);
-    if (scene.cameras.empty()) fail(make_error(ErrorCode::kInvalidInput, a.scene + ": no capture camera to evaluate at"));
+    if (scene.cameras.empty())
+      fail(make_error(ErrorCode::kInvalidInput, a.scene + ": no capture camera to evaluate at"));
   }
   const Intrinsics& k = frame->intrinsics;
   CaptureCamera at = scene.cameras.front();
@@ -79,8 +81,9 @@ void run_eval(const EvalArgs& a) {
     };
     const StampedPose* from = find(*scene_source);
     const StampedPose* to = find(*frame);
-    if (!from || !to) fail(make_error(ErrorCode::kNotFound, "no ground-truth pose for frame " +
-                                                            std::to_string(from ? frame->index : scene_source->index)));
+    if (!from || !to)
+      fail(make_error(ErrorCode::kNotFound,
+                      "no ground-truth pose for frame " + std::to_string(from ? frame->index : scene_source->index)));
     at.camera_to_world = from->camera_to_world.inverse() * to->camera_to_world;
   }
   const ViewCamera camera = ViewCamera::from_capture(at);
@@ -122,8 +125,9 @@ void register_eval(CLI::App& app) {
   cmd->add_option("--depth", args->depth, "Depth PNG for a single colour image");
   cmd->add_option("--intrinsics", args->intrinsics, "fr1|fr2|fr3|kinect|icl or a JSON file");
   cmd->add_option("--scene", args->scene, "GLB scene reduced from that frame");
-  cmd->add_flag("--full-cloud", args->full_cloud,
-                "Evaluate a full cloud as splats instead of a scene: --scene-frame's with --groundtruth, else --frame's");
+  cmd->add_flag(
+      "--full-cloud", args->full_cloud,
+      "Evaluate a full cloud as splats instead of a scene: --scene-frame's with --groundtruth, else --frame's");
   cmd->add_option("--groundtruth", args->groundtruth,
                   "Novel view: render at --frame's true pose from this trajectory (TUM, .log, pose.txt)");
   cmd->add_option("--scene-frame", args->scene_frame, "Novel view: the frame the scene was reduced from");

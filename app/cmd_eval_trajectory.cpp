@@ -18,7 +18,8 @@ void register_eval_trajectory(CLI::App& app) {
   };
   auto a = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand("eval-trajectory", "Relative pose error of a trajectory against ground truth");
-  cmd->add_option("--estimated", a->estimated, "Estimated trajectory (e.g. from reduce --sequence --trajectory)")->required();
+  cmd->add_option("--estimated", a->estimated, "Estimated trajectory (e.g. from reduce --sequence --trajectory)")
+      ->required();
   cmd->add_option("--groundtruth", a->ground_truth, "Ground truth: TUM groundtruth.txt, .log or pose.txt")->required();
   cmd->add_option("--match", a->match, "auto|timestamp|index (auto: index when both have frame indices)")
       ->capture_default_str();
@@ -31,11 +32,13 @@ void register_eval_trajectory(CLI::App& app) {
     if (!gt) fail(gt.error());
     RpeParams p;
     p.max_time_difference_s = a->max_dt;
-    if (a->match == "index") p.association = PoseAssociation::kIndex;
-    else if (a->match == "timestamp") p.association = PoseAssociation::kTimestamp;
+    if (a->match == "index")
+      p.association = PoseAssociation::kIndex;
+    else if (a->match == "timestamp")
+      p.association = PoseAssociation::kTimestamp;
     else if (a->match == "auto") {
-      const bool indexed = !est->poses.empty() && est->poses.front().index >= 0 && !gt->poses.empty() &&
-                           gt->poses.front().index >= 0;
+      const bool indexed =
+          !est->poses.empty() && est->poses.front().index >= 0 && !gt->poses.empty() && gt->poses.front().index >= 0;
       p.association = indexed ? PoseAssociation::kIndex : PoseAssociation::kTimestamp;
     } else {
       fail(make_error(ErrorCode::kInvalidArgument, "--match must be auto, timestamp or index"));

@@ -22,8 +22,12 @@ namespace {
 [[noreturn]] void fail(const Error& e) { app::fail("reduce", e); }
 
 nlohmann::json export_json(const GlbStats& s) {
-  return {{"name", "export"},          {"bytes", s.total_bytes},       {"geometry_bytes", s.geometry_bytes},
-          {"texture_bytes", s.texture_bytes}, {"json_bytes", s.json_bytes}, {"ms", s.ms}};
+  return {{"name", "export"},
+          {"bytes", s.total_bytes},
+          {"geometry_bytes", s.geometry_bytes},
+          {"texture_bytes", s.texture_bytes},
+          {"json_bytes", s.json_bytes},
+          {"ms", s.ms}};
 }
 
 void run_single(const ReduceArgs& a, const FrameSource& source) {
@@ -59,14 +63,13 @@ void run_single(const ReduceArgs& a, const FrameSource& source) {
   if (auto st = write_file_atomically(a.out, *glb); !st) fail(st.error());
   const double total_ms = ms_since(t0);
 
-  std::cout << "rgbdcast reduce: " << frame->color_path << " (frame " << frame->index << ", "
-            << frame->intrinsics.width << "x" << frame->intrinsics.height << ")\n"
-            << stages_table(stages) << "points " << points << ", triangles " << triangles
-            << ", texture " << to_string(atlas_stats.mode) << " " << texture_width << "x"
-            << texture_height << ", "
-            << glb->size() << " bytes (geometry " << glb_stats.geometry_bytes << ", texture "
-            << glb_stats.texture_bytes << ") -> " << a.out << " (load " << static_cast<int>(load_ms)
-            << " ms, total " << static_cast<int>(total_ms) << " ms)\n";
+  std::cout << "rgbdcast reduce: " << frame->color_path << " (frame " << frame->index << ", " << frame->intrinsics.width
+            << "x" << frame->intrinsics.height << ")\n"
+            << stages_table(stages) << "points " << points << ", triangles " << triangles << ", texture "
+            << to_string(atlas_stats.mode) << " " << texture_width << "x" << texture_height << ", " << glb->size()
+            << " bytes (geometry " << glb_stats.geometry_bytes << ", texture " << glb_stats.texture_bytes << ") -> "
+            << a.out << " (load " << static_cast<int>(load_ms) << " ms, total " << static_cast<int>(total_ms)
+            << " ms)\n";
   if (budget.budget_bytes > 0)
     std::cout << "budget " << budget.budget_bytes / 1000 << " kB (" << budget.rule << "): tolerance "
               << budget.tolerance_factor << " sigma, collapses " << budget.simplify_px << " px, JPEG q"
@@ -143,40 +146,50 @@ void register_reduce(CLI::App& app) {
   cmd->add_option("--associations", args->associations, "TUM associations file (t_rgb rgb t_depth depth)");
   cmd->add_option("--preset", args->preset,
                   "realtime (the default: the depth image meshed adaptively, in milliseconds, under a byte budget) or "
-                  "paper (the paper's pipeline exactly)")->capture_default_str();
+                  "paper (the paper's pipeline exactly)")
+      ->capture_default_str();
   cmd->add_option("--budget-kb", args->budget_kb,
                   "Realtime: land the GLB within +-10 % of this many kB, or under when the scene needs less "
                   "(default: 40, or a quarter of the frame's JPEG90+PNG16 payload when that is less; 0 = no budget)");
   cmd->add_option("--budget-outline-scale", args->budget_outline_texture_scale,
                   "Realtime budget: past the largest tolerance, the texture scale (0.25..1) kept before the mesh's "
-                  "outline is straightened")->capture_default_str();
+                  "outline is straightened")
+      ->capture_default_str();
   cmd->add_option("--budget-max-quality", args->budget_max_jpeg_quality,
                   "Realtime budget: the best JPEG quality it tries (20..100); above 92 a large budget can buy a "
-                  "better texture")->capture_default_str();
+                  "better texture")
+      ->capture_default_str();
   cmd->add_option("--tolerance", args->params.depth_mesh.tolerance_factor,
                   "Realtime: split a triangle while its RMS distance from its pixels exceeds this many sigma of the "
-                  "sensor's depth noise (a budget raises it as needed)")->capture_default_str();
+                  "sensor's depth noise (a budget raises it as needed)")
+      ->capture_default_str();
   cmd->add_option("--depth-noise", args->params.depth_mesh.noise_m_per_m2,
-                  "Realtime: sensor depth noise sigma = NOISE * z^2 metres (Kinect-class 1.425e-3)")->capture_default_str();
+                  "Realtime: sensor depth noise sigma = NOISE * z^2 metres (Kinect-class 1.425e-3)")
+      ->capture_default_str();
   cmd->add_option("--jump", args->params.depth_mesh.jump_relative,
                   "Realtime: relative depth jump between neighbouring pixels that is a discontinuity")
       ->capture_default_str();
   cmd->add_option("--speckle-px", args->params.filter.min_region_px,
-                  "Realtime: drop continuous depth regions smaller than this many pixels")->capture_default_str();
+                  "Realtime: drop continuous depth regions smaller than this many pixels")
+      ->capture_default_str();
   cmd->add_option("--tile", args->params.depth_mesh.tile_px, "Realtime: largest triangle legs in pixels (power of two)")
       ->capture_default_str();
   cmd->add_option("--texture-deviation", args->params.depth_mesh.texture_deviation_px,
                   "Realtime: split triangles until affine texturing is within this many pixels of the projective "
-                  "mapping (0 = off)")->capture_default_str();
+                  "mapping (0 = off)")
+      ->capture_default_str();
   cmd->add_option("--simplify-px", args->params.depth_mesh.simplify_px,
                   "Realtime: collapse edges while the mesh moves less than this many pixels across the image or sigma "
-                  "in depth (straightens outlines; 0 = off)")->capture_default_str();
+                  "in depth (straightens outlines; 0 = off)")
+      ->capture_default_str();
   cmd->add_option("--boundary-lost-px", args->params.depth_mesh.boundary_max_lost_px,
                   "Realtime: a triangle on a hole's or the image's edge splits when keeping it whole would drop more "
-                  "than this many valid pixels")->capture_default_str();
+                  "than this many valid pixels")
+      ->capture_default_str();
   cmd->add_option("--boundary-push-px", args->params.depth_mesh.boundary_push_px,
                   "Realtime: vertices on the mesh's outline move this far outwards in the image (0..2), so the "
-                  "outline's pixels are covered whole at the capture pose")->capture_default_str();
+                  "outline's pixels are covered whole at the capture pose")
+      ->capture_default_str();
   cmd->add_option("--outliers", args->params.outlier_method,
                   "Outlier neighbour search: kdtree (PCL, the paper's) or organized (image window, faster)")
       ->transform(CLI::CheckedTransformer(std::map<std::string, OutlierMethod>{
@@ -184,8 +197,11 @@ void register_reduce(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--threads", args->params.threads,
                   "OpenMP threads of the parallel stages (normals, outliers, depth mesh); 0 = OMP_NUM_THREADS, else "
-                  "the cores")->capture_default_str()->check(CLI::Range(0, 256));
-  cmd->add_option("--outlier-k", args->params.outlier_k, "Statistical outlier removal: neighbours K")->capture_default_str();
+                  "the cores")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 256));
+  cmd->add_option("--outlier-k", args->params.outlier_k, "Statistical outlier removal: neighbours K")
+      ->capture_default_str();
   cmd->add_option("--outlier-std", args->params.outlier_std_mul, "Statistical outlier removal: std-dev multiplier T")
       ->capture_default_str();
   cmd->add_option("--voxel-size", args->params.voxel_size_m, "Voxel grid edge in metres")->capture_default_str();
@@ -197,15 +213,20 @@ void register_reduce(CLI::App& app) {
   cmd->add_option("--perimeter-factor", args->params.perimeter_factor, "Drop triangles with perimeter > factor*d")
       ->capture_default_str();
   cmd->add_option("--simplify", args->params.simplify_error_m,
-                  "Collapse edges while the surface moves less than this many metres (0 = off)")->capture_default_str();
-  cmd->add_option("--texture", args->texture, "atlas (undistorted per-triangle cells), footprint (cells sized to each triangle's image footprint), frame (projective baseline) or auto (paper: atlas when triangles are large, else frame; realtime: frame, split to 0.5 px)")
+                  "Collapse edges while the surface moves less than this many metres (0 = off)")
+      ->capture_default_str();
+  cmd->add_option("--texture", args->texture,
+                  "atlas (undistorted per-triangle cells), footprint (cells sized to each triangle's image footprint), "
+                  "frame (projective baseline) or auto (paper: atlas when triangles are large, else frame; realtime: "
+                  "frame, split to 0.5 px)")
       ->capture_default_str();
   cmd->add_option("--cell-size", args->atlas.cell_size_px, "Atlas cell side in texels")->capture_default_str();
   cmd->add_option("--jpeg-quality", args->atlas.jpeg_quality, "Texture JPEG quality 1..100")->capture_default_str();
   add_flavor_option(cmd, &args->glb, "compact");
   add_geometry_codec_option(cmd, &args->glb, &args->geometry_codec_chosen);
-  cmd->add_flag("!--no-meshopt", args->glb.meshopt,
-                "Write plain quantized buffers instead of EXT_meshopt_compression (Blender and Assimp need --flavor compat)");
+  cmd->add_flag(
+      "!--no-meshopt", args->glb.meshopt,
+      "Write plain quantized buffers instead of EXT_meshopt_compression (Blender and Assimp need --flavor compat)");
   cmd->add_option("--position-step", args->glb.position_quantum_m, "Position quantization step in metres")
       ->capture_default_str();
   cmd->add_flag("--sequence", args->sequence, "Reduce the keyframes of a sequence into one multi-view GLB");
@@ -217,11 +238,14 @@ void register_reduce(CLI::App& app) {
                   "window alone) | live (robust with exact in-window matching and a cheaper ICP; with --features orb)")
       ->capture_default_str();
   cmd->add_option("--keyframe-translation", args->keyframe_translation_m,
-                  "Sequence: new keyframe after this much motion (m)")->capture_default_str();
+                  "Sequence: new keyframe after this much motion (m)")
+      ->capture_default_str();
   cmd->add_option("--keyframe-rotation", args->keyframe_rotation_deg, "Sequence: ... or this much rotation (deg)")
       ->capture_default_str();
-  cmd->add_option("--keyframe-overlap", args->keyframe_overlap, "Sequence: ... or when overlap with the last keyframe "
-                  "drops below this fraction")->capture_default_str();
+  cmd->add_option("--keyframe-overlap", args->keyframe_overlap,
+                  "Sequence: ... or when overlap with the last keyframe "
+                  "drops below this fraction")
+      ->capture_default_str();
   cmd->add_option("--keyframe-gap", args->keyframe_gap, "Sequence: ... or after this many frames (0 = never)")
       ->capture_default_str();
   cmd->add_flag("--drop-covered,!--keep-covered", args->drop_covered,

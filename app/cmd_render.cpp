@@ -57,11 +57,16 @@ void run_render(const RenderArgs& a) {
             << upload_ms << " ms, render " << result->timings.render_ms << " ms, readback "
             << result->timings.readback_ms << " ms -> " << a.out << "\n";
   if (!a.report.empty()) {
-    nlohmann::json r = {{"backend", renderer.backend()},   {"device", renderer.device()},
-                        {"reason", selection->reason},      {"mode", a.view.mode},
-                        {"width", result->color.width},     {"height", result->color.height},
-                        {"upload_ms", upload_ms},           {"render_ms", result->timings.render_ms},
-                        {"readback_ms", result->timings.readback_ms}, {"out", a.out}};
+    nlohmann::json r = {{"backend", renderer.backend()},
+                        {"device", renderer.device()},
+                        {"reason", selection->reason},
+                        {"mode", a.view.mode},
+                        {"width", result->color.width},
+                        {"height", result->color.height},
+                        {"upload_ms", upload_ms},
+                        {"render_ms", result->timings.render_ms},
+                        {"readback_ms", result->timings.readback_ms},
+                        {"out", a.out}};
     if (auto st = write_text_file_atomic(a.report, r.dump(2) + "\n"); !st) fail(st.error());
   }
 }

@@ -35,7 +35,9 @@ void register_serve(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 3600.0));
   cmd->add_option("--bind", opts->bind, "Address to listen on (0.0.0.0 for every interface)")->capture_default_str();
-  cmd->add_option("--port", opts->port, "TCP port; 0 picks a free one")->capture_default_str()->check(CLI::Range(0, 65535));
+  cmd->add_option("--port", opts->port, "TCP port; 0 picks a free one")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 65535));
   cmd->add_option("--threads", opts->threads, "HTTP worker threads")->capture_default_str()->check(CLI::Range(1, 1024));
   cmd->add_option("--max-body-mib", *max_body_mib, "Largest request body in MiB (larger: 413)")
       ->capture_default_str()
@@ -145,8 +147,10 @@ void register_serve(CLI::App& app) {
       auto imported = svc->import_glb_file(path);
       if (!imported) fail("serve", imported.error());
       const std::string id = (*imported)["id"];
-      std::printf("rgbdcast serve: %s is scene %s\n  view:  %s/v1/scenes/%s/view?pose=capture\n  model: %s/v1/scenes/%s/model.glb\n",
-                  path.c_str(), id.c_str(), base.c_str(), id.c_str(), base.c_str(), id.c_str());
+      std::printf(
+          "rgbdcast serve: %s is scene %s\n  view:  %s/v1/scenes/%s/view?pose=capture\n  model: "
+          "%s/v1/scenes/%s/model.glb\n",
+          path.c_str(), id.c_str(), base.c_str(), id.c_str(), base.c_str(), id.c_str());
     }
     const bool directory = opts->store.empty() || opts->store == "directory";
     std::printf("rgbdcast serve: replica %s, %zu scenes in %s\n", svc->replica().c_str(), svc->scene_count(),
@@ -155,8 +159,10 @@ void register_serve(CLI::App& app) {
       std::printf("rgbdcast serve: operator page renders in the browser (WebGL), modules from %s\n",
                   svc->web_modules_dir().c_str());
     else
-      std::printf("rgbdcast serve: no three.js modules in %s (npm ci in tools/): the operator page shows server-rendered "
-                  "views\n", svc->web_modules_dir().c_str());
+      std::printf(
+          "rgbdcast serve: no three.js modules in %s (npm ci in tools/): the operator page shows server-rendered "
+          "views\n",
+          svc->web_modules_dir().c_str());
     std::printf("rgbdcast serve: listening on %s/ (operator page), API under /v1/scenes\n", base.c_str());
     std::fflush(stdout);
 

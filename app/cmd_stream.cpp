@@ -206,42 +206,41 @@ void run_stream_command(const StreamArgs& a, const RosbagTopics& topics) {
   if (a.realtime) std::cout << ", " << s.dropped << " dropped behind the camera";
   std::cout << "), " << s.keyframes << " new keyframes (" << s.covered << " fully covered, not sent; " << s.coarsened
             << " coarsened, " << s.superseded << " deferred while the link owed too much: " << s.deferred_sent
-            << " of them sent later, coarsened, " << s.deferred_dropped << " dropped; "
-            << s.refined_while_tracking << " made while tracking, " << s.refined_ahead
-            << " reduced before their keyframe's answer (" << s.refined_ahead_redone
-            << " made again for the measured link; " << s.refined_beside_keyframe
+            << " of them sent later, coarsened, " << s.deferred_dropped << " dropped; " << s.refined_while_tracking
+            << " made while tracking, " << s.refined_ahead << " reduced before their keyframe's answer ("
+            << s.refined_ahead_redone << " made again for the measured link; " << s.refined_beside_keyframe
             << " beside the keyframe's own reduction; " << s.refined_not_kept << " reduced and not kept, under "
             << stream::kRefinementKeepRatio << " x the bytes; " << s.refine_saturated
             << " not tried, their GLB already the finest their settings make) of " << s.refined << " refinements)";
   if (s.cap_changes > 0) std::cout << ", " << s.cap_changes << " caps read from " << a.link_kbps_file;
   if (s.resumed)
     std::cout << ", resumed at frame " << s.resumed_at_frame << " after " << s.resumed_entries << " outbox entries and "
-              << s.resumed_deferred << " deferred keyframes (" << s.resumed_deferred_sent << " of them sent, coarsened)";
+              << s.resumed_deferred << " deferred keyframes (" << s.resumed_deferred_sent
+              << " of them sent, coarsened)";
   std::cout << "; " << s.sender.acked << " acknowledged (" << s.sender.acked_bytes / 1000.0 << " kB this run, "
             << s.sender.posts << " posts, " << s.sender.failures << " failed, busy " << s.sender.busy_s << " s, "
             << s.sender.overlap_s << " s of it with 2+ in flight; refinements " << s.sender.refinements_acked << ", "
-            << s.sender.refinement_bytes / 1000.0 << " kB), " << s.sender.pending << " pending, "
-            << s.sender.rejected << " rejected; link " << static_cast<int>(s.sender.estimate_kbps)
-            << " kbit/s (POST model: line "
+            << s.sender.refinement_bytes / 1000.0 << " kB), " << s.sender.pending << " pending, " << s.sender.rejected
+            << " rejected; link " << static_cast<int>(s.sender.estimate_kbps) << " kbit/s (POST model: line "
             << static_cast<int>(s.sender.line_kbps) << " kbit/s + " << static_cast<int>(1000 * s.sender.post_fixed_s)
-            << " ms per POST); "
-            << static_cast<int>(s.seconds * 1000) << " ms; outbox " << outbox_dir << "\n";
+            << " ms per POST); " << static_cast<int>(s.seconds * 1000) << " ms; outbox " << outbox_dir << "\n";
   {
     // The live figures: is the tracker keeping up with the camera, and what a keyframe's reduction costs.
     const auto fw = stream::percentiles(s.frame_wall_ms), fc = stream::percentiles(s.frame_cpu_ms);
     const auto fr = stream::percentiles(s.read_cpu_ms), rw = stream::percentiles(s.reduce_ms);
-    std::printf("  tracking: %zu frames read, %zu tracked, %zu dropped; per frame read: due -> tracked wall p50 %.1f / "
-                "p95 %.1f ms, reader CPU p50 %.1f / p95 %.1f ms, tracker CPU p50 %.1f / p95 %.1f ms; keyframe "
-                "reduction (%zu, own thread at nice +%d): wall p50 %.0f / p95 %.0f ms, queue max %zu\n",
-                s.frames - s.dropped, s.tracked, s.dropped, fw.p50, fw.p95, fr.p50, fr.p95, fc.p50, fc.p95,
-                s.reduce_ms.size(), a.reduce_nice, rw.p50, rw.p95, s.reduce_queue_max);
+    std::printf(
+        "  tracking: %zu frames read, %zu tracked, %zu dropped; per frame read: due -> tracked wall p50 %.1f / "
+        "p95 %.1f ms, reader CPU p50 %.1f / p95 %.1f ms, tracker CPU p50 %.1f / p95 %.1f ms; keyframe "
+        "reduction (%zu, own thread at nice +%d): wall p50 %.0f / p95 %.0f ms, queue max %zu\n",
+        s.frames - s.dropped, s.tracked, s.dropped, fw.p50, fw.p95, fr.p50, fr.p95, fc.p50, fc.p95, s.reduce_ms.size(),
+        a.reduce_nice, rw.p50, rw.p95, s.reduce_queue_max);
     std::fflush(stdout);
   }
   for (const auto& e : s.errors) std::cout << "  " << e << "\n";
   if (s.sender.rejected > 0)
-    fail("stream", make_error(ErrorCode::kInternal, std::to_string(s.sender.rejected) +
-                                                        " keyframes were rejected by the server (last: " +
-                                                        s.sender.last_error + ")"));
+    fail("stream", make_error(ErrorCode::kInternal,
+                              std::to_string(s.sender.rejected) +
+                                  " keyframes were rejected by the server (last: " + s.sender.last_error + ")"));
   if (s.sender.pending > 0 || s.deferred_waiting > 0) {
     std::string waiting = std::to_string(s.sender.pending) + " keyframes are still in the outbox " + outbox_dir;
     if (s.deferred_waiting > 0)
@@ -310,8 +309,7 @@ void register_stream(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--fine-tolerance", args->fine.tolerance, "Tolerance floor of a fine reduction (sigma)")
       ->capture_default_str();
-  cmd->add_option("--fine-simplify-px", args->fine.simplify_px,
-                  "Collapses' limit of a fine reduction (pixels; 0: off)")
+  cmd->add_option("--fine-simplify-px", args->fine.simplify_px, "Collapses' limit of a fine reduction (pixels; 0: off)")
       ->capture_default_str();
   cmd->add_option("--fine-max-quality", args->fine.max_jpeg_quality, "Best JPEG quality of a fine reduction")
       ->capture_default_str();

@@ -1,6 +1,5 @@
 #include "app/reduce_common.h"
 
-
 namespace rgbdcast::app {
 
 Result<FrameReductionOptions> frame_options(const ReduceArgs& a) {
@@ -24,8 +23,10 @@ Result<FrameReductionOptions> frame_options(const ReduceArgs& a) {
 
 Result<SequenceParams> sequence_params(const ReduceArgs& a) {
   SequenceParams params;
-  if (a.tracking == "paper") params.tracking = TrackingParams::paper_window_only();
-  else if (a.tracking == "live") params = SequenceParams::live();
+  if (a.tracking == "paper")
+    params.tracking = TrackingParams::paper_window_only();
+  else if (a.tracking == "live")
+    params = SequenceParams::live();
   else if (a.tracking != "robust")
     return make_error(ErrorCode::kInvalidArgument, "--tracking must be robust, paper or live");
   auto features = parse_feature_type(a.features);
@@ -71,19 +72,20 @@ nlohmann::json params_json(const ReduceArgs& a) {
                       {"boundary_lost_px", a.params.depth_mesh.boundary_max_lost_px},
                       {"speckle_px", a.params.filter.min_region_px},
                       {"outliers", a.params.outlier_method == OutlierMethod::kKdTree ? "kdtree" : "organized"},
-          {"outlier_k", a.params.outlier_k},
-          {"outlier_std_mul", a.params.outlier_std_mul},
-          {"voxel_size_m", a.params.voxel_size_m},
-          {"max_edge_m", a.params.max_edge_m},
-          {"perimeter_factor", a.params.perimeter_factor},
-          {"simplify_error_m", a.params.simplify_error_m},
-          {"texture", a.texture},
-          {"cell_size_px", a.atlas.cell_size_px},
-          {"jpeg_quality", a.atlas.jpeg_quality},
-          {"meshopt", a.glb.meshopt},
-          {"geometry_codec", to_string(a.geometry_codec_chosen || a.preset != "realtime" ? a.glb.geometry_codec
-                                                                                        : default_geometry_codec(Preset::kRealtime))},
-          {"position_step_m", a.glb.position_quantum_m}};
+                      {"outlier_k", a.params.outlier_k},
+                      {"outlier_std_mul", a.params.outlier_std_mul},
+                      {"voxel_size_m", a.params.voxel_size_m},
+                      {"max_edge_m", a.params.max_edge_m},
+                      {"perimeter_factor", a.params.perimeter_factor},
+                      {"simplify_error_m", a.params.simplify_error_m},
+                      {"texture", a.texture},
+                      {"cell_size_px", a.atlas.cell_size_px},
+                      {"jpeg_quality", a.atlas.jpeg_quality},
+                      {"meshopt", a.glb.meshopt},
+                      {"geometry_codec", to_string(a.geometry_codec_chosen || a.preset != "realtime"
+                                                       ? a.glb.geometry_codec
+                                                       : default_geometry_codec(Preset::kRealtime))},
+                      {"position_step_m", a.glb.position_quantum_m}};
   return j;
 }
 

@@ -20,7 +20,7 @@ struct ReduceArgs {
   std::string input, depth, intrinsics, associations, out, report;
   int frame = 0;
   double depth_scale = 0;
-  std::string depth_encoding = "png16";  // png16 | nyu | sun (input/depth_encoding.h)
+  std::string depth_encoding = "png16";            // png16 | nyu | sun (input/depth_encoding.h)
   std::string preset = to_string(kDefaultPreset);  // realtime (pipeline/frame_defaults.h)
   // < 0: the preset's default (realtime: min(40 kB, a quarter of the frame's JPEG90+PNG16 payload), set per frame
   // by reduce_and_texture for each frame: budget_within_payload_share; paper: none).

@@ -102,12 +102,11 @@ Status run_sequence(const ReduceArgs& a, const FrameSource& source) {
   }
   const double total_ms = ms_since(t0);
 
-  std::cout << "rgbdcast reduce --sequence: " << result->frames.size() << " frames, " << result->tracked
-            << " tracked (" << result->widened << " by the wide search, " << result->relocalised
-            << " relocalised), " << result->keyframes << " keyframes, " << result->skipped << " skipped; "
-            << scene.triangle_count() << " triangles, " << glb->size() << " bytes (geometry " << stats.geometry_bytes
-            << ", texture " << stats.texture_bytes << ") -> " << a.out << " (" << static_cast<int>(total_ms)
-            << " ms)\n";
+  std::cout << "rgbdcast reduce --sequence: " << result->frames.size() << " frames, " << result->tracked << " tracked ("
+            << result->widened << " by the wide search, " << result->relocalised << " relocalised), "
+            << result->keyframes << " keyframes, " << result->skipped << " skipped; " << scene.triangle_count()
+            << " triangles, " << glb->size() << " bytes (geometry " << stats.geometry_bytes << ", texture "
+            << stats.texture_bytes << ") -> " << a.out << " (" << static_cast<int>(total_ms) << " ms)\n";
   for (const auto& f : result->frames)
     if (!f.message.empty() && !f.tracked) std::cout << "  frame " << f.index << ": " << f.message << "\n";
   if (a.report.empty()) return ok_status();

@@ -21,16 +21,20 @@ void add_camera_options(CLI::App* cmd, ViewArgs* a) {
   cmd->add_option("--eye", a->eye, "Camera position x,y,z (world = first capture camera frame, y down)");
   cmd->add_option("--target", a->target, "Point looked at x,y,z");
   cmd->add_option("--up", a->up, "Up direction x,y,z")->capture_default_str();
-  cmd->add_option("--fov", a->fov_deg, "Vertical field of view in degrees (above 0.5, at most 179)")->capture_default_str();
+  cmd->add_option("--fov", a->fov_deg, "Vertical field of view in degrees (above 0.5, at most 179)")
+      ->capture_default_str();
   cmd->add_option("--width", a->width, "Image width (default: the capture camera's)");
   cmd->add_option("--height", a->height, "Image height (default: the capture camera's)");
 }
 
 Result<RenderOptions> render_options(const ViewArgs& a) {
   RenderOptions o;
-  if (a.mode == "mesh") o.mode = RenderMode::kMesh;
-  else if (a.mode == "points") o.mode = RenderMode::kPoints;
-  else return make_error(ErrorCode::kInvalidArgument, "--mode must be mesh or points");
+  if (a.mode == "mesh")
+    o.mode = RenderMode::kMesh;
+  else if (a.mode == "points")
+    o.mode = RenderMode::kPoints;
+  else
+    return make_error(ErrorCode::kInvalidArgument, "--mode must be mesh or points");
   if (!(a.point_size_px >= 1.0f && a.point_size_px <= 64.0f))
     return make_error(ErrorCode::kInvalidArgument, "--point-size must be between 1 and 64 pixels");
   o.point_size_px = a.point_size_px;
@@ -81,8 +85,10 @@ Status write_image(const Image& image, const std::string& path) {
   if (ext.empty()) ext = ".png";
   const bool jpeg = ext == ".jpg" || ext == ".jpeg";  // JPEG has no alpha
   cv::Mat bgr;
-  if (image.channels == 4) cv::cvtColor(src, bgr, jpeg ? cv::COLOR_RGBA2BGR : cv::COLOR_RGBA2BGRA);
-  else cv::cvtColor(src, bgr, cv::COLOR_RGB2BGR);
+  if (image.channels == 4)
+    cv::cvtColor(src, bgr, jpeg ? cv::COLOR_RGBA2BGR : cv::COLOR_RGBA2BGRA);
+  else
+    cv::cvtColor(src, bgr, cv::COLOR_RGB2BGR);
   std::vector<unsigned char> bytes;
   try {
     if (!cv::imencode(ext, bgr, bytes)) return make_error(ErrorCode::kInvalidArgument, "cannot encode " + path);

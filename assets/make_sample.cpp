@@ -70,12 +70,12 @@ void intersect_sphere(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const 
 
 Hit trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
   Hit h;
-  intersect_plane(o, d, 1, 0.6, 0, {0, -1, 0}, &h);    // floor
-  intersect_plane(o, d, 1, -1.5, 1, {0, 1, 0}, &h);    // ceiling
-  intersect_plane(o, d, 2, 2.4, 2, {0, 0, -1}, &h);    // back wall
-  intersect_plane(o, d, 0, -1.3, 3, {1, 0, 0}, &h);    // left wall
-  intersect_plane(o, d, 0, 1.3, 4, {-1, 0, 0}, &h);    // right wall
-  intersect_plane(o, d, 2, -1.0, 2, {0, 0, 1}, &h);    // wall behind the camera
+  intersect_plane(o, d, 1, 0.6, 0, {0, -1, 0}, &h);                  // floor
+  intersect_plane(o, d, 1, -1.5, 1, {0, 1, 0}, &h);                  // ceiling
+  intersect_plane(o, d, 2, 2.4, 2, {0, 0, -1}, &h);                  // back wall
+  intersect_plane(o, d, 0, -1.3, 3, {1, 0, 0}, &h);                  // left wall
+  intersect_plane(o, d, 0, 1.3, 4, {-1, 0, 0}, &h);                  // right wall
+  intersect_plane(o, d, 2, -1.0, 2, {0, 0, 1}, &h);                  // wall behind the camera
   intersect_box(o, d, {-0.75, 0.1, 1.3}, {-0.2, 0.6, 1.85}, 5, &h);  // a crate
   intersect_sphere(o, d, {0.45, 0.35, 1.5}, 0.25, 6, &h);            // a ball
   return h;
@@ -94,7 +94,9 @@ cv::Vec3b shade(int material, const Eigen::Vector3d& p, const Eigen::Vector3d& n
       if (std::abs(p.x() / 0.25 - std::round(p.x() / 0.25)) < 0.03) r *= 0.5, g *= 0.5, b *= 0.5;
       break;
     }
-    case 1: r = g = b = 225; break;  // ceiling
+    case 1:
+      r = g = b = 225;
+      break;   // ceiling
     case 2: {  // back wall: a checkerboard poster on a light wall
       const bool in_poster = p.x() > -0.8 && p.x() < 0.8 && p.y() > -0.8 && p.y() < 0.2;
       if (in_poster) {
@@ -103,33 +105,46 @@ cv::Vec3b shade(int material, const Eigen::Vector3d& p, const Eigen::Vector3d& n
         g = c ? 60 : 220;
         b = c ? 140 : 60;
       } else {
-        r = 200; g = 190; b = 170;
+        r = 200;
+        g = 190;
+        b = 170;
       }
       break;
     }
     case 3: {  // left wall: vertical colour stripes
       const double s = 0.5 + 0.5 * std::sin(p.z() * 6.0);
-      r = 90 + 120 * s; g = 160; b = 200 - 100 * s;
+      r = 90 + 120 * s;
+      g = 160;
+      b = 200 - 100 * s;
       break;
     }
     case 4: {  // right wall: horizontal bands
       const int band = int(std::floor((p.y() + 1.5) / 0.3)) & 3;
       const double c[4][3] = {{180, 70, 60}, {220, 200, 120}, {80, 140, 90}, {210, 210, 210}};
-      r = c[band][0]; g = c[band][1]; b = c[band][2];
+      r = c[band][0];
+      g = c[band][1];
+      b = c[band][2];
       break;
     }
     case 5: {  // crate: a fine checker on each face
-      const int c = std::abs(n.x()) > 0.5 ? checker(p.y(), p.z(), 0.1) : std::abs(n.y()) > 0.5 ? checker(p.x(), p.z(), 0.1) : checker(p.x(), p.y(), 0.1);
-      r = c ? 200 : 120; g = c ? 140 : 80; b = c ? 60 : 30;
+      const int c = std::abs(n.x()) > 0.5   ? checker(p.y(), p.z(), 0.1)
+                    : std::abs(n.y()) > 0.5 ? checker(p.x(), p.z(), 0.1)
+                                            : checker(p.x(), p.y(), 0.1);
+      r = c ? 200 : 120;
+      g = c ? 140 : 80;
+      b = c ? 60 : 30;
       break;
     }
     case 6: {  // ball: red and white segments
       const double a = std::atan2(p.z() - 1.5, p.x() - 0.45);
       const bool red = (int(std::floor(a / (M_PI / 4))) & 1) != 0;
-      r = red ? 210 : 240; g = red ? 40 : 240; b = red ? 40 : 235;
+      r = red ? 210 : 240;
+      g = red ? 40 : 240;
+      b = red ? 40 : 235;
       break;
     }
-    default: break;
+    default:
+      break;
   }
   // Soft lighting from above-front so the image looks like a photograph, not flat paint.
   const double light = 0.75 + 0.25 * std::max(0.0, n.dot(Eigen::Vector3d(0.2, -0.8, -0.5).normalized()));
@@ -192,7 +207,8 @@ int main(int argc, char** argv) {
       for (int u = 1; u < W; ++u) {
         const double jump = zbuf.at<double>(v, u) - zbuf.at<double>(v, u - 1);
         if (jump > 0.08) {
-          const int width = std::min(W - u, int(std::lround(575.0 * 0.075 * jump / (zbuf.at<double>(v, u) * zbuf.at<double>(v, u - 1)))) + 1);
+          const int width = std::min(
+              W - u, int(std::lround(575.0 * 0.075 * jump / (zbuf.at<double>(v, u) * zbuf.at<double>(v, u - 1)))) + 1);
           for (int k = 0; k < width; ++k) depth.at<uint16_t>(v, u + k) = 0;
         }
       }

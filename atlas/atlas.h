@@ -41,10 +41,10 @@ Result<TextureMode> parse_texture_mode(const std::string& name);
 
 struct AtlasOptions {
   TextureMode mode = TextureMode::kAtlas;
-  int cell_size_px = 8;     // side of a square cell (texels); 8 aligns cells with JPEG blocks
-  int gutter_px = 1;        // texels kept free around each triangle (filled from the triangle's own plane)
-  bool two_per_cell = true; // upper + lower triangle per cell (halves the atlas)
-  int jpeg_quality = 85;    // 1..100
+  int cell_size_px = 8;      // side of a square cell (texels); 8 aligns cells with JPEG blocks
+  int gutter_px = 1;         // texels kept free around each triangle (filled from the triangle's own plane)
+  bool two_per_cell = true;  // upper + lower triangle per cell (halves the atlas)
+  int jpeg_quality = 85;     // 1..100
   // meshoptimizer vertex-cache order: neighbouring triangles in neighbouring cells. Unset: on for kAtlas and kFrame;
   // off for kFootprint, where it costs ~2/3 of the build for nothing (TUM, 22.8k triangles: JPEG q85 56449 B with it,
   // 56383 B without; an RTIN's own order is local already).
@@ -72,21 +72,21 @@ struct AtlasOptions {
 };
 
 struct AtlasResult {
-  Mesh mesh;               // textured: positions, uvs, indices, texture, texture_encoded, texture_mime
+  Mesh mesh;  // textured: positions, uvs, indices, texture, texture_encoded, texture_mime
   TextureMode mode = TextureMode::kAtlas;
-  int width = 0, height = 0;  // texture size (texels)
-  size_t texels = 0;          // width * height
-  size_t cells = 0;           // atlas cells used (0 in frame mode)
-  double packing_efficiency = 0.0;  // kFootprint: triangles' own texels / atlas texels (footprint_layout.h)
-  size_t unsampled_texels = 0;      // texels no triangle samples (counted when they are filled)
+  int width = 0, height = 0;                // texture size (texels)
+  size_t texels = 0;                        // width * height
+  size_t cells = 0;                         // atlas cells used (0 in frame mode)
+  double packing_efficiency = 0.0;          // kFootprint: triangles' own texels / atlas texels (footprint_layout.h)
+  size_t unsampled_texels = 0;              // texels no triangle samples (counted when they are filled)
   size_t patches = 0, patch_triangles = 0;  // kFootprint: frame patches and the triangles textured from them
-  size_t triangles = 0;       // triangles textured
+  size_t triangles = 0;                     // triangles textured
   size_t dropped_triangles = 0;
-  double median_source_px = 0.0;  // median projected area of a triangle in the colour image (pixels)
+  double median_source_px = 0.0;     // median projected area of a triangle in the colour image (pixels)
   double texels_per_triangle = 0.0;  // texels of a triangle's own area in its cell (frame mode: = source px)
-  double ms = 0.0;            // building the texture and the mesh, including the fill
-  double fill_ms = 0.0;       // of which: filling unsampled texels
-  double encode_ms = 0.0;     // JPEG encoding
+  double ms = 0.0;                   // building the texture and the mesh, including the fill
+  double fill_ms = 0.0;              // of which: filling unsampled texels
+  double encode_ms = 0.0;            // JPEG encoding
 };
 
 Result<AtlasResult> build_atlas(const Mesh& mesh, const cv::Mat& color_rgb, const Intrinsics& pinhole,

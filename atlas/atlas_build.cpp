@@ -16,10 +16,14 @@ namespace rgbdcast {
 
 const char* to_string(TextureMode mode) {
   switch (mode) {
-    case TextureMode::kAtlas: return "atlas";
-    case TextureMode::kFrame: return "frame";
-    case TextureMode::kAuto: return "auto";
-    case TextureMode::kFootprint: return "footprint";
+    case TextureMode::kAtlas:
+      return "atlas";
+    case TextureMode::kFrame:
+      return "frame";
+    case TextureMode::kAuto:
+      return "auto";
+    case TextureMode::kFootprint:
+      return "footprint";
   }
   return "?";
 }
@@ -49,8 +53,9 @@ void fill_slot(const CellLayout& layout, size_t slot, bool has_partner, const Sl
   const int S = layout.cell_px;
   const Eigen::Matrix3d& M_inv = s.map.image_from_atlas;
   // Fallback for texels whose continued plane passes behind the camera: the centroid's pixel.
-  const Eigen::Vector3d c = s.map.H * Eigen::Vector3d((s.map.plane[0].x() + s.map.plane[1].x() + s.map.plane[2].x()) / 3,
-                                                      (s.map.plane[0].y() + s.map.plane[1].y() + s.map.plane[2].y()) / 3, 1);
+  const Eigen::Vector3d c =
+      s.map.H * Eigen::Vector3d((s.map.plane[0].x() + s.map.plane[1].x() + s.map.plane[2].x()) / 3,
+                                (s.map.plane[0].y() + s.map.plane[1].y() + s.map.plane[2].y()) / 3, 1);
   for (int j = 0; j < S; ++j) {
     for (int i = 0; i < S; ++i) {
       if (layout.two_per_cell && (has_partner || lower)) {
@@ -86,11 +91,10 @@ Result<AtlasResult> build_atlas(const Mesh& mesh, const cv::Mat& color_rgb, cons
     const double own_texels = 0.5 * layout.leg_px() * layout.leg_px();
     AtlasOptions chosen = options;
     chosen.mode = atlas_detail::median_projected_area_px(mesh, pinhole.K()) > own_texels ? TextureMode::kAtlas
-                                                                                          : TextureMode::kFrame;
+                                                                                         : TextureMode::kFrame;
     return build_atlas(mesh, color_rgb, pinhole, chosen);
   }
-  if (options.mode == TextureMode::kFrame)
-    return atlas_detail::build_frame_texture(mesh, color_rgb, pinhole, options);
+  if (options.mode == TextureMode::kFrame) return atlas_detail::build_frame_texture(mesh, color_rgb, pinhole, options);
   if (options.mode == TextureMode::kFootprint)
     return atlas_detail::build_footprint_atlas(mesh, color_rgb, pinhole, options);
 
@@ -121,11 +125,11 @@ Result<AtlasResult> build_atlas(const Mesh& mesh, const cv::Mat& color_rgb, cons
   CellLayout layout;
   if (!make_cell_layout(tris.size(), options.cell_size_px, options.gutter_px, options.two_per_cell,
                         options.max_atlas_side_px, &layout))
-    return make_error(ErrorCode::kInvalidArgument,
-                      "atlas: cell size " + std::to_string(options.cell_size_px) + " with gutter " +
-                          std::to_string(options.gutter_px) + " leaves no room for a triangle, or " +
-                          std::to_string(tris.size()) + " triangles exceed a " +
-                          std::to_string(options.max_atlas_side_px) + " texel atlas");
+    return make_error(ErrorCode::kInvalidArgument, "atlas: cell size " + std::to_string(options.cell_size_px) +
+                                                       " with gutter " + std::to_string(options.gutter_px) +
+                                                       " leaves no room for a triangle, or " +
+                                                       std::to_string(tris.size()) + " triangles exceed a " +
+                                                       std::to_string(options.max_atlas_side_px) + " texel atlas");
 
   Image atlas = Image::make(layout.width, layout.height, 3);
   Mesh& out = r.mesh;

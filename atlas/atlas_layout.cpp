@@ -15,8 +15,7 @@ std::array<Eigen::Vector2d, 3> cell_triangle_corners(int x0, int y0, int cell_px
                                                      bool lower) {
   const double S = cell_px, g = gutter_px;
   const Eigen::Vector2d o(x0, y0);
-  if (!two_per_cell)
-    return {o + Eigen::Vector2d(g, g), o + Eigen::Vector2d(S - g, g), o + Eigen::Vector2d(g, S - g)};
+  if (!two_per_cell) return {o + Eigen::Vector2d(g, g), o + Eigen::Vector2d(S - g, g), o + Eigen::Vector2d(g, S - g)};
   if (!lower)
     return {o + Eigen::Vector2d(g, g), o + Eigen::Vector2d(S - 2 * g - 1, g), o + Eigen::Vector2d(g, S - 2 * g - 1)};
   return {o + Eigen::Vector2d(S - g, S - g), o + Eigen::Vector2d(2 * g, S - g), o + Eigen::Vector2d(S - g, 2 * g)};
@@ -31,8 +30,7 @@ std::array<Eigen::Vector2d, 3> CellLayout::corners(size_t slot) const {
 
 int CellLayout::leg_px() const { return two_per_cell ? cell_px - 3 * gutter_px - 1 : cell_px - 2 * gutter_px; }
 
-bool make_cell_layout(size_t triangles, int cell_px, int gutter_px, bool two_per_cell, int max_side,
-                      CellLayout* out) {
+bool make_cell_layout(size_t triangles, int cell_px, int gutter_px, bool two_per_cell, int max_side, CellLayout* out) {
   if (gutter_px < 0 || cell_px < 3 * gutter_px + 2 || cell_px > 4096) return false;
   CellLayout l;
   l.cell_px = cell_px;

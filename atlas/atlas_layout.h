@@ -40,7 +40,6 @@ std::array<Eigen::Vector2d, 3> cell_triangle_corners(int x0, int y0, int cell_px
 
 // A near-square grid for `triangles` slots. Returns false when the parameters leave no room for a triangle
 // (cell_px < 3 g + 2) or the atlas would exceed max_side texels per side.
-bool make_cell_layout(size_t triangles, int cell_px, int gutter_px, bool two_per_cell, int max_side,
-                      CellLayout* out);
+bool make_cell_layout(size_t triangles, int cell_px, int gutter_px, bool two_per_cell, int max_side, CellLayout* out);
 
 }  // namespace rgbdcast

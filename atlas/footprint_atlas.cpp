@@ -140,7 +140,8 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
     patch_tile.push_back(tile);
     if (tile < 0) cells.push_back({footprint_leg_class(options.texels_per_px * leg_px), -1, false});
   }
-  if (tris.empty()) return make_error(ErrorCode::kEmpty, "footprint atlas: no triangle in front of the camera with an area");
+  if (tris.empty())
+    return make_error(ErrorCode::kEmpty, "footprint atlas: no triangle in front of the camera with an area");
 
   // Cell triangles (and their pixels) in order, for the diamonds; patches: each tile's pixel rectangle.
   std::vector<std::array<std::uint32_t, 3>> cell_tris;
@@ -178,10 +179,10 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
 
   FootprintLayout layout;
   if (!make_footprint_layout(cells, options.gutter_px, options.max_atlas_side_px, &layout, patch_sizes))
-    return make_error(ErrorCode::kInvalidArgument,
-                      "footprint atlas: " + std::to_string(tris.size()) + " triangles at " +
-                          std::to_string(options.texels_per_px) + " texels per pixel exceed a " +
-                          std::to_string(options.max_atlas_side_px) + " texel atlas");
+    return make_error(ErrorCode::kInvalidArgument, "footprint atlas: " + std::to_string(tris.size()) +
+                                                       " triangles at " + std::to_string(options.texels_per_px) +
+                                                       " texels per pixel exceed a " +
+                                                       std::to_string(options.max_atlas_side_px) + " texel atlas");
 
   const CellSource src{color_rgb.ptr<std::uint8_t>(0), color_rgb.step[0], color_rgb.cols, color_rgb.rows};
   Image atlas = Image::make(layout.width, layout.height, 3);
@@ -215,7 +216,8 @@ Result<AtlasResult> build_footprint_atlas(const Mesh& mesh, const cv::Mat& color
         }
         out.indices.push_back(it->second);
       }
-      layout.triangle_texels += 0.5 * std::abs((q[1] - q[0]).x() * (q[2] - q[0]).y() - (q[1] - q[0]).y() * (q[2] - q[0]).x());
+      layout.triangle_texels +=
+          0.5 * std::abs((q[1] - q[0]).x() * (q[2] - q[0]).y() - (q[1] - q[0]).y() * (q[2] - q[0]).x());
       ++r.patch_triangles;
       continue;
     }

@@ -94,7 +94,8 @@ bool make_footprint_layout(const std::vector<FootprintTriangle>& tris, int gutte
     const int leg = std::max(tri.leg, tris[p].leg);
     cells.push_back({side(leg, true), leg, true, static_cast<std::uint32_t>(t), static_cast<std::uint32_t>(p)});
   }
-  std::stable_sort(loose.begin(), loose.end(), [&](std::uint32_t a, std::uint32_t b) { return tris[a].leg > tris[b].leg; });
+  std::stable_sort(loose.begin(), loose.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return tris[a].leg > tris[b].leg; });
   for (size_t k = 0; k < loose.size();) {
     const int leg = tris[loose[k]].leg;
     const bool pair = k + 1 < loose.size() && tris[loose[k + 1]].leg == leg;
@@ -135,7 +136,7 @@ bool make_footprint_layout(const std::vector<FootprintTriangle>& tris, int gutte
   int width = std::max(widest, static_cast<int>(std::ceil(std::sqrt(area))));
   width = (width + 7) / 8 * 8;
   if (width > max_side) return false;
-  int shelf_y = 0, shelf_h = 0, x = 0;  // current shelf and the next free column in it
+  int shelf_y = 0, shelf_h = 0, x = 0;             // current shelf and the next free column in it
   int col_x = 0, col_w = 0, col_h = 0, col_y = 0;  // current column: where the next item of its size goes
   auto place = [&](const Cell& c, int cx, int cy) {
     if (c.patch >= 0) {

@@ -14,10 +14,11 @@
 // triangle gets about one texel per source pixel along each leg. The cell of class n is S = n + 3 g + 1 texels square
 // (the upper triangle's legs are n, the lower one's n + 1; atlas_layout.h).
 //
-// Packing: cells (and any patches, rectangles) sorted by height, tallest first (ties keep the triangle order, so neighbours in the mesh sit next to each
-// other in the atlas), placed left to right on shelves as high as the shelf's first cell; a smaller cell stacks in a
-// column inside the current shelf while it fits. The width is chosen for a near-square atlas; width and height are
-// multiples of 8 (JPEG blocks). Deterministic: the same input gives the same layout.
+// Packing: cells (and any patches, rectangles) sorted by height, tallest first (ties keep the triangle order, so
+// neighbours in the mesh sit next to each other in the atlas), placed left to right on shelves as high as the shelf's
+// first cell; a smaller cell stacks in a column inside the current shelf while it fits. The width is chosen for a
+// near-square atlas; width and height are multiples of 8 (JPEG blocks). Deterministic: the same input gives the same
+// layout.
 #include <Eigen/Core>
 #include <array>
 #include <cstddef>
@@ -40,7 +41,7 @@ double footprint_leg_px(const std::array<Eigen::Vector2d, 3>& image_px, int* rig
 
 // One triangle to lay out: its leg class, and its diamond partner (the triangle sharing its hypotenuse), if any.
 struct FootprintTriangle {
-  int leg = 1;                     // texels (footprint_leg_class)
+  int leg = 1;                        // texels (footprint_leg_class)
   std::int64_t diamond_partner = -1;  // index of the partner, which must name this one back; -1 for none
   // For the second triangle of a diamond (the higher index): true when its v1 is the first one's v1 (so its legs run
   // the other way round in the cell).
@@ -48,21 +49,21 @@ struct FootprintTriangle {
 };
 
 struct FootprintSlot {
-  int x0 = 0, y0 = 0;  // top-left texel of the cell
-  int cell_px = 0;     // side of the (square) cell
-  bool lower = false;  // the cell's lower triangle (else upper)
-  bool paired = false; // the cell holds two triangles
+  int x0 = 0, y0 = 0;    // top-left texel of the cell
+  int cell_px = 0;       // side of the (square) cell
+  bool lower = false;    // the cell's lower triangle (else upper)
+  bool paired = false;   // the cell holds two triangles
   bool diamond = false;  // the two share their hypotenuse (no gutter between them)
   bool swapped = false;  // see FootprintTriangle
 };
 
 struct FootprintLayout {
   int gutter_px = 1;
-  int width = 0, height = 0;  // atlas size in texels (multiples of 8)
+  int width = 0, height = 0;         // atlas size in texels (multiples of 8)
   std::vector<FootprintSlot> slots;  // one per triangle, in input order
   size_t cells = 0;
-  double triangle_texels = 0;  // sum of the triangles' own areas in their cells (texels)
-  double cell_texels = 0;      // sum of the cells' (and patches') areas (texels)
+  double triangle_texels = 0;                      // sum of the triangles' own areas in their cells (texels)
+  double cell_texels = 0;                          // sum of the cells' (and patches') areas (texels)
   std::vector<std::pair<int, int>> patch_origins;  // top-left texel of each patch (make_footprint_layout)
 
   // Corners (v0 at the right angle, v1, v2) of triangle t in atlas coordinates (texel (i, j) covers [i, i+1]^2).

@@ -20,10 +20,10 @@ Status check_inputs(const Mesh& mesh, const cv::Mat& color_rgb, const Intrinsics
         k.fy > 0))
     return make_error(ErrorCode::kInvalidArgument, "atlas: intrinsics must be finite with fx, fy > 0");
   if (k.width != color_rgb.cols || k.height != color_rgb.rows)
-    return make_error(ErrorCode::kInvalidArgument,
-                      "atlas: intrinsics are for " + std::to_string(k.width) + "x" + std::to_string(k.height) +
-                          " but the colour image is " + std::to_string(color_rgb.cols) + "x" +
-                          std::to_string(color_rgb.rows));
+    return make_error(ErrorCode::kInvalidArgument, "atlas: intrinsics are for " + std::to_string(k.width) + "x" +
+                                                       std::to_string(k.height) + " but the colour image is " +
+                                                       std::to_string(color_rgb.cols) + "x" +
+                                                       std::to_string(color_rgb.rows));
   if (mesh.indices.size() % 3 != 0)
     return make_error(ErrorCode::kInvalidArgument, "atlas: index count is not a multiple of 3");
   if (mesh.indices.empty()) return make_error(ErrorCode::kEmpty, "atlas: the mesh has no triangles");
@@ -107,8 +107,8 @@ Result<AtlasResult> build_frame_texture(const Mesh& mesh, const cv::Mat& color_r
   }
   for (size_t t = 0; t < mesh.triangle_count(); ++t) {
     const std::uint32_t a = mesh.indices[3 * t], b = mesh.indices[3 * t + 1], c = mesh.indices[3 * t + 2];
-    if (mesh.positions[a].z() <= 0 || mesh.positions[b].z() <= 0 || mesh.positions[c].z() <= 0 || a == b ||
-        b == c || a == c) {
+    if (mesh.positions[a].z() <= 0 || mesh.positions[b].z() <= 0 || mesh.positions[c].z() <= 0 || a == b || b == c ||
+        a == c) {
       ++r.dropped_triangles;
       continue;
     }

@@ -28,7 +28,8 @@ TextureFidelity measure_texture_fidelity(const Mesh& mesh, const Image& texture,
         if (px.x() < 0 || px.y() < 0 || px.x() > color_rgb.cols - 1 || px.y() > color_rgb.rows - 1) continue;
         std::uint8_t want[3], got[3];
         atlas_detail::sample_bilinear(color_rgb, px.x(), px.y(), want);
-        atlas_detail::sample_bilinear(tex, double(uv.x()) * texture.width - 0.5, double(uv.y()) * texture.height - 0.5, got);
+        atlas_detail::sample_bilinear(tex, double(uv.x()) * texture.width - 0.5, double(uv.y()) * texture.height - 0.5,
+                                      got);
         for (int c = 0; c < 3; ++c) {
           const double d = double(want[c]) - double(got[c]);
           sq += d * d;

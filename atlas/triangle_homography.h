@@ -13,9 +13,9 @@
 namespace rgbdcast {
 
 struct TriangleTextureMap {
-  Eigen::Matrix3d H;                // plane (x, y, 1) -> image pixel (homogeneous), pixel centres at integers
-  Eigen::Matrix3d A;                // plane (x, y, 1) -> atlas position (affine; last row 0 0 1)
-  Eigen::Matrix3d image_from_atlas; // M^-1 = H A^-1: atlas position -> image pixel (homogeneous)
+  Eigen::Matrix3d H;                     // plane (x, y, 1) -> image pixel (homogeneous), pixel centres at integers
+  Eigen::Matrix3d A;                     // plane (x, y, 1) -> atlas position (affine; last row 0 0 1)
+  Eigen::Matrix3d image_from_atlas;      // M^-1 = H A^-1: atlas position -> image pixel (homogeneous)
   std::array<Eigen::Vector2d, 3> plane;  // the triangle's vertices in plane coordinates (metres)
 };
 

@@ -53,8 +53,8 @@ class TriangleMarker {
   bool separated(double bx0, double bx1, double by0, double by1) const {
     if (maxx_ < bx0 || minx_ > bx1 || maxy_ < by0 || miny_ > by1) return true;
     for (int e = 0; e < 3 && !flat_; ++e) {
-      const double lo = (n_[e].x() > 0 ? n_[e].x() * bx0 : n_[e].x() * bx1) +
-                        (n_[e].y() > 0 ? n_[e].y() * by0 : n_[e].y() * by1);
+      const double lo =
+          (n_[e].x() > 0 ? n_[e].x() * bx0 : n_[e].x() * bx1) + (n_[e].y() > 0 ? n_[e].y() * by0 : n_[e].y() * by1);
       if (lo > d_[e]) return true;
     }
     return false;
@@ -243,7 +243,8 @@ Result<std::vector<std::uint8_t>> texels_sampled_by_uvs(const Mesh& mesh, int wi
     for (int i = 0; i < 3; ++i) {
       const std::uint32_t idx = mesh.indices[t + i];
       if (idx >= mesh.uvs.size())
-        return make_error(ErrorCode::kInvalidArgument, "sampled texels: index " + std::to_string(idx) + " out of range");
+        return make_error(ErrorCode::kInvalidArgument,
+                          "sampled texels: index " + std::to_string(idx) + " out of range");
       const Eigen::Vector2f& uv = mesh.uvs[idx];
       if (!uv.allFinite()) return make_error(ErrorCode::kInvalidArgument, "sampled texels: a UV is not finite");
       q[i] = Eigen::Vector2d(double(uv.x()) * width, double(uv.y()) * height);

@@ -19,9 +19,9 @@ namespace rgbdcast {
 // Texels (width x height, row-major, 1 = sampled) that a bilinear lookup at any point of any of the mesh's triangles
 // reads with a weight of 1e-3 or more, from the triangles' UVs (mesh.uvs, 0..1 over the texture): texel (i, j) is
 // marked when the triangle meets the square of half-width 1 - 1e-3 around its centre (exact for bilinear filtering,
-// also at the texture's clamped border). Works for any texture layout, e.g. the frame texture (TextureMode::kFrame) where it is the colour
-// frame's pixels that some triangle covers. kInvalidArgument when uvs do not match positions, an index is out of
-// range, a UV is not finite, or the size is not positive.
+// also at the texture's clamped border). Works for any texture layout, e.g. the frame texture (TextureMode::kFrame)
+// where it is the colour frame's pixels that some triangle covers. kInvalidArgument when uvs do not match positions, an
+// index is out of range, a UV is not finite, or the size is not positive.
 Result<std::vector<std::uint8_t>> texels_sampled_by_uvs(const Mesh& mesh, int width, int height);
 
 // The same for one triangle given in texel units (a UV times the texture size); marks into mask (width x height).

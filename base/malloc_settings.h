@@ -31,8 +31,7 @@ MallocSettings frame_loop_malloc_settings();
 MallocSettings server_malloc_settings();
 
 // `s` without the fields the environment sets: env(name) is the variable's value or null (std::getenv by default).
-MallocSettings without_environment_overrides(MallocSettings s,
-                                             const std::function<const char*(const char*)>& env = {});
+MallocSettings without_environment_overrides(MallocSettings s, const std::function<const char*(const char*)>& env = {});
 
 // Applies the non-zero fields of without_environment_overrides(s) with mallopt.
 void apply_malloc_settings(const MallocSettings& s);

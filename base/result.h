@@ -8,12 +8,12 @@
 namespace rgbdcast {
 
 enum class ErrorCode {
-  kNotFound,        // a file, frame or scene that does not exist
-  kInvalidInput,    // malformed data: corrupt image, truncated GLB, wrong size or bit depth
-  kInvalidArgument, // a parameter out of range: negative voxel size, NaN in a pose, absurd image size
-  kEmpty,           // nothing to work on: no valid depth, an empty scene
-  kUnavailable,     // a backend or device that cannot be used on this machine
-  kIo,              // a read or write that failed for reasons outside the data
+  kNotFound,         // a file, frame or scene that does not exist
+  kInvalidInput,     // malformed data: corrupt image, truncated GLB, wrong size or bit depth
+  kInvalidArgument,  // a parameter out of range: negative voxel size, NaN in a pose, absurd image size
+  kEmpty,            // nothing to work on: no valid depth, an empty scene
+  kUnavailable,      // a backend or device that cannot be used on this machine
+  kIo,               // a read or write that failed for reasons outside the data
   kInternal,
 };
 
@@ -29,7 +29,7 @@ inline Error make_error(ErrorCode code, std::string message) { return Error{code
 template <class T>
 class [[nodiscard]] Result {
  public:
-  Result(T value) : v_(std::move(value)) {}  // NOLINT: implicit by design
+  Result(T value) : v_(std::move(value)) {}      // NOLINT: implicit by design
   Result(Error error) : v_(std::move(error)) {}  // NOLINT
   bool ok() const { return v_.index() == 0; }
   explicit operator bool() const { return ok(); }

@@ -84,10 +84,11 @@ int footprint_repeat(const RgbdFrame& f, int runs) {
     o.reorder_triangles = reorder;
     const Timed t = timed_build(mesh, f, o, runs);
     if (!t.last) return std::fprintf(stderr, "%s\n", t.last.error().message.c_str()), 1;
-    std::printf("%zu triangles, %dx%d, reorder %s: fastest build %.2f ms, median %.2f ms (fill %.2f ms) over %d runs; "
-                "JPEG q%d %zu B\n",
-                t.last->triangles, t.last->width, t.last->height, reorder ? "on " : "off", t.min_ms, t.ms, t.fill_ms,
-                runs, o.jpeg_quality, t.last->mesh.texture_encoded.size());
+    std::printf(
+        "%zu triangles, %dx%d, reorder %s: fastest build %.2f ms, median %.2f ms (fill %.2f ms) over %d runs; "
+        "JPEG q%d %zu B\n",
+        t.last->triangles, t.last->width, t.last->height, reorder ? "on " : "off", t.min_ms, t.ms, t.fill_ms, runs,
+        o.jpeg_quality, t.last->mesh.texture_encoded.size());
   }
   return 0;
 }
@@ -108,9 +109,10 @@ int footprint_rows(const RgbdFrame& f) {
       by_leg[leg].first += 1;
       by_leg[leg].second += 0.5 * (leg + 4) * (leg + 4);  // half a cell (gutter 1)
     }
-    std::printf("# tolerance %.0f x 1.425e-3 z^2, blocks >= %d px: %zu triangles, %zu vertices. Per leg class "
-                "(texels): triangles / share of the cells' texels:",
-                tol, min_side, mesh.triangle_count(), mesh.positions.size());
+    std::printf(
+        "# tolerance %.0f x 1.425e-3 z^2, blocks >= %d px: %zu triangles, %zu vertices. Per leg class "
+        "(texels): triangles / share of the cells' texels:",
+        tol, min_side, mesh.triangle_count(), mesh.positions.size());
     double all = 0;
     for (const auto& [leg, v] : by_leg) all += v.second;
     for (const auto& [leg, v] : by_leg) std::printf(" %d: %zu / %.0f%%", leg, v.first, 100.0 * v.second / all);
@@ -121,7 +123,8 @@ int footprint_rows(const RgbdFrame& f) {
         const TextureMode mode = name == "frame" ? TextureMode::kFrame : TextureMode::kFootprint;
         AtlasOptions filled, raw;
         filled.mode = raw.mode = mode;
-        filled.footprint_patch_deviation_px = raw.footprint_patch_deviation_px = name.rfind("fp+patch", 0) == 0 ? 0.25 : 0;
+        filled.footprint_patch_deviation_px = raw.footprint_patch_deviation_px =
+            name.rfind("fp+patch", 0) == 0 ? 0.25 : 0;
         filled.footprint_patch_tile_px = raw.footprint_patch_tile_px = name == "fp+patch64" ? 64 : 32;
         filled.jpeg_quality = raw.jpeg_quality = q;
         filled.fill_unsampled = true;
@@ -132,10 +135,10 @@ int footprint_rows(const RgbdFrame& f) {
           const Error& e = !a.last ? a.last.error() : b.last.error();
           return std::fprintf(stderr, "%s\n", e.message.c_str()), 1;
         }
-        const TextureFidelity fa = measure_texture_fidelity(a.last->mesh, decode_texture(a.last->mesh), f.color_rgb,
-                                                            f.intrinsics);
-        const TextureFidelity fb = measure_texture_fidelity(b.last->mesh, decode_texture(b.last->mesh), f.color_rgb,
-                                                            f.intrinsics);
+        const TextureFidelity fa =
+            measure_texture_fidelity(a.last->mesh, decode_texture(a.last->mesh), f.color_rgb, f.intrinsics);
+        const TextureFidelity fb =
+            measure_texture_fidelity(b.last->mesh, decode_texture(b.last->mesh), f.color_rgb, f.intrinsics);
         char size[32], build[16], fastest[16], fill[16];
         std::snprintf(size, sizeof size, "%dx%d", a.last->width, a.last->height);
         std::snprintf(build, sizeof build, "%.2f", a.ms);
@@ -144,14 +147,16 @@ int footprint_rows(const RgbdFrame& f) {
         const double cells = 100.0 * (1.0 - double(a.last->unsampled_texels) / double(a.last->texels));
         std::printf("%-9s %6.1f %7zu %9s %7.3f %7.1f %9s %8s %8s %3d %9zu %9zu %8.2f %8.2f\n", variant, tol,
                     a.last->triangles, size, a.last->packing_efficiency, cells, runs > 1 ? build : "",
-                    runs > 1 ? fastest : "", runs > 1 ? fill : "", q, a.last->mesh.texture_encoded.size(), b.last->mesh.texture_encoded.size(),
-                    fa.psnr_db, fb.psnr_db);
+                    runs > 1 ? fastest : "", runs > 1 ? fill : "", q, a.last->mesh.texture_encoded.size(),
+                    b.last->mesh.texture_encoded.size(), fa.psnr_db, fb.psnr_db);
       }
   }
-  std::printf("fp cells = footprint, every triangle in a cell; fp+patch(64) = footprint with frame patches of 32 (64, "
-              "the default) px tiles for triangles within 0.25 px of projective (the rest in cells); "
-              "pack = triangle texels / atlas texels; cells%% = sampled texels (cells' triangles + gutters; frame: "
-              "pixels some triangle reads); build ms = median of 15 runs (wall), min ms = fastest of them (the machine is shared), fill included, JPEG excluded\n");
+  std::printf(
+      "fp cells = footprint, every triangle in a cell; fp+patch(64) = footprint with frame patches of 32 (64, "
+      "the default) px tiles for triangles within 0.25 px of projective (the rest in cells); "
+      "pack = triangle texels / atlas texels; cells%% = sampled texels (cells' triangles + gutters; frame: "
+      "pixels some triangle reads); build ms = median of 15 runs (wall), min ms = fastest of them (the machine is "
+      "shared), fill included, JPEG excluded\n");
   return 0;
 }
 
@@ -201,15 +206,19 @@ int main(int argc, char** argv) {
                                      mesh.positions[mesh.indices[3 * t + 2]].cast<double>(), k.K()));
   double covered = 0;
   for (double a : area) covered += a;
-  std::printf("\nsource pixels per triangle: p10 %.1f  p50 %.1f  p90 %.1f  p99 %.1f  max %.1f  (sum %.0f px = %.0f%% of the frame)\n",
-              percentile(area, 0.1), percentile(area, 0.5), percentile(area, 0.9), percentile(area, 0.99),
-              percentile(area, 1.0), covered, 100.0 * covered / (double(k.width) * k.height));
-  std::printf("texels per triangle (its own area in the cell, two per cell, gutter 1): cell 6: %.1f, 8: %.1f, 12: %.1f, 16: %.1f\n",
-              0.5 * 2 * 2, 0.5 * 4 * 4, 0.5 * 8 * 8, 0.5 * 12 * 12);
+  std::printf(
+      "\nsource pixels per triangle: p10 %.1f  p50 %.1f  p90 %.1f  p99 %.1f  max %.1f  (sum %.0f px = %.0f%% of the "
+      "frame)\n",
+      percentile(area, 0.1), percentile(area, 0.5), percentile(area, 0.9), percentile(area, 0.99),
+      percentile(area, 1.0), covered, 100.0 * covered / (double(k.width) * k.height));
+  std::printf(
+      "texels per triangle (its own area in the cell, two per cell, gutter 1): cell 6: %.1f, 8: %.1f, 12: %.1f, 16: "
+      "%.1f\n",
+      0.5 * 2 * 2, 0.5 * 4 * 4, 0.5 * 8 * 8, 0.5 * 12 * 12);
 
   // Texture variants.
-  std::printf("\n%-6s %5s %4s %4s %3s %11s %9s %10s %9s %9s %9s\n", "mode", "cell", "gut", "2/c", "q", "atlas", "texels",
-              "jpeg B", "PSNR dB", "atlas ms", "jpeg ms");
+  std::printf("\n%-6s %5s %4s %4s %3s %11s %9s %10s %9s %9s %9s\n", "mode", "cell", "gut", "2/c", "q", "atlas",
+              "texels", "jpeg B", "PSNR dB", "atlas ms", "jpeg ms");
   struct Row {
     TextureMode mode;
     int cell, gutter;
@@ -243,8 +252,8 @@ int main(int argc, char** argv) {
     char size[32];
     std::snprintf(size, sizeof size, "%dx%d", res->width, res->height);
     std::printf("%-6s %5d %4d %4s %3d %11s %9zu %10zu %9.2f %9.1f %9.1f\n", to_string(r.mode), r.cell, r.gutter,
-                r.two ? "yes" : "no", r.q, size, res->texels, res->mesh.texture_encoded.size(), fid.psnr_db,
-                median(ms), median(enc));
+                r.two ? "yes" : "no", r.q, size, res->texels, res->mesh.texture_encoded.size(), fid.psnr_db, median(ms),
+                median(enc));
   }
 
   // Geometry bytes.
@@ -297,8 +306,9 @@ int main(int argc, char** argv) {
     w.meshopt = true;
     GlbStats st;
     auto glb = encode_glb(scene, w, &st);
-    if (glb) std::printf("%-6s %-9s %-8s %12zu %12zu %12zu %12zu %10.1f\n", "vcolor", "yes", "yes", st.geometry_bytes,
-                         st.texture_bytes, st.json_bytes, st.total_bytes, st.ms);
+    if (glb)
+      std::printf("%-6s %-9s %-8s %12zu %12zu %12zu %12zu %10.1f\n", "vcolor", "yes", "yes", st.geometry_bytes,
+                  st.texture_bytes, st.json_bytes, st.total_bytes, st.ms);
   }
   std::printf("\nraw cloud: 307200 x (3 float + RGB) = %d bytes\n", 307200 * 15);
   return 0;

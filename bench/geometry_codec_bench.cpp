@@ -79,8 +79,10 @@ int main(int argc, char** argv) {
   int runs = 3;
   std::string data = RGBDCAST_DATA_DIR;
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--data") && i + 1 < argc) data = argv[++i];
+    if (!std::strcmp(argv[i], "--runs") && i + 1 < argc)
+      runs = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--data") && i + 1 < argc)
+      data = argv[++i];
     else {
       std::fprintf(stderr, "usage: geometry_codec_bench [--runs N] [--data DIR]\n");
       return 2;
@@ -105,7 +107,8 @@ int main(int argc, char** argv) {
     for (size_t index : set.frames) {
       auto frame = (*src)->frame(index);
       if (!frame) {
-        std::fprintf(stderr, "geometry_codec_bench: %s %zu: %s\n", set.path.c_str(), index, frame.error().message.c_str());
+        std::fprintf(stderr, "geometry_codec_bench: %s %zu: %s\n", set.path.c_str(), index,
+                     frame.error().message.c_str());
         return 1;
       }
       ++frames;
@@ -118,15 +121,17 @@ int main(int argc, char** argv) {
         std::vector<std::uint8_t> glb;
         for (int r = 0; r < runs; ++r) {
           double wall = 0;
-          cpu.push_back(cpu_ms([&] {
-            wall = time_ms([&] {
-              t = reduce_and_texture(*frame, realtime(codec));
-              if (t) {
-                auto bytes = encode_glb(frame_scene(TexturedFrame(*t), ""), realtime(codec).glb);
-                if (bytes) glb = std::move(*bytes);
-              }
-            });
-          }, CLOCK_PROCESS_CPUTIME_ID));
+          cpu.push_back(cpu_ms(
+              [&] {
+                wall = time_ms([&] {
+                  t = reduce_and_texture(*frame, realtime(codec));
+                  if (t) {
+                    auto bytes = encode_glb(frame_scene(TexturedFrame(*t), ""), realtime(codec).glb);
+                    if (bytes) glb = std::move(*bytes);
+                  }
+                });
+              },
+              CLOCK_PROCESS_CPUTIME_ID));
           ms.push_back(wall);
           if (!t) {
             std::fprintf(stderr, "geometry_codec_bench: %s\n", t.error().message.c_str());
@@ -166,8 +171,10 @@ int main(int argc, char** argv) {
       }
     }
   }
-  std::printf("A. The same realtime mesh per codec: %d frames (TUM fr1/xyz + ICL), medians over frames of the median "
-              "of %d runs\n\n", frames, runs);
+  std::printf(
+      "A. The same realtime mesh per codec: %d frames (TUM fr1/xyz + ICL), medians over frames of the median "
+      "of %d runs\n\n",
+      frames, runs);
   std::printf("| codec | geometry B | B/triangle | encode_glb CPU ms | geometry decode CPU ms | decode_glb CPU ms |\n");
   std::printf("|---|---|---|---|---|---|\n");
   for (const Codec& c : list) {
@@ -175,8 +182,10 @@ int main(int argc, char** argv) {
     std::printf("| %s | %.0f | %.2f | %.2f | %.2f | %.2f |\n", c.name.c_str(), median(r.geometry),
                 median(r.per_triangle), median(r.encode_ms), median(r.pass_ms), median(r.decode_ms));
   }
-  std::printf("\nB. The realtime reduction at its 40 kB budget, per codec (frame -> GLB bytes, budget loop included)\n\n");
-  std::printf("| codec | GLB B median | GLB B max | triangles median | over-budget frames | frame -> GLB CPU ms | wall ms |\n");
+  std::printf(
+      "\nB. The realtime reduction at its 40 kB budget, per codec (frame -> GLB bytes, budget loop included)\n\n");
+  std::printf(
+      "| codec | GLB B median | GLB B max | triangles median | over-budget frames | frame -> GLB CPU ms | wall ms |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
   for (const char* name : {"meshopt", "draco"}) {
     const Budget& b = budget[name];

@@ -112,12 +112,14 @@ void tracking_table(int runs, const std::string& only) {
       {"tum/rgbd_dataset_freiburg1_xyz_200_319", "tum/rgbd_dataset_freiburg1_xyz_200_319/groundtruth.txt",
        PoseAssociation::kTimestamp},
       {"augmented_icl_livingroom", "augmented_icl_livingroom/trajectory.log", PoseAssociation::kIndex}};
-  std::printf("tracking, %d runs; ms per frame for tracking alone (features + match + RANSAC + ICP + keyframe "
-              "decision, frames preloaded), wall and process CPU, median and p95 over the frames of the median "
-              "run\n\n", runs);
-  std::printf("%-40s %-5s %-8s %9s %6s %6s %11s %11s %11s %11s %8s %8s %8s %8s\n", "dataset", "feat", "method", "tracked",
-              "wide", "reloc", "rmse m", "rmse deg", "worst m", "worst deg", "ms p50", "ms p95",
-              "cpu p50", "cpu p95");
+  std::printf(
+      "tracking, %d runs; ms per frame for tracking alone (features + match + RANSAC + ICP + keyframe "
+      "decision, frames preloaded), wall and process CPU, median and p95 over the frames of the median "
+      "run\n\n",
+      runs);
+  std::printf("%-40s %-5s %-8s %9s %6s %6s %11s %11s %11s %11s %8s %8s %8s %8s\n", "dataset", "feat", "method",
+              "tracked", "wide", "reloc", "rmse m", "rmse deg", "worst m", "worst deg", "ms p50", "ms p95", "cpu p50",
+              "cpu p95");
   for (const Dataset& d : datasets) {
     const std::vector<RgbdFrame> frames = load_frames(d.name);
     Result<Trajectory> gt = read_trajectory(std::string(RGBDCAST_DATA_DIR) + "/" + d.ground_truth);
@@ -174,12 +176,12 @@ void tracking_table(int runs, const std::string& only) {
         char tracked[32];
         std::snprintf(tracked, sizeof tracked, "%zu/%zu", r->tracked, r->frames.size());
         if (!rpe) {
-          std::printf("%-40s %-5s %-8s %9s no RPE: %s\n", d.name.c_str(), to_string(type), method,
-                      tracked, rpe.error().message.c_str());
+          std::printf("%-40s %-5s %-8s %9s no RPE: %s\n", d.name.c_str(), to_string(type), method, tracked,
+                      rpe.error().message.c_str());
           continue;
         }
-        std::printf("%-40s %-5s %-8s %9s %6zu %6zu %11.4f %11.3f %11.4f %11.3f %8.1f %8.1f %8.1f %8.1f\n", d.name.c_str(),
-                    to_string(type), method, tracked, r->widened, r->relocalised,
+        std::printf("%-40s %-5s %-8s %9s %6zu %6zu %11.4f %11.3f %11.4f %11.3f %8.1f %8.1f %8.1f %8.1f\n",
+                    d.name.c_str(), to_string(type), method, tracked, r->widened, r->relocalised,
                     rpe->translation_rmse_m, rpe->rotation_rmse_deg, rpe->translation_max_m, rpe->rotation_max_deg,
                     percentile(med.wall, 0.5), percentile(med.wall, 0.95), percentile(med.cpu, 0.5),
                     percentile(med.cpu, 0.95));
@@ -193,8 +195,8 @@ void tracking_table(int runs, const std::string& only) {
 int main(int argc, char** argv) {
   std::string mode = "all";
   int arg = 1;
-  if (argc > 1 && (std::string(argv[1]) == "stages" || std::string(argv[1]) == "tracking" ||
-                   std::string(argv[1]) == "all"))
+  if (argc > 1 &&
+      (std::string(argv[1]) == "stages" || std::string(argv[1]) == "tracking" || std::string(argv[1]) == "all"))
     mode = argv[arg++];
   const int runs = argc > arg ? std::max(1, std::atoi(argv[arg])) : 7;
   std::string load;
@@ -229,10 +231,10 @@ int main(int argc, char** argv) {
           ic.push_back(last.icp_ms);
         }
         const double n = static_cast<double>(frames.size()), pairs = n - 1;
-        std::printf("%-32s %-6s %-4s %7zu %9.1f %9.1f %9.1f %9.2f %9.1f %8.0f %8.0f%s\n", name.c_str(),
-                    to_string(type), icp ? "yes" : "no", frames.size(), 1000.0 * n / median(total), median(det) / n,
-                    median(mat) / pairs, median(ran) / pairs, median(ic) / pairs, last.matches / pairs,
-                    last.inliers / pairs, last.failed ? "  (some pairs failed)" : "");
+        std::printf("%-32s %-6s %-4s %7zu %9.1f %9.1f %9.1f %9.2f %9.1f %8.0f %8.0f%s\n", name.c_str(), to_string(type),
+                    icp ? "yes" : "no", frames.size(), 1000.0 * n / median(total), median(det) / n, median(mat) / pairs,
+                    median(ran) / pairs, median(ic) / pairs, last.matches / pairs, last.inliers / pairs,
+                    last.failed ? "  (some pairs failed)" : "");
       }
   }
   return 0;

@@ -169,27 +169,31 @@ std::vector<Dataset> shared_sets(int frames) {
       {"TUM fr2 desk pair",
        {"/tum/freiburg2_desk_pair/1.png|/tum/freiburg2_desk_pair/1_depth.png",
         "/tum/freiburg2_desk_pair/2.png|/tum/freiburg2_desk_pair/2_depth.png"},
-       "fr2", 1},
+       "fr2",
+       1},
       {"augmented ICL", {"/augmented_icl_livingroom"}, "", 5},
       {"ICL-NUIM", {"/icl_nuim_livingroom"}, "", 5},
       {"PCL Kinect PCD",
        {"/pcl_kinect_organized/pcd/frame_20121214T142255.814212.pcd",
         "/pcl_kinect_organized/pcd/frame_20121214T142256.068683.pcd",
         "/pcl_kinect_organized/pcd/frame_20121214T142256.332395.pcd"},
-       "kinect", 1},
+       "kinect",
+       1},
   };
 }
 
 void speed_section(const Args& args, Renderer& renderer) {
   const std::vector<Dataset> sets = shared_sets(args.frames);
   std::printf("\n## A. Speed, size and capture-pose fidelity (realtime preset at its default 40 kB budget)\n");
-  std::printf("wall ms from decoded images (undistortion included) to GLB bytes; realtime: median (p90) over frames x "
-              "%d runs (the frames back to back, run after run); paper: median over its first %d frames, 1 run each, "
-              "after them\n\n",
-              args.runs, args.paper_frames);
-  std::printf("| set | frames | realtime ms | paper ms | paper/realtime | realtime kB (max) | paper kB | JPEG90+PNG16 kB | "
-              "triangles (max) | coverage min / median | PSNR drawn dB (min) | PSNR all valid dB (min) | grid mesh coverage / "
-              "all-valid dB | paper coverage / all-valid dB |\n");
+  std::printf(
+      "wall ms from decoded images (undistortion included) to GLB bytes; realtime: median (p90) over frames x "
+      "%d runs (the frames back to back, run after run); paper: median over its first %d frames, 1 run each, "
+      "after them\n\n",
+      args.runs, args.paper_frames);
+  std::printf(
+      "| set | frames | realtime ms | paper ms | paper/realtime | realtime kB (max) | paper kB | JPEG90+PNG16 kB | "
+      "triangles (max) | coverage min / median | PSNR drawn dB (min) | PSNR all valid dB (min) | grid mesh coverage / "
+      "all-valid dB | paper coverage / all-valid dB |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Dataset& d : sets) {
     auto raw = load_raw(args.data_dir, d);
@@ -252,13 +256,14 @@ void speed_section(const Args& args, Renderer& renderer) {
         paper_pv.push_back(pf->psnr_valid);
       }
     }
-    std::printf("| %s | %zu | %.1f (%.1f) | %.0f | %.0fx | %.1f (%.1f) | %.1f | %.1f | %.0f (%.0f) | %.4f / %.4f | %.2f (%.2f) | "
-                "%.2f (%.2f) | %.4f / %.2f | %.4f / %.2f |\n",
-                d.name.c_str(), raw->size(), median(rt_ms), quantile(rt_ms, 0.9), median(paper_ms),
-                median(paper_ms) / std::max(1e-9, median(rt_ms)), median(rt_kb), max_of(rt_kb), median(paper_kb),
-                median(jp_kb), median(tris), max_of(tris), min_of(cov), median(cov), median(psnr), min_of(psnr),
-                median(psnr_valid), min_of(psnr_valid),
-                median(grid_cov), median(grid_pv), median(paper_cov), median(paper_pv));
+    std::printf(
+        "| %s | %zu | %.1f (%.1f) | %.0f | %.0fx | %.1f (%.1f) | %.1f | %.1f | %.0f (%.0f) | %.4f / %.4f | %.2f (%.2f) "
+        "| "
+        "%.2f (%.2f) | %.4f / %.2f | %.4f / %.2f |\n",
+        d.name.c_str(), raw->size(), median(rt_ms), quantile(rt_ms, 0.9), median(paper_ms),
+        median(paper_ms) / std::max(1e-9, median(rt_ms)), median(rt_kb), max_of(rt_kb), median(paper_kb), median(jp_kb),
+        median(tris), max_of(tris), min_of(cov), median(cov), median(psnr), min_of(psnr), median(psnr_valid),
+        min_of(psnr_valid), median(grid_cov), median(grid_pv), median(paper_cov), median(paper_pv));
     std::fflush(stdout);
   }
 }
@@ -272,8 +277,9 @@ struct Row {
 void rd_case(const TestCase& tc, Renderer& renderer) {
   std::printf("\n### %s: %zu novel views\n", tc.name.c_str(), tc.views.size() - 1);
   for (const auto& n : tc.notes) std::printf("- %s\n", n.c_str());
-  std::printf("\n| what | bytes | capture coverage | capture PSNR drawn | capture PSNR all valid | novel coverage | "
-              "novel PSNR drawn | novel PSNR all valid |\n|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "\n| what | bytes | capture coverage | capture PSNR drawn | capture PSNR all valid | novel coverage | "
+      "novel PSNR drawn | novel PSNR all valid |\n|---|---|---|---|---|---|---|---|\n");
   auto row = [&](const std::string& name, const Result<Bytes>& bytes,
                  const std::function<Result<Scene>(const Bytes&)>& decode, const RenderOptions& ro) {
     if (!bytes) {
@@ -319,38 +325,42 @@ void rd_case(const TestCase& tc, Renderer& renderer) {
   for (double kb : {20.0, 40.0, 80.0, 160.0}) {
     FrameReductionOptions o = realtime_options(kb);
     o.texture = TextureMode::kFootprint;
-    row("rgbdcast realtime, budget " + std::to_string(int(kb)) + " kB, footprint atlas", encode(tc.sent, o),
-        glb_decode, mesh);
+    row("rgbdcast realtime, budget " + std::to_string(int(kb)) + " kB, footprint atlas", encode(tc.sent, o), glb_decode,
+        mesh);
   }
   row("rgbdcast realtime, no budget (tolerance 2 sigma, q85)", encode(tc.sent, realtime_options(0)), glb_decode, mesh);
   row("rgbdcast paper preset", encode(tc.sent, paper_options()), glb_decode, mesh);
   for (int step : {1, 2, 4})
     for (int q : {10, 30, 50, 70, 90}) {
       const std::string depth = step == 1 ? "PNG16" : "PNG16 at 1/" + std::to_string(step);
-      row("JPEG q" + std::to_string(q) + " + " + depth + " (grid mesh)", encode_jpeg_png(tc.sent, q, step),
+      row(
+          "JPEG q" + std::to_string(q) + " + " + depth + " (grid mesh)", encode_jpeg_png(tc.sent, q, step),
           [&](const Bytes& b) { return decode_jpeg_png_grid_mesh(b, k); }, mesh);
     }
   for (int qp : {8, 11, 14})
-    row("Draco colour cloud qp" + std::to_string(qp) + " (2 px splats)", encode_draco(tc.sent, qp),
+    row(
+        "Draco colour cloud qp" + std::to_string(qp) + " (2 px splats)", encode_draco(tc.sent, qp),
         [&](const Bytes& b) { return decode_draco(b, k); }, splat2);
-  row("full cloud, raw floats (2 px splats)", Result<Bytes>(encode_raw_cloud(tc.sent)),
+  row(
+      "full cloud, raw floats (2 px splats)", Result<Bytes>(encode_raw_cloud(tc.sent)),
       [&](const Bytes& b) { return decode_raw_cloud(b, k); }, splat2);
 }
-
 
 // C. The default budget (pipeline/frame_defaults.h): min(40 kB, a quarter of the frame's JPEG90+PNG16 payload), on
 // every frame of every set, with what `rgbdcast reduce` then writes (realtime, Draco) and what the estimate costs.
 void budget_section(const Args& args) {
   std::printf("\n## C. The default budget: min(40 kB, a quarter of the frame's JPEG90+PNG16 payload)\n");
-  std::printf("per set: median (min-max) over its frames; estimate ms: default_budget_kb (one JPEG q90 and one PNG16 "
-              "encode, on two threads), median over frames x %d runs; reduce ms: frame -> GLB at 40 kB, and at the "
-              "default as reduce and the service make it (the estimate inside), "
-              "alternating, median over frames x %d runs; same file: the default's GLB is the one at the estimated "
-              "budget given explicitly\n\n",
-              args.runs, args.runs);
-  std::printf("| set | frames | JPEG90+PNG16 kB | a quarter, kB | default budget kB | GLB kB at the default | GLB / payload "
-              "(max) | GLB kB at 40 kB | 40 kB GLB / payload (max) | estimate ms | reduce ms at 40 kB | reduce ms at the "
-              "default | same file |\n");
+  std::printf(
+      "per set: median (min-max) over its frames; estimate ms: default_budget_kb (one JPEG q90 and one PNG16 "
+      "encode, on two threads), median over frames x %d runs; reduce ms: frame -> GLB at 40 kB, and at the "
+      "default as reduce and the service make it (the estimate inside), "
+      "alternating, median over frames x %d runs; same file: the default's GLB is the one at the estimated "
+      "budget given explicitly\n\n",
+      args.runs, args.runs);
+  std::printf(
+      "| set | frames | JPEG90+PNG16 kB | a quarter, kB | default budget kB | GLB kB at the default | GLB / payload "
+      "(max) | GLB kB at 40 kB | 40 kB GLB / payload (max) | estimate ms | reduce ms at 40 kB | reduce ms at the "
+      "default | same file |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Dataset& d : shared_sets(args.frames)) {
     auto raw = load_raw(args.data_dir, d);
@@ -418,18 +428,24 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--runs") args.runs = std::max(1, std::atoi(next().c_str()));
-    else if (a == "--frames") args.frames = std::max(1, std::atoi(next().c_str()));
-    else if (a == "--paper-frames") args.paper_frames = std::max(0, std::atoi(next().c_str()));
-    else if (a == "--data") args.data_dir = next();
-    else if (a == "--only") args.only = next();
+    if (a == "--runs")
+      args.runs = std::max(1, std::atoi(next().c_str()));
+    else if (a == "--frames")
+      args.frames = std::max(1, std::atoi(next().c_str()));
+    else if (a == "--paper-frames")
+      args.paper_frames = std::max(0, std::atoi(next().c_str()));
+    else if (a == "--data")
+      args.data_dir = next();
+    else if (a == "--only")
+      args.only = next();
     else if (a == "--backend") {
       auto b = parse_backend_choice(next());
       if (!b) die("--backend", b.error());
       args.backend = *b;
     } else {
-      std::fprintf(stderr, "usage: realtime_bench [--runs N] [--frames N] [--paper-frames N] [--backend B] "
-                           "[--data DIR] [--only speed|rd|budget]\n");
+      std::fprintf(stderr,
+                   "usage: realtime_bench [--runs N] [--frames N] [--paper-frames N] [--backend B] "
+                   "[--data DIR] [--only speed|rd|budget]\n");
       return 2;
     }
   }

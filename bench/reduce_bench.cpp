@@ -1,5 +1,6 @@
 // Per-stage times of the reduction on real frames: median of N runs per stage, printed as a table.
-// usage: reduce_bench [--input DIR] [--intrinsics fr1 (default: guessed from the input, as reduce does)] [--frame 0] [--runs 5] [--preset paper|realtime]
+// usage: reduce_bench [--input DIR] [--intrinsics fr1 (default: guessed from the input, as reduce does)] [--frame 0]
+// [--runs 5] [--preset paper|realtime]
 //                     [--budget-kb 40] [--threads N (realtime; 0 = OpenMP's default)] [--tile 128 (realtime)]
 // The paper preset (default) is timed with both outlier searches. The realtime preset is timed through the one
 // frame -> scene function and the GLB encode, as `rgbdcast reduce` runs it (Draco geometry, the budget), with its
@@ -68,8 +69,8 @@ static int realtime_stages(const RgbdFrame& frame, const std::string& input, int
   std::printf("%-12s %10s %10s %10s\n", "stage", "count", "median_ms", "min_ms");
   for (const auto& name : order)
     std::printf("%-12s %10zu %10.1f %10.1f\n", name.c_str(), count[name], median(ms[name]), min_of(ms[name]));
-  std::printf("%-12s %10zu %10.1f %10.1f   (GLB bytes; %d meshes and %d encodes in the budget)\n", "wall",
-              bytes, median(wall), min_of(wall), meshes, encodes);
+  std::printf("%-12s %10zu %10.1f %10.1f   (GLB bytes; %d meshes and %d encodes in the budget)\n", "wall", bytes,
+              median(wall), min_of(wall), meshes, encodes);
   return 0;
 }
 
@@ -81,14 +82,22 @@ int main(int argc, char** argv) {
   double budget_kb = 40;
   int threads = 0, tile = 0;
   for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--input")) input = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--intrinsics")) intrinsics = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--frame")) frame_index = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--runs")) runs = std::max(1, std::atoi(argv[i + 1]));
-    else if (!std::strcmp(argv[i], "--preset")) preset = argv[i + 1];
-    else if (!std::strcmp(argv[i], "--budget-kb")) budget_kb = std::atof(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--threads")) threads = std::atoi(argv[i + 1]);
-    else if (!std::strcmp(argv[i], "--tile")) tile = std::atoi(argv[i + 1]);
+    if (!std::strcmp(argv[i], "--input"))
+      input = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--intrinsics"))
+      intrinsics = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--frame"))
+      frame_index = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--runs"))
+      runs = std::max(1, std::atoi(argv[i + 1]));
+    else if (!std::strcmp(argv[i], "--preset"))
+      preset = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--budget-kb"))
+      budget_kb = std::atof(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--threads"))
+      threads = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--tile"))
+      tile = std::atoi(argv[i + 1]);
   }
   SourceOptions o;
   o.intrinsics = intrinsics;
@@ -111,38 +120,39 @@ int main(int argc, char** argv) {
     std::vector<int> both;
     std::set_intersection(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(both));
     const size_t removed_a = valid->size() - a.size(), removed_b = valid->size() - b.size();
-    std::printf("outlier agreement: %zu valid; kdtree keeps %zu (removes %zu), organized keeps %zu (removes %zu); "
-                "kept by both %zu, Jaccard %.4f\n\n",
-                valid->size(), a.size(), removed_a, b.size(), removed_b, both.size(),
-                double(both.size()) / double(a.size() + b.size() - both.size()));
+    std::printf(
+        "outlier agreement: %zu valid; kdtree keeps %zu (removes %zu), organized keeps %zu (removes %zu); "
+        "kept by both %zu, Jaccard %.4f\n\n",
+        valid->size(), a.size(), removed_a, b.size(), removed_b, both.size(),
+        double(both.size()) / double(a.size() + b.size() - both.size()));
   }
   for (OutlierMethod method : {OutlierMethod::kKdTree, OutlierMethod::kOrganized}) {
-  std::vector<std::string> order;
-  std::map<std::string, std::vector<double>> ms;
-  std::map<std::string, size_t> count;
-  std::map<std::string, std::string> unit;
-  std::vector<double> total;
-  ReductionParams params;
-  params.outlier_method = method;
-  for (int r = 0; r < runs; ++r) {
-    auto out = reduce_frame(*frame, params);
-    if (!out) return std::fprintf(stderr, "reduce_bench: %s\n", out.error().message.c_str()), 1;
-    double t = 0;
-    for (const auto& s : out->stages) {
-      if (r == 0) order.push_back(s.name);
-      ms[s.name].push_back(s.ms);
-      count[s.name] = s.count;
-      unit[s.name] = s.unit;
-      t += s.ms;
+    std::vector<std::string> order;
+    std::map<std::string, std::vector<double>> ms;
+    std::map<std::string, size_t> count;
+    std::map<std::string, std::string> unit;
+    std::vector<double> total;
+    ReductionParams params;
+    params.outlier_method = method;
+    for (int r = 0; r < runs; ++r) {
+      auto out = reduce_frame(*frame, params);
+      if (!out) return std::fprintf(stderr, "reduce_bench: %s\n", out.error().message.c_str()), 1;
+      double t = 0;
+      for (const auto& s : out->stages) {
+        if (r == 0) order.push_back(s.name);
+        ms[s.name].push_back(s.ms);
+        count[s.name] = s.count;
+        unit[s.name] = s.unit;
+        t += s.ms;
+      }
+      total.push_back(t);
     }
-    total.push_back(t);
-  }
-  std::printf("reduce_bench: %s frame %d, outliers=%s, %d runs (median ms)\n", input.c_str(), frame_index,
-              method == OutlierMethod::kKdTree ? "kdtree" : "organized", runs);
-  std::printf("%-12s %10s %-10s %10s\n", "stage", "count", "unit", "median_ms");
-  for (const auto& name : order)
-    std::printf("%-12s %10zu %-10s %10.1f\n", name.c_str(), count[name], unit[name].c_str(), median(ms[name]));
-  std::printf("%-12s %10s %-10s %10.1f\n\n", "total", "", "", median(total));
+    std::printf("reduce_bench: %s frame %d, outliers=%s, %d runs (median ms)\n", input.c_str(), frame_index,
+                method == OutlierMethod::kKdTree ? "kdtree" : "organized", runs);
+    std::printf("%-12s %10s %-10s %10s\n", "stage", "count", "unit", "median_ms");
+    for (const auto& name : order)
+      std::printf("%-12s %10zu %-10s %10.1f\n", name.c_str(), count[name], unit[name].c_str(), median(ms[name]));
+    std::printf("%-12s %10s %-10s %10.1f\n\n", "total", "", "", median(total));
   }
   return 0;
 }

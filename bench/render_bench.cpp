@@ -1,5 +1,5 @@
-// render_bench: median (and best) render time per backend of a reduced mesh, its downsampled cloud as splats and the full
-// cloud as splats, at 640x480 from the capture pose (the paper's comparison: 0.27 s full splats vs 0.03 s mesh).
+// render_bench: median (and best) render time per backend of a reduced mesh, its downsampled cloud as splats and the
+// full cloud as splats, at 640x480 from the capture pose (the paper's comparison: 0.27 s full splats vs 0.03 s mesh).
 //
 //   render_bench [--input FRAMES [--frame N] | --glb scene.glb] [--runs N] [--point-size PX]
 //                [--full-point-size PX] [--backend all|vulkan|osmesa]
@@ -213,16 +213,24 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--glb") glb = next();
-    else if (a == "--input") input = next();
-    else if (a == "--frame") frame = std::max(0, std::atoi(next()));
-    else if (a == "--runs") runs = std::max(1, std::atoi(next()));
-    else if (a == "--point-size") point_size = static_cast<float>(std::atof(next()));
-    else if (a == "--full-point-size") full_point_size = static_cast<float>(std::atof(next()));
-    else if (a == "--backend") backend = next();
+    if (a == "--glb")
+      glb = next();
+    else if (a == "--input")
+      input = next();
+    else if (a == "--frame")
+      frame = std::max(0, std::atoi(next()));
+    else if (a == "--runs")
+      runs = std::max(1, std::atoi(next()));
+    else if (a == "--point-size")
+      point_size = static_cast<float>(std::atof(next()));
+    else if (a == "--full-point-size")
+      full_point_size = static_cast<float>(std::atof(next()));
+    else if (a == "--backend")
+      backend = next();
     else {
-      std::fprintf(stderr, "usage: render_bench [--input FRAMES [--frame N] | --glb scene.glb] [--runs N] [--point-size PX] "
-                           "[--full-point-size PX] [--backend all|vulkan|osmesa]\n");
+      std::fprintf(stderr,
+                   "usage: render_bench [--input FRAMES [--frame N] | --glb scene.glb] [--runs N] [--point-size PX] "
+                   "[--full-point-size PX] [--backend all|vulkan|osmesa]\n");
       return 2;
     }
   }

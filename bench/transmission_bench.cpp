@@ -58,7 +58,6 @@ struct Measured {
   double common_capture_psnr_db = 0, common_capture_ssim = 0, common_novel_psnr_db = 0, common_novel_ssim = 0;
 };
 
-
 [[noreturn]] void die(const std::string& what, const Error& e) {
   std::fprintf(stderr, "transmission_bench: %s: %s\n", what.c_str(), e.message.c_str());
   std::exit(1);
@@ -71,8 +70,10 @@ std::string contents_of(const Scene& scene) {
     triangles += n.mesh.triangle_count();
   }
   char buf[64];
-  if (triangles) std::snprintf(buf, sizeof buf, "%zu tris", triangles);
-  else std::snprintf(buf, sizeof buf, "%zu pts", points);
+  if (triangles)
+    std::snprintf(buf, sizeof buf, "%zu tris", triangles);
+  else
+    std::snprintf(buf, sizeof buf, "%zu pts", points);
   return buf;
 }
 
@@ -115,8 +116,10 @@ std::vector<Candidate> candidates_for(const RgbdFrame& frame, StageLog* log) {
   // Not the default: the organized outlier filter (the project's fast option), to show where the encode time goes.
   ReductionParams organized;
   organized.outlier_method = OutlierMethod::kOrganized;
-  c.push_back(rgbdcast_candidate("rgbdcast glb atlas, organized outliers*", frame, TextureMode::kAtlas, organized, log));
-  c.push_back(rgbdcast_candidate("rgbdcast glb frame-tex, organized outliers*", frame, TextureMode::kFrame, organized, log));
+  c.push_back(
+      rgbdcast_candidate("rgbdcast glb atlas, organized outliers*", frame, TextureMode::kAtlas, organized, log));
+  c.push_back(
+      rgbdcast_candidate("rgbdcast glb frame-tex, organized outliers*", frame, TextureMode::kFrame, organized, log));
   return c;
 }
 
@@ -203,9 +206,10 @@ void measure_common_pixels(std::vector<Measured>& rows, const std::vector<Refere
 }
 
 void print_summary(const std::vector<Measured>& rows, size_t raw_bytes, const RgbdFrame& frame, bool has_novel) {
-  std::printf("\n| representation | bytes | raw/bytes | encode ms | decode ms | receiver gets | capture: draw | PSNR dB | "
-              "SSIM | coverage | all-valid PSNR / SSIM | common PSNR / SSIM | novel: draw | mean PSNR dB | mean SSIM | "
-              "mean coverage | all-valid PSNR / SSIM | common PSNR / SSIM |\n");
+  std::printf(
+      "\n| representation | bytes | raw/bytes | encode ms | decode ms | receiver gets | capture: draw | PSNR dB | "
+      "SSIM | coverage | all-valid PSNR / SSIM | common PSNR / SSIM | novel: draw | mean PSNR dB | mean SSIM | "
+      "mean coverage | all-valid PSNR / SSIM | common PSNR / SSIM |\n");
   std::printf("|---|--:|--:|--:|--:|--:|---|--:|--:|--:|--:|--:|---|--:|--:|--:|--:|--:|\n");
   for (const Measured& m : rows) {
     const Drawn& c = best_capture(m);
@@ -224,13 +228,16 @@ void print_summary(const std::vector<Measured>& rows, size_t raw_bytes, const Rg
       std::printf(" - | - | - | - | - | - |\n");
   }
   const size_t organized = static_cast<size_t>(frame.intrinsics.width) * frame.intrinsics.height * 15;
-  std::printf("| raw organized cloud (%dx%d x 15 B, NaN where no depth) | %zu | %.1fx | - | - | as raw cloud | | | | | | | | | | | | |\n",
-              frame.intrinsics.width, frame.intrinsics.height, organized, double(raw_bytes) / organized);
+  std::printf(
+      "| raw organized cloud (%dx%d x 15 B, NaN where no depth) | %zu | %.1fx | - | - | as raw cloud | | | | | | | | | "
+      "| | | |\n",
+      frame.intrinsics.width, frame.intrinsics.height, organized, double(raw_bytes) / organized);
 }
 
 void print_detail(const std::vector<Measured>& rows, const std::vector<ReferenceView>& views) {
-  std::printf("\nEvery draw (PSNR dB / coverage per view; novel mean also all-valid PSNR, holes black):\n"
-              "| representation | draw | capture |");
+  std::printf(
+      "\nEvery draw (PSNR dB / coverage per view; novel mean also all-valid PSNR, holes black):\n"
+      "| representation | draw | capture |");
   for (size_t i = 1; i < views.size(); ++i) std::printf(" %s |", views[i].name.c_str());
   std::printf(" novel mean | novel all-valid PSNR |\n|---|---|--:|");
   for (size_t i = 1; i < views.size(); ++i) std::printf("--:|");
@@ -238,7 +245,8 @@ void print_detail(const std::vector<Measured>& rows, const std::vector<Reference
   for (const Measured& m : rows)
     for (const Drawn& d : m.drawn) {
       const auto& f = d.fidelity;
-      std::printf("| %s | %s | %.2f / %.3f |", m.name.c_str(), d.label().c_str(), f.capture.psnr_db, f.capture.coverage);
+      std::printf("| %s | %s | %.2f / %.3f |", m.name.c_str(), d.label().c_str(), f.capture.psnr_db,
+                  f.capture.coverage);
       for (const ViewFidelity& v : f.novel) std::printf(" %.2f / %.3f |", v.psnr_db, v.coverage);
       std::printf(" %.2f / %.3f | %.2f |\n", f.novel_psnr_db, f.novel_coverage, f.novel_psnr_valid_db);
     }
@@ -273,9 +281,9 @@ void print_pose_check(const TestCase& tc, Renderer& renderer) {
     auto at_pose = measure_views(renderer, *id, o, {tc.views[0], tc.views[i]});
     auto no_motion = measure_views(renderer, *id, o, {tc.views[0], still});
     if (!at_pose || !no_motion) die("pose check render", at_pose ? no_motion.error() : at_pose.error());
-    std::printf("  %s: at its pose %.2f / %.3f; at the capture pose (no motion) %.2f / %.3f\n", tc.views[i].name.c_str(),
-                at_pose->novel[0].psnr_db, at_pose->novel[0].coverage, no_motion->novel[0].psnr_db,
-                no_motion->novel[0].coverage);
+    std::printf("  %s: at its pose %.2f / %.3f; at the capture pose (no motion) %.2f / %.3f\n",
+                tc.views[i].name.c_str(), at_pose->novel[0].psnr_db, at_pose->novel[0].coverage,
+                no_motion->novel[0].psnr_db, no_motion->novel[0].coverage);
   }
   renderer.release(*id);
 }
@@ -301,7 +309,8 @@ void run_case(const TestCase& tc, Renderer& renderer, int runs) {
   print_detail(rows, tc.views);
   std::printf("\n");
   for (const auto& [name, log] : stages) print_stages(name.c_str(), log);
-  std::printf("* not the default ReductionParams: outlier_method = organized (pixel-window neighbours), the rest default\n");
+  std::printf(
+      "* not the default ReductionParams: outlier_method = organized (pixel-window neighbours), the rest default\n");
   std::fflush(stdout);
 }
 
@@ -310,15 +319,20 @@ Args parse_args(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string s = argv[i];
     const bool has_value = i + 1 < argc;
-    if (s == "--runs" && has_value) a.runs = std::max(1, std::atoi(argv[++i]));
-    else if (s == "--data" && has_value) a.data_dir = argv[++i];
-    else if (s == "--only" && has_value) a.only = argv[++i];
+    if (s == "--runs" && has_value)
+      a.runs = std::max(1, std::atoi(argv[++i]));
+    else if (s == "--data" && has_value)
+      a.data_dir = argv[++i];
+    else if (s == "--only" && has_value)
+      a.only = argv[++i];
     else if (s == "--backend" && has_value) {
       auto b = parse_backend_choice(argv[++i]);
       if (!b) die("--backend", b.error());
       a.backend = *b;
     } else {
-      std::fprintf(stderr, "usage: transmission_bench [--runs N] [--backend auto|vulkan|osmesa] [--data DIR] [--only icl|tum]\n");
+      std::fprintf(
+          stderr,
+          "usage: transmission_bench [--runs N] [--backend auto|vulkan|osmesa] [--data DIR] [--only icl|tum]\n");
       std::exit(2);
     }
   }
@@ -334,10 +348,11 @@ int main(int argc, char** argv) {
   Renderer& renderer = *selection->renderer;
   std::printf("# transmission_bench: renderer %s (%s), %d runs per timing (median)\n", renderer.backend().c_str(),
               renderer.device().c_str(), args.runs);
-  std::printf("bytes: the whole payload; raw/bytes: raw valid cloud bytes / payload bytes; PSNR and SSIM over pixels "
-              "that are covered and had valid depth in that view's real frame; all-valid: over every valid pixel, holes "
-              "black (what the operator sees); common: over the valid pixels every row's draw covers; novel = mean over "
-              "the novel views\n");
+  std::printf(
+      "bytes: the whole payload; raw/bytes: raw valid cloud bytes / payload bytes; PSNR and SSIM over pixels "
+      "that are covered and had valid depth in that view's real frame; all-valid: over every valid pixel, holes "
+      "black (what the operator sees); common: over the valid pixels every row's draw covers; novel = mean over "
+      "the novel views\n");
   if (args.only.empty() || args.only == "icl") {
     auto icl = load_icl_case(args.data_dir);
     if (!icl) die("ICL case", icl.error());

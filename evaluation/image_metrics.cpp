@@ -8,8 +8,10 @@ namespace rgbdcast {
 cv::Mat image_to_rgb_mat(const Image& image) {
   cv::Mat src(image.height, image.width, CV_8UC(image.channels), const_cast<std::uint8_t*>(image.data.data()));
   cv::Mat rgb;
-  if (image.channels == 4) cv::cvtColor(src, rgb, cv::COLOR_RGBA2RGB);
-  else rgb = src.clone();
+  if (image.channels == 4)
+    cv::cvtColor(src, rgb, cv::COLOR_RGBA2RGB);
+  else
+    rgb = src.clone();
   return rgb;
 }
 
@@ -42,8 +44,10 @@ static cv::Mat ssim_map(const cv::Mat& a, const cv::Mat& b) {
 Result<ViewFidelity> compare_views(const cv::Mat& reference_rgb, const Image& rendered, const cv::Mat& valid) {
   if (reference_rgb.type() != CV_8UC3 || valid.type() != CV_8U)
     return make_error(ErrorCode::kInvalidArgument, "compare_views: reference must be RGB8 and the mask 8-bit");
-  if (rendered.width != reference_rgb.cols || rendered.height != reference_rgb.rows || valid.size() != reference_rgb.size())
-    return make_error(ErrorCode::kInvalidArgument, "compare_views: the render, the reference and the mask differ in size");
+  if (rendered.width != reference_rgb.cols || rendered.height != reference_rgb.rows ||
+      valid.size() != reference_rgb.size())
+    return make_error(ErrorCode::kInvalidArgument,
+                      "compare_views: the render, the reference and the mask differ in size");
   cv::Mat render_rgb = image_to_rgb_mat(rendered);
   const cv::Mat drawn = coverage_mask(rendered);
   render_rgb.setTo(cv::Scalar::all(0), ~drawn);  // holes are background (black), whatever their colour channels hold

@@ -9,10 +9,10 @@
 namespace rgbdcast {
 
 struct ViewFidelity {
-  double psnr_db = 0;      // over covered & valid pixels, RGB, peak 255
-  double ssim = 0;         // mean SSIM (luma, 11x11 Gaussian window, sigma 1.5) over covered & valid pixels, with
-                           // the reference shown outside them so holes do not leak into their windows
-  double coverage = 0;     // covered & valid / valid
+  double psnr_db = 0;   // over covered & valid pixels, RGB, peak 255
+  double ssim = 0;      // mean SSIM (luma, 11x11 Gaussian window, sigma 1.5) over covered & valid pixels, with
+                        // the reference shown outside them so holes do not leak into their windows
+  double coverage = 0;  // covered & valid / valid
   // What the operator sees: over every valid pixel, holes shown as the render's background (black).
   double psnr_valid_db = 0;
   double ssim_valid = 0;

@@ -102,7 +102,8 @@ void draco(const std::uint8_t* data, size_t size) {
           {{{"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 1}}},
             {"indices", 2},
             {"extensions",
-             {{"KHR_draco_mesh_compression", {{"bufferView", 0}, {"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 1}}}}}}}}}}}}},
+             {{"KHR_draco_mesh_compression",
+               {{"bufferView", 0}, {"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 1}}}}}}}}}}}}},
       {"nodes", {{{"mesh", 0}}}},
       {"scenes", {{{"nodes", {0}}}}},
       {"scene", 0}};
@@ -171,11 +172,11 @@ class MemoryStream final : public httplib::Stream {
     return static_cast<ssize_t>(n);
   }
   ssize_t write(const char*, size_t size) override { return static_cast<ssize_t>(size); }
-  void get_remote_ip_and_port(std::string& ip, int& port) const override { 
+  void get_remote_ip_and_port(std::string& ip, int& port) const override {
     ip = "127.0.0.1";
     port = 1;
   }
-  void get_local_ip_and_port(std::string& ip, int& port) const override { 
+  void get_local_ip_and_port(std::string& ip, int& port) const override {
     ip = "127.0.0.1";
     port = 2;
   }
@@ -192,8 +193,7 @@ class MultipartServer : public httplib::Server {
   static constexpr size_t kLimit = 4u << 20;
   MultipartServer() {
     set_payload_max_length(kLimit);
-    Post("/v1/scenes", [](const httplib::Request& req, httplib::Response& res,
-                              const httplib::ContentReader& reader) {
+    Post("/v1/scenes", [](const httplib::Request& req, httplib::Response& res, const httplib::ContentReader& reader) {
       if (!req.is_multipart_form_data()) return;
       service::FrameParts parts;
       if (auto refused = service::read_frame_parts(reader, kLimit, &parts)) {
@@ -273,8 +273,8 @@ void rosbag(const std::uint8_t* data, size_t size) {
   // Every rosbag::Bag loads its encryptor plugin through pluginlib and unloads it again: relocating and finalising
   // that library was half of an execution, and what it leaves behind made libFuzzer scan for leaks after each one
   // (4x slower). Holding one reference keeps it loaded; the target runs the same code either way.
-  static void* const plugin = dlopen("/usr/lib/x86_64-linux-gnu/ros/librosbag_default_encryption_plugins.so",
-                                     RTLD_NOW | RTLD_NODELETE);
+  static void* const plugin =
+      dlopen("/usr/lib/x86_64-linux-gnu/ros/librosbag_default_encryption_plugins.so", RTLD_NOW | RTLD_NODELETE);
   (void)plugin;
   static const ScratchFile file("bag");
   if (!file.write(data, size)) return;

@@ -69,7 +69,8 @@ int main(int argc, char** argv) {
     for (const auto& mesh : doc["meshes"])
       for (const auto& prim : mesh["primitives"]) {
         if (!prim.contains("extensions")) continue;
-        const auto& view = doc["bufferViews"][prim["extensions"]["KHR_draco_mesh_compression"]["bufferView"].get<size_t>()];
+        const auto& view =
+            doc["bufferViews"][prim["extensions"]["KHR_draco_mesh_compression"]["bufferView"].get<size_t>()];
         const size_t off = view.value("byteOffset", size_t(0)), len = view["byteLength"].get<size_t>();
         Bytes seed;
         put_u32(seed, doc["accessors"][prim["attributes"]["POSITION"].get<size_t>()]["count"].get<std::uint32_t>());
@@ -109,8 +110,10 @@ int main(int argc, char** argv) {
 
   // Intrinsics JSON: rgbdcast's own and Open3D's.
   write(root / "intrinsics" / "tum_fr1.json", k);
-  write(root / "intrinsics" / "open3d.json",
-        std::string(R"({"width": 640, "height": 480, "intrinsic_matrix": [525.0, 0.0, 0.0, 0.0, 525.0, 0.0, 319.5, 239.5, 1.0]})"));
+  write(
+      root / "intrinsics" / "open3d.json",
+      std::string(
+          R"({"width": 640, "height": 480, "intrinsic_matrix": [525.0, 0.0, 0.0, 0.0, 525.0, 0.0, 319.5, 239.5, 1.0]})"));
   write(root / "intrinsics" / "minimal.json",
         std::string(R"({"fx": 1, "fy": 2, "cx": 3, "cy": 4, "width": 5, "height": 6})"));
 
@@ -130,13 +133,13 @@ int main(int argc, char** argv) {
   pcl::io::savePCDFileBinaryCompressed((root / "pcd" / "binary_compressed.pcd").string(), cloud);
 
   // Trajectories: the first byte picks the format (0 TUM, 1 Redwood .log, 2 ICL-NUIM pose.txt).
-  write(root / "trajectory" / "tum",
-        std::string("\x00", 1) + "# timestamp tx ty tz qx qy qz qw\n"
-                                 "1305031102.1758 1.3405 0.6266 1.6575 0.6574 0.6126 -0.2949 -0.3248\n"
-                                 "1305031102.1858 1.3401 0.6261 1.6571 0.6575 0.6124 -0.2950 -0.3249\n");
-  write(root / "trajectory" / "redwood",
-        std::string("\x01", 1) + "0 0 1\n1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n"
-                                 "1 1 2\n0.99 -0.01 0 0.1\n0.01 0.99 0 0\n0 0 1 0.02\n0 0 0 1\n");
+  write(root / "trajectory" / "tum", std::string("\x00", 1) +
+                                         "# timestamp tx ty tz qx qy qz qw\n"
+                                         "1305031102.1758 1.3405 0.6266 1.6575 0.6574 0.6126 -0.2949 -0.3248\n"
+                                         "1305031102.1858 1.3401 0.6261 1.6571 0.6575 0.6124 -0.2950 -0.3249\n");
+  write(root / "trajectory" / "redwood", std::string("\x01", 1) +
+                                             "0 0 1\n1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n"
+                                             "1 1 2\n0.99 -0.01 0 0.1\n0.01 0.99 0 0\n0 0 1 0.02\n0 0 0 1\n");
   write(root / "trajectory" / "icl", std::string("\x02", 1) + "0 0 -2.25 0 0 0 1\n0.01 0 -2.25 0 0.0175 0 0.9998\n");
 
   // View queries (already percent-decoded, as cpp-httplib hands them over).

@@ -116,9 +116,11 @@ Status check_document(const json& doc, size_t bin_size) {
       return bad(at("accessors", i) + ".count must be a positive integer");
     if (!uint_member(a, "byteOffset", 0, &offset))
       return bad(at("accessors", i) + ".byteOffset must be a non-negative integer");
-    const size_t csize = a.contains("componentType") && uint_member(a, "componentType", 0, &ctype)
-                             && ctype <= 0xffff ? component_size(static_cast<int>(ctype)) : 0;
-    const size_t comps = a.contains("type") && a["type"].is_string() ? component_count(a["type"].get<std::string>()) : 0;
+    const size_t csize = a.contains("componentType") && uint_member(a, "componentType", 0, &ctype) && ctype <= 0xffff
+                             ? component_size(static_cast<int>(ctype))
+                             : 0;
+    const size_t comps =
+        a.contains("type") && a["type"].is_string() ? component_count(a["type"].get<std::string>()) : 0;
     if (csize == 0 || comps == 0) return bad(at("accessors", i) + " has an unknown componentType or type");
     const std::uint64_t elem = csize * comps;
     const std::uint64_t stride = view_stride[view] ? view_stride[view] : elem;

@@ -41,7 +41,8 @@ int bits_for(double range, double step) {
 int texture_side_for(const json& doc, const json& prim, int set, const std::vector<std::uint8_t>& bin) {
   try {
     if (!prim.contains("material")) return 0;
-    const json& tex = doc.at("materials").at(index_of(prim["material"])).at("pbrMetallicRoughness").at("baseColorTexture");
+    const json& tex =
+        doc.at("materials").at(index_of(prim["material"])).at("pbrMetallicRoughness").at("baseColorTexture");
     if (tex.value("texCoord", 0) != set) return 0;
     const json& image = doc.at("images").at(index_of(doc.at("textures").at(index_of(tex.at("index"))).at("source")));
     const json& view = doc.at("bufferViews").at(index_of(image.at("bufferView")));
@@ -58,7 +59,8 @@ int texture_side_for(const json& doc, const json& prim, int set, const std::vect
 }
 
 // An accessor's elements, tightly packed (from the BIN chunk, bounds-checked).
-Result<std::vector<std::uint8_t>> read_accessor(const json& doc, const json& acc, const std::vector<std::uint8_t>& bin) {
+Result<std::vector<std::uint8_t>> read_accessor(const json& doc, const json& acc,
+                                                const std::vector<std::uint8_t>& bin) {
   if (acc.contains("sparse")) return cannot("sparse accessors are not compressed");
   const size_t count = acc.at("count").get<size_t>();
   const size_t elem = component_size(acc.at("componentType").get<int>()) *
@@ -102,7 +104,8 @@ double largest_range(const float* v, size_t count, int components) {
   double range = 0;
   for (int k = 0; k < components; ++k) {
     float lo = std::numeric_limits<float>::infinity(), hi = -lo;
-    for (size_t i = 0; i < count; ++i) lo = std::min(lo, v[i * components + k]), hi = std::max(hi, v[i * components + k]);
+    for (size_t i = 0; i < count; ++i)
+      lo = std::min(lo, v[i * components + k]), hi = std::max(hi, v[i * components + k]);
     range = std::max(range, double(hi) - double(lo));
   }
   return range;
@@ -153,7 +156,6 @@ json keep_referenced_views(json& doc, const std::vector<std::uint8_t>& in_bin, s
   }
   return kept;
 }
-
 
 // A 64-bit hash of everything that decides a primitive's Draco bitstream: libstdc++'s string hash (MurmurHash2 64A,
 // eight bytes a step) of each part, chained. FNV-1a's byte-a-step loop took 0.17 ms a call on a realtime frame's
@@ -206,7 +208,8 @@ Result<std::shared_ptr<const DracoCache::Entry>> compress_primitive(const draco_
   } else {
     std::vector<draco_codec::AttributeRequest> requests;
     for (size_t k = 0; k < names.size(); ++k)
-      requests.push_back({enc.attribute_ids[k], mesh_in.attributes[k].component_type, mesh_in.attributes[k].components});
+      requests.push_back(
+          {enc.attribute_ids[k], mesh_in.attributes[k].component_type, mesh_in.attributes[k].components});
     draco_codec::Decoded dec;
     if (!draco_codec::decode_mesh(enc.bytes.data(), enc.bytes.size(), requests, 3 * mesh_in.num_indices,
                                   mesh_in.num_indices / 3, &dec, &error))
@@ -218,9 +221,11 @@ Result<std::shared_ptr<const DracoCache::Entry>> compress_primitive(const draco_
     for (size_t k = 0; k < names.size(); ++k)
       if (names[k] == "POSITION" && mesh_in.attributes[k].component_type == 5126) {
         const float* p = reinterpret_cast<const float*>(dec.attributes[k].data());
-        std::vector<double> lo(3, std::numeric_limits<double>::infinity()), hi(3, -std::numeric_limits<double>::infinity());
+        std::vector<double> lo(3, std::numeric_limits<double>::infinity()),
+            hi(3, -std::numeric_limits<double>::infinity());
         for (size_t i = 0; i < dec.num_points; ++i)
-          for (int c = 0; c < 3; ++c) lo[c] = std::min<double>(lo[c], p[3 * i + c]), hi[c] = std::max<double>(hi[c], p[3 * i + c]);
+          for (int c = 0; c < 3; ++c)
+            lo[c] = std::min<double>(lo[c], p[3 * i + c]), hi[c] = std::max<double>(hi[c], p[3 * i + c]);
         set_bounds(lo, hi);
       }
   }
@@ -230,7 +235,6 @@ Result<std::shared_ptr<const DracoCache::Entry>> compress_primitive(const draco_
 }
 
 }  // namespace
-
 
 bool uses_draco(const GlbChunks& in) { return in.json.find(kExt) != std::string::npos; }
 
@@ -289,7 +293,8 @@ Result<GlbChunks> draco_compress(const GlbChunks& in, const DracoOptions& option
           a.normalized = acc.value("normalized", false);
           a.data = data[k].data();
           if (a.component_type == 5126) {
-            const double range = largest_range(reinterpret_cast<const float*>(data[k].data()), num_points, a.components);
+            const double range =
+                largest_range(reinterpret_cast<const float*>(data[k].data()), num_points, a.components);
             if (a.semantic == draco_codec::AttributeIn::Semantic::kPosition) {
               a.quantization_bits = bits_for(range, options.position_step_m);
             } else if (a.semantic == draco_codec::AttributeIn::Semantic::kTexCoord) {
@@ -326,7 +331,8 @@ Result<GlbChunks> draco_compress(const GlbChunks& in, const DracoOptions& option
           ext["attributes"][names[k]] = compressed->attribute_ids[k];
         }
         json index_acc = {{"componentType", compressed->num_points <= 65535 ? 5123 : 5125},
-                          {"count", compressed->num_indices}, {"type", "SCALAR"}};
+                          {"count", compressed->num_indices},
+                          {"type", "SCALAR"}};
         if (prim.contains("indices")) {
           accessors[index_of(prim["indices"])] = index_acc;
         } else {
@@ -460,7 +466,8 @@ Result<GlbChunks> draco_decompress(const GlbChunks& in, const GlbDecodeLimits& l
           out.bin.resize(at + stride * num_points, 0);
           for (size_t i = 0; i < num_points; ++i)
             std::memcpy(out.bin.data() + at + i * stride, dec.attributes[r].data() + i * elem, elem);
-          views.push_back({{"buffer", 0}, {"byteOffset", at}, {"byteLength", stride * num_points}, {"byteStride", stride}});
+          views.push_back(
+              {{"buffer", 0}, {"byteOffset", at}, {"byteLength", stride * num_points}, {"byteStride", stride}});
           json& acc = accessors[targets[r]];
           acc["bufferView"] = views.size() - 1;
           acc["byteOffset"] = 0;
@@ -472,7 +479,8 @@ Result<GlbChunks> draco_decompress(const GlbChunks& in, const GlbDecodeLimits& l
         out.bin.resize(at + iw * index_count);
         for (size_t i = 0; i < index_count; ++i) {
           const std::uint32_t v = dec.indices[i];
-          if (iw < 4 && v >= (std::uint32_t(1) << (8 * iw))) return bad("a decoded index does not fit the indices type");
+          if (iw < 4 && v >= (std::uint32_t(1) << (8 * iw)))
+            return bad("a decoded index does not fit the indices type");
           for (size_t b = 0; b < iw; ++b) out.bin[at + i * iw + b] = static_cast<std::uint8_t>(v >> (8 * b));
         }
         views.push_back({{"buffer", 0}, {"byteOffset", at}, {"byteLength", iw * index_count}});
@@ -482,7 +490,8 @@ Result<GlbChunks> draco_decompress(const GlbChunks& in, const GlbDecodeLimits& l
         if (prim["extensions"].empty()) prim.erase("extensions");
       }
     align4(out.bin);
-    if (!doc.contains("buffers") || !doc["buffers"].is_array() || doc["buffers"].empty() || !doc["buffers"][0].is_object())
+    if (!doc.contains("buffers") || !doc["buffers"].is_array() || doc["buffers"].empty() ||
+        !doc["buffers"][0].is_object())
       return bad("no buffer for the BIN chunk");
     doc["buffers"][0]["byteLength"] = out.bin.size();
     drop_extension(doc, kExt);

@@ -18,23 +18,35 @@ namespace {
 
 draco::DataType data_type_of(int component_type) {
   switch (component_type) {
-    case 5120: return draco::DT_INT8;
-    case 5121: return draco::DT_UINT8;
-    case 5122: return draco::DT_INT16;
-    case 5123: return draco::DT_UINT16;
-    case 5125: return draco::DT_UINT32;
-    case 5126: return draco::DT_FLOAT32;
-    default: return draco::DT_INVALID;
+    case 5120:
+      return draco::DT_INT8;
+    case 5121:
+      return draco::DT_UINT8;
+    case 5122:
+      return draco::DT_INT16;
+    case 5123:
+      return draco::DT_UINT16;
+    case 5125:
+      return draco::DT_UINT32;
+    case 5126:
+      return draco::DT_FLOAT32;
+    default:
+      return draco::DT_INVALID;
   }
 }
 
 draco::GeometryAttribute::Type type_of(AttributeIn::Semantic s) {
   switch (s) {
-    case AttributeIn::Semantic::kPosition: return draco::GeometryAttribute::POSITION;
-    case AttributeIn::Semantic::kTexCoord: return draco::GeometryAttribute::TEX_COORD;
-    case AttributeIn::Semantic::kColor: return draco::GeometryAttribute::COLOR;
-    case AttributeIn::Semantic::kNormal: return draco::GeometryAttribute::NORMAL;
-    default: return draco::GeometryAttribute::GENERIC;
+    case AttributeIn::Semantic::kPosition:
+      return draco::GeometryAttribute::POSITION;
+    case AttributeIn::Semantic::kTexCoord:
+      return draco::GeometryAttribute::TEX_COORD;
+    case AttributeIn::Semantic::kColor:
+      return draco::GeometryAttribute::COLOR;
+    case AttributeIn::Semantic::kNormal:
+      return draco::GeometryAttribute::NORMAL;
+    default:
+      return draco::GeometryAttribute::GENERIC;
   }
 }
 
@@ -54,21 +66,33 @@ bool convert_all(const draco::PointAttribute& att, size_t num_points, int compon
 bool convert(const draco::PointAttribute& att, size_t num_points, const AttributeRequest& r,
              std::vector<std::uint8_t>* out) {
   switch (r.component_type) {
-    case 5120: return convert_all<std::int8_t>(att, num_points, r.components, out);
-    case 5121: return convert_all<std::uint8_t>(att, num_points, r.components, out);
-    case 5122: return convert_all<std::int16_t>(att, num_points, r.components, out);
-    case 5123: return convert_all<std::uint16_t>(att, num_points, r.components, out);
-    case 5125: return convert_all<std::uint32_t>(att, num_points, r.components, out);
-    case 5126: return convert_all<float>(att, num_points, r.components, out);
-    default: return false;
+    case 5120:
+      return convert_all<std::int8_t>(att, num_points, r.components, out);
+    case 5121:
+      return convert_all<std::uint8_t>(att, num_points, r.components, out);
+    case 5122:
+      return convert_all<std::int16_t>(att, num_points, r.components, out);
+    case 5123:
+      return convert_all<std::uint16_t>(att, num_points, r.components, out);
+    case 5125:
+      return convert_all<std::uint32_t>(att, num_points, r.components, out);
+    case 5126:
+      return convert_all<float>(att, num_points, r.components, out);
+    default:
+      return false;
   }
 }
 
 size_t component_bytes(int component_type) {
   switch (component_type) {
-    case 5120: case 5121: return 1;
-    case 5122: case 5123: return 2;
-    default: return 4;
+    case 5120:
+    case 5121:
+      return 1;
+    case 5122:
+    case 5123:
+      return 2;
+    default:
+      return 4;
   }
 }
 
@@ -204,7 +228,8 @@ RGBDCAST_DRACO_EXPORT bool decode_mesh(const std::uint8_t* data, size_t size,
       }
     out->attributes.assign(requests.size(), {});
     for (size_t r = 0; r < requests.size(); ++r) {
-      const draco::PointAttribute* att = mesh->GetAttributeByUniqueId(static_cast<std::uint32_t>(requests[r].unique_id));
+      const draco::PointAttribute* att =
+          mesh->GetAttributeByUniqueId(static_cast<std::uint32_t>(requests[r].unique_id));
       if (!att || att->num_components() != requests[r].components) {
         *error = "Draco attribute " + std::to_string(requests[r].unique_id) + " is missing or has " +
                  (att ? std::to_string(att->num_components()) : std::string("no")) + " components";

@@ -37,8 +37,8 @@ struct MeshIn {
 };
 
 struct Encoded {
-  std::vector<std::uint8_t> bytes;      // the Draco bitstream (2.2); empty on failure
-  std::vector<int> attribute_ids;       // Draco unique id of each MeshIn attribute, in order
+  std::vector<std::uint8_t> bytes;  // the Draco bitstream (2.2); empty on failure
+  std::vector<int> attribute_ids;   // Draco unique id of each MeshIn attribute, in order
   // What a decoder gets back, without decoding: the points and faces (the encoder's tracked properties), and for a
   // quantized float POSITION attribute the per-component least and largest decoded value (the input's extremes through
   // Draco's own quantizer and dequantizer, with the parameters the encoder computes: quantization is monotone, so
@@ -58,7 +58,7 @@ struct AttributeRequest {
 
 struct Decoded {
   size_t num_points = 0;
-  std::vector<std::uint32_t> indices;                // 3 per face, each < num_points
+  std::vector<std::uint32_t> indices;                 // 3 per face, each < num_points
   std::vector<std::vector<std::uint8_t>> attributes;  // per request: num_points x components, tightly packed
 };
 

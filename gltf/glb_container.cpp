@@ -24,7 +24,8 @@ Result<GlbChunks> parse_glb(const std::uint8_t* data, size_t size) {
   if (read_u32(data) != kMagic) return bad("not a GLB file (magic is not 'glTF')");
   if (read_u32(data + 4) != 2) return bad("version " + std::to_string(read_u32(data + 4)) + " (only 2 is supported)");
   const std::uint32_t length = read_u32(data + 8);
-  if (length > size) return bad("truncated: header says " + std::to_string(length) + " bytes, have " + std::to_string(size));
+  if (length > size)
+    return bad("truncated: header says " + std::to_string(length) + " bytes, have " + std::to_string(size));
   if (length < 20) return bad("no JSON chunk");
   GlbChunks out;
   size_t pos = 12;

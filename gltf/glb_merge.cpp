@@ -152,7 +152,8 @@ Status append_views_and_accessors(json& part, const PartSpans& at, const std::ve
   for (auto& a : part.value("accessors", json::array())) {
     bool ok = rebase(a, "bufferView", views);
     if (a.contains("sparse"))
-      ok = ok && rebase(a["sparse"]["indices"], "bufferView", views) && rebase(a["sparse"]["values"], "bufferView", views);
+      ok = ok && rebase(a["sparse"]["indices"], "bufferView", views) &&
+           rebase(a["sparse"]["values"], "bufferView", views);
     if (!ok) return bad("an accessor's bufferView is out of range");
     doc.arrays["accessors"].push_back(std::move(a));
   }
@@ -188,11 +189,9 @@ Status append_meshes(json& part, const PartSpans& at, MergedDocument& doc) {
     if (!mesh.contains("primitives") || !mesh["primitives"].is_array()) return bad("a mesh without primitives");
     for (auto& p : mesh["primitives"]) {
       bool ok = rebase(p, "indices", accessors) && rebase(p, "material", materials);
-      if (p.contains("attributes") && p["attributes"].is_object())
-        ok = ok && rebase_each(p["attributes"], accessors);
+      if (p.contains("attributes") && p["attributes"].is_object()) ok = ok && rebase_each(p["attributes"], accessors);
       if (p.contains("targets") && p["targets"].is_array())
-        for (auto& target : p["targets"])
-          ok = ok && rebase_each(target, accessors);
+        for (auto& target : p["targets"]) ok = ok && rebase_each(target, accessors);
       if (p.contains("extensions") && p["extensions"].contains("KHR_draco_mesh_compression"))
         ok = ok && rebase(p["extensions"]["KHR_draco_mesh_compression"], "bufferView", views);
       if (!ok) return bad("a primitive's accessor, material or bufferView is out of range");
@@ -245,7 +244,8 @@ Status append_part(const GlbLayout& layout, MergedDocument& doc) {
   json part = json::parse(layout.json, nullptr, false);
   if (part.is_discarded() || !part.is_object()) return bad("a JSON chunk that does not parse");
   for (const char* key : {"skins", "animations"})
-    if (part.contains(key) && !part[key].empty()) return bad(std::string("a part with ") + key + " (they do not merge)");
+    if (part.contains(key) && !part[key].empty())
+      return bad(std::string("a part with ") + key + " (they do not merge)");
   if (part.contains("extensions") && !part["extensions"].empty())
     return bad("a part with document-level extensions (they do not merge)");
   const PartSpans at(part, doc);
@@ -266,7 +266,8 @@ std::string merged_json(MergedDocument& doc) {
   if (doc.bin_length > 0) buffers.push_back({{"byteLength", doc.bin_length}});
   if (doc.fallback_length > 0) {
     if (buffers.empty()) buffers.push_back({{"byteLength", 0}});  // keeps the fallback at index 1, as placed
-    buffers.push_back({{"byteLength", doc.fallback_length}, {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}});
+    buffers.push_back(
+        {{"byteLength", doc.fallback_length}, {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}});
   }
   if (!buffers.empty()) out["buffers"] = std::move(buffers);
   for (auto it = doc.arrays.begin(); it != doc.arrays.end(); ++it)

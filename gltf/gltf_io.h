@@ -22,9 +22,10 @@
 // scene's extras. With `quantize`, KHR_mesh_quantization: positions as int16 with the dequantization (translation +
 // uniform scale) on the geometry's child node; UVs that all sit on texel corners (the atlas) as uint16 texel
 // coordinates with KHR_texture_transform scale (1/width, 1/height) on the baseColorTexture, other UVs in [0,1] as
-// uint16 in 1/8 texel (scale 1/(8 width), 1/(8 height)). A triangle list whose indices are 0, 1, 2, ... (the atlas mesh) is written without indices.
-// With `meshopt`, EXT_meshopt_compression (vertex and index codecs) on top. With geometry_codec kDraco instead, float
-// POSITION and TEXCOORD_0 (no KHR_mesh_quantization, no texture transform) compressed by KHR_draco_mesh_compression.
+// uint16 in 1/8 texel (scale 1/(8 width), 1/(8 height)). A triangle list whose indices are 0, 1, 2, ... (the atlas
+// mesh) is written without indices. With `meshopt`, EXT_meshopt_compression (vertex and index codecs) on top. With
+// geometry_codec kDraco instead, float POSITION and TEXCOORD_0 (no KHR_mesh_quantization, no texture transform)
+// compressed by KHR_draco_mesh_compression.
 //
 // Two flavours of the same scene (GlbFlavor):
 //  - compact, the wire format: quantization and meshopt as GlbWriteOptions says (both on by default). Opens in
@@ -96,9 +97,9 @@ struct DracoOptions {
 
 struct GlbWriteOptions {
   GlbFlavor flavor = GlbFlavor::kCompact;  // compat overrides quantize and meshopt (see the top of this file)
-  int jpeg_quality = 85;  // used only for meshes with pixels but no texture_encoded (1..100)
+  int jpeg_quality = 85;                   // used only for meshes with pixels but no texture_encoded (1..100)
   std::string generator = "rgbdcast";
-  bool quantize = true;   // KHR_mesh_quantization (Khronos validator accepts it; three.js reads it)
+  bool quantize = true;  // KHR_mesh_quantization (Khronos validator accepts it; three.js reads it)
   // EXT_meshopt_compression: the Khronos validator 2.0.0-dev.3.10 accepts the file (0 errors/warnings; the extension
   // is an info "unsupported") but cannot look inside; three.js reads it with its MeshoptDecoder, decode_glb reads it.
   // Viewers without a meshopt decoder cannot open such files: turn it off for them.
@@ -117,7 +118,7 @@ struct GlbStats {
   size_t texture_bytes = 0;   // encoded images
   size_t json_bytes = 0;
   size_t total_bytes = 0;
-  double ms = 0.0;            // encoding time, including any JPEG encoding
+  double ms = 0.0;  // encoding time, including any JPEG encoding
 };
 
 // Encodes a scene as GLB bytes. Textures are written from Mesh::texture_encoded when present, else encoded as JPEG.
@@ -134,11 +135,11 @@ Status write_glb_file(const Scene& scene, const std::string& path, const GlbWrit
 // 640x480 cloud is 307k vertices and 406k triangles; a reduced frame 22k / 40k) and bound one decode to a few hundred
 // MB in the worst case.
 struct GlbDecodeLimits {
-  size_t max_json_bytes = size_t(4) << 20;   // the JSON chunk (tinygltf's model costs ~30x its JSON in memory)
-  int max_json_depth = 64;                   // nesting of arrays/objects anywhere in the JSON (extras included)
-  size_t max_vertices = 4'000'000;           // per scene: POSITION counts summed over every mesh instance
-  size_t max_triangles = 4'000'000;          // per scene, over every mesh instance
-  int max_image_side_px = kMaxImageSize;     // 8192: each side of each image, read from its header before decoding
+  size_t max_json_bytes = size_t(4) << 20;     // the JSON chunk (tinygltf's model costs ~30x its JSON in memory)
+  int max_json_depth = 64;                     // nesting of arrays/objects anywhere in the JSON (extras included)
+  size_t max_vertices = 4'000'000;             // per scene: POSITION counts summed over every mesh instance
+  size_t max_triangles = 4'000'000;            // per scene, over every mesh instance
+  int max_image_side_px = kMaxImageSize;       // 8192: each side of each image, read from its header before decoding
   size_t max_image_pixels = size_t(64) << 20;  // 64 Mpx: summed over every image of the file, before decoding
   // Texture bytes the decoded Scene holds (RGB pixels + encoded copy), counted per mesh instance that uses them.
   size_t max_scene_texture_bytes = size_t(512) << 20;

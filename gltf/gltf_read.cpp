@@ -1,6 +1,6 @@
 // decode_glb / read_glb_file: untrusted GLB bytes -> Scene. Order: strict container parse, EXT_meshopt_compression
-// decode (meshopt_buffers.h), KHR_draco_mesh_compression decode (draco_buffers.h), tinygltf for the document (images decoded by OpenCV after a size probe), then every
-// index and byte range this file uses is checked before it is read.
+// decode (meshopt_buffers.h), KHR_draco_mesh_compression decode (draco_buffers.h), tinygltf for the document (images
+// decoded by OpenCV after a size probe), then every index and byte range this file uses is checked before it is read.
 #include <tiny_gltf.h>
 
 #include <Eigen/Geometry>
@@ -51,9 +51,10 @@ bool load_image(tinygltf::Image* image, const int index, std::string* err, std::
   }
   const size_t pixels = static_cast<size_t>(w) * static_cast<size_t>(h);
   if (w > lim.max_image_side_px || h > lim.max_image_side_px || pixels > lim.max_image_pixels - budget->image_pixels) {
-    if (err) *err += name + " is " + std::to_string(w) + "x" + std::to_string(h) + ": over the limit of " +
-                     std::to_string(lim.max_image_side_px) + " px per side and " +
-                     std::to_string(lim.max_image_pixels) + " px per file\n";
+    if (err)
+      *err += name + " is " + std::to_string(w) + "x" + std::to_string(h) + ": over the limit of " +
+              std::to_string(lim.max_image_side_px) + " px per side and " + std::to_string(lim.max_image_pixels) +
+              " px per file\n";
     return false;
   }
   budget->image_pixels += pixels;
@@ -85,7 +86,8 @@ Status charge_primitive(const tinygltf::Model& model, const tinygltf::Primitive&
   };
   auto pos = prim.attributes.find("POSITION");
   const size_t vertices = pos == prim.attributes.end() ? 0 : count(pos->second);
-  const size_t triangles = prim.mode == TINYGLTF_MODE_POINTS ? 0 : (prim.indices >= 0 ? count(prim.indices) : vertices) / 3;
+  const size_t triangles =
+      prim.mode == TINYGLTF_MODE_POINTS ? 0 : (prim.indices >= 0 ? count(prim.indices) : vertices) / 3;
   const GlbDecodeLimits& lim = *budget->limits;
   if (vertices > lim.max_vertices - budget->vertices)
     return bad("over the limit of " + std::to_string(lim.max_vertices) + " vertices per scene");
@@ -104,7 +106,8 @@ Eigen::Matrix4d node_matrix(const tinygltf::Node& n) {
     return m;
   }
   Eigen::Matrix4d t = Eigen::Matrix4d::Identity(), r = Eigen::Matrix4d::Identity(), s = Eigen::Matrix4d::Identity();
-  if (n.translation.size() == 3) t.block<3, 1>(0, 3) = Eigen::Vector3d(n.translation[0], n.translation[1], n.translation[2]);
+  if (n.translation.size() == 3)
+    t.block<3, 1>(0, 3) = Eigen::Vector3d(n.translation[0], n.translation[1], n.translation[2]);
   if (n.rotation.size() == 4) {
     Eigen::Quaterniond q(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);
     if (q.norm() > 1e-12) r.block<3, 3>(0, 0) = q.normalized().toRotationMatrix();
@@ -116,26 +119,31 @@ Eigen::Matrix4d node_matrix(const tinygltf::Node& n) {
 // Reads an accessor as `ncomp` doubles per element, applying glTF's normalization rules.
 Status read_accessor(const tinygltf::Model& model, int index, int ncomp, std::vector<double>* out,
                      const std::string& what) {
-  if (index < 0 || static_cast<size_t>(index) >= model.accessors.size()) return bad(what + ": accessor index out of range");
+  if (index < 0 || static_cast<size_t>(index) >= model.accessors.size())
+    return bad(what + ": accessor index out of range");
   const tinygltf::Accessor& a = model.accessors[index];
   if (a.sparse.isSparse) return bad(what + ": sparse accessors are not supported");
   const int comps = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(a.type));
   const int csize = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType));
-  if (comps != ncomp) return bad(what + ": accessor has " + std::to_string(comps) + " components, expected " + std::to_string(ncomp));
+  if (comps != ncomp)
+    return bad(what + ": accessor has " + std::to_string(comps) + " components, expected " + std::to_string(ncomp));
   if (csize <= 0) return bad(what + ": bad component type");
   if (a.count == 0) {
     out->clear();
     return ok_status();
   }
   if (a.bufferView < 0) return bad(what + ": accessor without bufferView");  // check_document refuses them too
-  if (static_cast<size_t>(a.bufferView) >= model.bufferViews.size()) return bad(what + ": bufferView index out of range");
+  if (static_cast<size_t>(a.bufferView) >= model.bufferViews.size())
+    return bad(what + ": bufferView index out of range");
   const tinygltf::BufferView& v = model.bufferViews[a.bufferView];
-  if (v.buffer < 0 || static_cast<size_t>(v.buffer) >= model.buffers.size()) return bad(what + ": buffer index out of range");
+  if (v.buffer < 0 || static_cast<size_t>(v.buffer) >= model.buffers.size())
+    return bad(what + ": buffer index out of range");
   const auto& data = model.buffers[v.buffer].data;
   const size_t elem = static_cast<size_t>(comps) * csize;
   const size_t stride = v.byteStride ? v.byteStride : elem;
   if (stride < elem) return bad(what + ": byteStride smaller than an element");
-  if (v.byteOffset > data.size() || v.byteLength > data.size() - v.byteOffset) return bad(what + ": bufferView past its buffer");
+  if (v.byteOffset > data.size() || v.byteLength > data.size() - v.byteOffset)
+    return bad(what + ": bufferView past its buffer");
   if (a.byteOffset > v.byteLength) return bad(what + ": accessor offset past its bufferView");
   const size_t room = v.byteLength - a.byteOffset;
   if (elem > room || (a.count - 1) > (room - elem) / stride) return bad(what + ": accessor runs past its bufferView");
@@ -147,13 +155,41 @@ Status read_accessor(const tinygltf::Model& model, int index, int ncomp, std::ve
       const std::uint8_t* p = e + k * csize;
       double x = 0;
       switch (a.componentType) {
-        case TINYGLTF_COMPONENT_TYPE_BYTE: { std::int8_t t; std::memcpy(&t, p, 1); x = a.normalized ? std::max(t / 127.0, -1.0) : t; break; }
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: x = a.normalized ? p[0] / 255.0 : p[0]; break;
-        case TINYGLTF_COMPONENT_TYPE_SHORT: { std::int16_t t; std::memcpy(&t, p, 2); x = a.normalized ? std::max(t / 32767.0, -1.0) : t; break; }
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: { std::uint16_t t; std::memcpy(&t, p, 2); x = a.normalized ? t / 65535.0 : t; break; }
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: { std::uint32_t t; std::memcpy(&t, p, 4); x = t; break; }
-        case TINYGLTF_COMPONENT_TYPE_FLOAT: { float t; std::memcpy(&t, p, 4); x = t; break; }
-        default: return bad(what + ": unsupported component type");
+        case TINYGLTF_COMPONENT_TYPE_BYTE: {
+          std::int8_t t;
+          std::memcpy(&t, p, 1);
+          x = a.normalized ? std::max(t / 127.0, -1.0) : t;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+          x = a.normalized ? p[0] / 255.0 : p[0];
+          break;
+        case TINYGLTF_COMPONENT_TYPE_SHORT: {
+          std::int16_t t;
+          std::memcpy(&t, p, 2);
+          x = a.normalized ? std::max(t / 32767.0, -1.0) : t;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+          std::uint16_t t;
+          std::memcpy(&t, p, 2);
+          x = a.normalized ? t / 65535.0 : t;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+          std::uint32_t t;
+          std::memcpy(&t, p, 4);
+          x = t;
+          break;
+        }
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+          float t;
+          std::memcpy(&t, p, 4);
+          x = t;
+          break;
+        }
+        default:
+          return bad(what + ": unsupported component type");
       }
       (*out)[i * ncomp + k] = x;
     }
@@ -210,8 +246,8 @@ Eigen::Matrix3d texture_transform(const tinygltf::TextureInfo& info) {
   return m.allFinite() ? m : Eigen::Matrix3d::Identity();
 }
 
-Status read_texture(const tinygltf::Model& model, int material, Mesh* mesh, int* texcoord, Eigen::Matrix3d* uv_transform,
-                    DecodeBudget* budget) {
+Status read_texture(const tinygltf::Model& model, int material, Mesh* mesh, int* texcoord,
+                    Eigen::Matrix3d* uv_transform, DecodeBudget* budget) {
   *texcoord = -1;
   *uv_transform = Eigen::Matrix3d::Identity();
   if (material < 0) return ok_status();
@@ -361,7 +397,6 @@ void bake_dequantization(const tinygltf::Model& model, const tinygltf::Node& nod
   sn->to_world = parent_to_world;
 }
 
-
 // tinygltf file-system callbacks that refuse everything: check_document has already refused every URI, and this
 // keeps tinygltf from opening a file even if a path through it were missed.
 bool no_file_exists(const std::string&, void*) { return false; }
@@ -446,7 +481,8 @@ Result<Scene> decode_glb(const std::uint8_t* data, size_t size, const GlbDecodeL
   const int sc = model.defaultScene >= 0 ? model.defaultScene : 0;
   if (static_cast<size_t>(sc) < model.scenes.size()) {
     roots = model.scenes[sc].nodes;
-    if (model.scenes[sc].extras.Type() != tinygltf::NULL_TYPE) scene.extras_json = glb::to_json(model.scenes[sc].extras).dump();
+    if (model.scenes[sc].extras.Type() != tinygltf::NULL_TYPE)
+      scene.extras_json = glb::to_json(model.scenes[sc].extras).dump();
   } else {
     std::set<int> children;
     for (const auto& n : model.nodes) children.insert(n.children.begin(), n.children.end());
@@ -492,7 +528,8 @@ Result<Scene> decode_glb(const std::uint8_t* data, size_t size, const GlbDecodeL
   } catch (const std::exception& e) {
     return bad(std::string("malformed document: ") + e.what());
   }
-  if (scene.nodes.empty() && scene.cameras.empty()) return make_error(ErrorCode::kEmpty, "GLB: no mesh, points or camera");
+  if (scene.nodes.empty() && scene.cameras.empty())
+    return make_error(ErrorCode::kEmpty, "GLB: no mesh, points or camera");
   return scene;
 }
 

@@ -99,7 +99,8 @@ class ModelBuilder {
     node->translation = {centre.x(), centre.y(), centre.z()};
     node->scale = {step, step, step};
     const int v = add_view(data.data(), data.size() * 2, 8, TINYGLTF_TARGET_ARRAY_BUFFER, true);
-    return add_accessor(v, kShort, false, pos.size(), TINYGLTF_TYPE_VEC3, {double(qlo.x()), double(qlo.y()), double(qlo.z())},
+    return add_accessor(v, kShort, false, pos.size(), TINYGLTF_TYPE_VEC3,
+                        {double(qlo.x()), double(qlo.y()), double(qlo.z())},
                         {double(qhi.x()), double(qhi.y()), double(qhi.z())});
   }
 
@@ -119,8 +120,10 @@ class ModelBuilder {
                     x <= 65535 && y <= 65535;
       }
     }
-    const int units = on_texels ? 1 : (opt_.quantize && unit && tex_w > 0 && tex_h > 0 && 8 * tex_w <= 65535 &&
-                                       8 * tex_h <= 65535) ? 8 : 0;
+    const int units = on_texels ? 1
+                      : (opt_.quantize && unit && tex_w > 0 && tex_h > 0 && 8 * tex_w <= 65535 && 8 * tex_h <= 65535)
+                          ? 8
+                          : 0;
     if (units > 0) {
       std::vector<std::uint16_t> data(uvs.size() * 2);
       for (size_t i = 0; i < uvs.size(); ++i) {
@@ -186,8 +189,8 @@ class ModelBuilder {
     if (texture >= 0) m.pbrMetallicRoughness.baseColorTexture.index = texture;
     if (texture >= 0 && uv_units_w > 0) {  // integer UVs (add_uvs)
       tinygltf::Value::Object t;
-      t["scale"] = tinygltf::Value(
-          tinygltf::Value::Array{tinygltf::Value(1.0 / uv_units_w), tinygltf::Value(1.0 / uv_units_h)});
+      t["scale"] =
+          tinygltf::Value(tinygltf::Value::Array{tinygltf::Value(1.0 / uv_units_w), tinygltf::Value(1.0 / uv_units_h)});
       m.pbrMetallicRoughness.baseColorTexture.extensions["KHR_texture_transform"] = tinygltf::Value(t);
     }
     m.doubleSided = true;
@@ -242,7 +245,8 @@ class ModelBuilder {
   // The texture's pixels as an OpenCV BGR image (a copy).
   static Result<cv::Mat> bgr_of(const Image& t) {
     if (t.channels != 3 && t.channels != 4) return invalid("texture must be RGB8 or RGBA8");
-    if (t.data.size() != size_t(t.width) * t.height * t.channels) return invalid("texture size disagrees with its pixels");
+    if (t.data.size() != size_t(t.width) * t.height * t.channels)
+      return invalid("texture size disagrees with its pixels");
     cv::Mat view(t.height, t.width, t.channels == 3 ? CV_8UC3 : CV_8UC4, const_cast<std::uint8_t*>(t.data.data()));
     cv::Mat bgr;
     cv::cvtColor(view, bgr, t.channels == 3 ? cv::COLOR_RGB2BGR : cv::COLOR_RGBA2BGR);
@@ -280,7 +284,8 @@ Status check_mesh(const Mesh& m, const std::string& name) {
     if (i >= m.positions.size()) return invalid(name + ": index " + std::to_string(i) + " out of range");
   for (const auto& p : m.positions)
     if (!p.allFinite()) return invalid(name + ": a position is not finite");
-  if (!m.uvs.empty() && m.uvs.size() != m.positions.size()) return invalid(name + ": uvs and positions differ in count");
+  if (!m.uvs.empty() && m.uvs.size() != m.positions.size())
+    return invalid(name + ": uvs and positions differ in count");
   for (const auto& uv : m.uvs)
     if (!uv.allFinite()) return invalid(name + ": a uv is not finite");
   if (!m.colors.empty() && m.colors.size() != m.positions.size())
@@ -298,16 +303,18 @@ Result<GeometryCodec> parse_geometry_codec(std::string_view name) {
   if (name == "meshopt") return GeometryCodec::kMeshopt;
   if (name == "draco") return GeometryCodec::kDraco;
   return make_error(ErrorCode::kInvalidArgument,
-                    "unknown geometry codec '" + std::string(name) + "' (meshopt: EXT_meshopt_compression, the "
-                    "default; draco: KHR_draco_mesh_compression, about half the geometry bytes)");
+                    "unknown geometry codec '" + std::string(name) +
+                        "' (meshopt: EXT_meshopt_compression, the "
+                        "default; draco: KHR_draco_mesh_compression, about half the geometry bytes)");
 }
 
 Result<GlbFlavor> parse_glb_flavor(std::string_view name) {
   if (name == "compact") return GlbFlavor::kCompact;
   if (name == "compat") return GlbFlavor::kCompat;
   return make_error(ErrorCode::kInvalidArgument,
-                    "unknown GLB flavor '" + std::string(name) + "' (compact: meshopt + quantized, for three.js, "
-                    "Babylon.js, Foxglove; compat: plain floats, for Blender, Assimp and every viewer)");
+                    "unknown GLB flavor '" + std::string(name) +
+                        "' (compact: meshopt + quantized, for three.js, "
+                        "Babylon.js, Foxglove; compat: plain floats, for Blender, Assimp and every viewer)");
 }
 
 Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteOptions& requested, GlbStats* stats) {
@@ -396,9 +403,16 @@ Result<std::vector<std::uint8_t>> encode_glb(const Scene& scene, const GlbWriteO
     n.camera = static_cast<int>(b.model_.cameras.size() - 1);
     n.matrix = matrix_values(cam.camera_to_world * camera_to_gltf());
     nlohmann::json extras = {{"rgbdcast_camera",
-                              {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"width", k.width},
-                               {"height", k.height}, {"name", k.name}, {"timestamp", cam.timestamp},
-                               {"source", cam.source}, {"frame_index", cam.frame_index}}}};
+                              {{"fx", k.fx},
+                               {"fy", k.fy},
+                               {"cx", k.cx},
+                               {"cy", k.cy},
+                               {"width", k.width},
+                               {"height", k.height},
+                               {"name", k.name},
+                               {"timestamp", cam.timestamp},
+                               {"source", cam.source},
+                               {"frame_index", cam.frame_index}}}};
     n.extras = glb::to_value(extras);
     b.model_.nodes.push_back(n);
     root.children.push_back(static_cast<int>(b.model_.nodes.size() - 1));

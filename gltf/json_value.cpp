@@ -4,15 +4,18 @@ namespace rgbdcast::glb {
 
 tinygltf::Value to_value(const nlohmann::json& j) {
   switch (j.type()) {
-    case nlohmann::json::value_t::boolean: return tinygltf::Value(j.get<bool>());
+    case nlohmann::json::value_t::boolean:
+      return tinygltf::Value(j.get<bool>());
     case nlohmann::json::value_t::number_integer:
     case nlohmann::json::value_t::number_unsigned: {
       const double d = j.get<double>();
       if (d >= -2147483648.0 && d <= 2147483647.0) return tinygltf::Value(j.get<int>());
       return tinygltf::Value(d);
     }
-    case nlohmann::json::value_t::number_float: return tinygltf::Value(j.get<double>());
-    case nlohmann::json::value_t::string: return tinygltf::Value(j.get<std::string>());
+    case nlohmann::json::value_t::number_float:
+      return tinygltf::Value(j.get<double>());
+    case nlohmann::json::value_t::string:
+      return tinygltf::Value(j.get<std::string>());
     case nlohmann::json::value_t::array: {
       tinygltf::Value::Array a;
       for (const auto& e : j) a.push_back(to_value(e));
@@ -23,7 +26,8 @@ tinygltf::Value to_value(const nlohmann::json& j) {
       for (auto it = j.begin(); it != j.end(); ++it) o[it.key()] = to_value(it.value());
       return tinygltf::Value(std::move(o));
     }
-    default: return tinygltf::Value();
+    default:
+      return tinygltf::Value();
   }
 }
 

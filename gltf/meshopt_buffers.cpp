@@ -85,8 +85,12 @@ Result<GlbChunks> meshopt_compress(const GlbChunks& in) {
         }
       }
       if (enc.empty()) return make_error(ErrorCode::kInternal, "meshopt encoding failed");
-      json ext = {{"buffer", 0}, {"byteOffset", out.bin.size()}, {"byteLength", enc.size()},
-                  {"byteStride", u.stride}, {"count", u.count}, {"mode", u.mode}};
+      json ext = {{"buffer", 0},
+                  {"byteOffset", out.bin.size()},
+                  {"byteLength", enc.size()},
+                  {"byteStride", u.stride},
+                  {"count", u.count},
+                  {"mode", u.mode}};
       out.bin.insert(out.bin.end(), enc.begin(), enc.end());
       fallback_size = (fallback_size + 3) & ~size_t(3);
       view["buffer"] = 1;
@@ -95,9 +99,9 @@ Result<GlbChunks> meshopt_compress(const GlbChunks& in) {
       fallback_size += len;
     }
     align4(out.bin);
-    doc["buffers"] = json::array({json{{"byteLength", out.bin.size()}},
-                                  json{{"byteLength", std::max<size_t>(fallback_size, 4)},
-                                       {"extensions", {{kExt, {{"fallback", true}}}}}}});
+    doc["buffers"] =
+        json::array({json{{"byteLength", out.bin.size()}}, json{{"byteLength", std::max<size_t>(fallback_size, 4)},
+                                                                {"extensions", {{kExt, {{"fallback", true}}}}}}});
     require_extension(doc, kExt);
     out.json = doc.dump();
     return out;
@@ -186,8 +190,7 @@ Result<GlbChunks> meshopt_decompress(const GlbChunks& in, size_t max_decoded_byt
     for (size_t b = 0; b < buffers.size(); ++b) {
       const json& buffer = buffers[b];
       const bool fallback = buffer.is_object() && buffer.contains("extensions") &&
-                            buffer["extensions"].contains(kExt) &&
-                            buffer["extensions"][kExt].value("fallback", false);
+                            buffer["extensions"].contains(kExt) && buffer["extensions"][kExt].value("fallback", false);
       if (fallback) continue;
       remap[b] = static_cast<long>(kept.size());
       kept.push_back(buffer);

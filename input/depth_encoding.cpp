@@ -47,18 +47,24 @@ std::optional<DepthEncoding> parse_depth_encoding(const std::string& name) {
 
 const char* to_string(DepthEncoding e) {
   switch (e) {
-    case DepthEncoding::kNyu: return "nyu";
-    case DepthEncoding::kSun: return "sun";
-    case DepthEncoding::kPng16: break;
+    case DepthEncoding::kNyu:
+      return "nyu";
+    case DepthEncoding::kSun:
+      return "sun";
+    case DepthEncoding::kPng16:
+      break;
   }
   return "png16";
 }
 
 Result<cv::Mat> decode_depth_encoding(const cv::Mat& raw16, DepthEncoding encoding, double depth_scale,
                                       const std::string& what) {
-  if (raw16.type() != CV_16UC1) return make_error(ErrorCode::kInvalidInput, what + ": depth must be 16-bit, one channel");
+  if (raw16.type() != CV_16UC1)
+    return make_error(ErrorCode::kInvalidInput, what + ": depth must be 16-bit, one channel");
   // png16 is returned as it is; the others get an image of their own.
-  cv::Mat out = encoding == DepthEncoding::kPng16 ? raw16 : cv::Mat(raw16.size(), encoding == DepthEncoding::kNyu ? CV_32FC1 : CV_16UC1);
+  cv::Mat out = encoding == DepthEncoding::kPng16
+                    ? raw16
+                    : cv::Mat(raw16.size(), encoding == DepthEncoding::kNyu ? CV_32FC1 : CV_16UC1);
   size_t valid = 0, beyond = 0;
   std::uint16_t max_raw = 0;
   for (int y = 0; y < raw16.rows; ++y) {
@@ -96,7 +102,8 @@ Result<cv::Mat> decode_depth_encoding(const cv::Mat& raw16, DepthEncoding encodi
                     100.0 * double(sig.at_2047) / double(sig.valid));
       return make_error(ErrorCode::kInvalidInput, what + buf);
     }
-    hint = sig.looks_rotated() ? " (every value is a multiple of 8, as SUN's bit-rotated depth: --depth-encoding sun?)" : "";
+    hint = sig.looks_rotated() ? " (every value is a multiple of 8, as SUN's bit-rotated depth: --depth-encoding sun?)"
+                               : "";
   }
   if (beyond * 10 > valid) {
     std::snprintf(buf, sizeof buf,

@@ -36,7 +36,8 @@ static bool truncated_png(const std::vector<unsigned char>& b) {
 static Status check_frame_header(const std::vector<unsigned char>& bytes, const std::string& what,
                                  const FrameLimits& limits) {
   if (bytes.empty()) return make_error(ErrorCode::kInvalidInput, what + ": empty file");
-  if (truncated_png(bytes)) return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (truncated PNG: no IEND chunk)");
+  if (truncated_png(bytes))
+    return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (truncated PNG: no IEND chunk)");
   int w = 0, h = 0;
   if (!probe_image_size(bytes.data(), bytes.size(), &w, &h)) {
     if (limits.png_jpeg_only)
@@ -45,10 +46,9 @@ static Status check_frame_header(const std::vector<unsigned char>& bytes, const 
   }
   const int long_side = std::max(w, h), short_side = std::min(w, h);
   if (long_side > limits.max_long_side_px || short_side > limits.max_short_side_px)
-    return make_error(ErrorCode::kInvalidInput, what + ": " + std::to_string(w) + "x" + std::to_string(h) +
-                                                    " is over the frame limit of " +
-                                                    std::to_string(limits.max_long_side_px) + "x" +
-                                                    std::to_string(limits.max_short_side_px));
+    return make_error(ErrorCode::kInvalidInput,
+                      what + ": " + std::to_string(w) + "x" + std::to_string(h) + " is over the frame limit of " +
+                          std::to_string(limits.max_long_side_px) + "x" + std::to_string(limits.max_short_side_px));
   return ok_status();
 }
 
@@ -64,15 +64,23 @@ Result<cv::Mat> decode_color(const std::vector<unsigned char>& bytes, const std:
                              const FrameLimits& limits) {
   if (auto st = check_frame_header(bytes, what, limits); !st) return st.error();
   const cv::Mat img = imdecode_or_empty(bytes, cv::IMREAD_UNCHANGED);
-  if (img.empty()) return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (corrupt or unknown format)");
+  if (img.empty())
+    return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (corrupt or unknown format)");
   if (img.depth() != CV_8U)
     return make_error(ErrorCode::kInvalidInput, what + ": colour image must be 8-bit per channel");
   cv::Mat rgb;
   switch (img.channels()) {
-    case 1: cv::cvtColor(img, rgb, cv::COLOR_GRAY2RGB); break;
-    case 3: cv::cvtColor(img, rgb, cv::COLOR_BGR2RGB); break;
-    case 4: cv::cvtColor(img, rgb, cv::COLOR_BGRA2RGB); break;
-    default: return make_error(ErrorCode::kInvalidInput, what + ": unsupported channel count");
+    case 1:
+      cv::cvtColor(img, rgb, cv::COLOR_GRAY2RGB);
+      break;
+    case 3:
+      cv::cvtColor(img, rgb, cv::COLOR_BGR2RGB);
+      break;
+    case 4:
+      cv::cvtColor(img, rgb, cv::COLOR_BGRA2RGB);
+      break;
+    default:
+      return make_error(ErrorCode::kInvalidInput, what + ": unsupported channel count");
   }
   return rgb;
 }
@@ -81,7 +89,8 @@ Result<cv::Mat> decode_depth16(const std::vector<unsigned char>& bytes, const st
                                const FrameLimits& limits) {
   if (auto st = check_frame_header(bytes, what, limits); !st) return st.error();
   const cv::Mat img = imdecode_or_empty(bytes, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
-  if (img.empty()) return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (corrupt or unknown format)");
+  if (img.empty())
+    return make_error(ErrorCode::kInvalidInput, what + ": not a readable image (corrupt or unknown format)");
   if (img.depth() != CV_16U || img.channels() != 1)
     return make_error(ErrorCode::kInvalidInput, what + ": depth must be a 16-bit single-channel image (got " +
                                                     std::to_string(8 * img.elemSize1()) + "-bit, " +
@@ -114,8 +123,8 @@ Undistorter::Maps build_maps(const Intrinsics& k) {
 }
 
 bool same_camera(const Intrinsics& a, const Intrinsics& b) {
-  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width &&
-         a.height == b.height && a.distortion == b.distortion;
+  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width && a.height == b.height &&
+         a.distortion == b.distortion;
 }
 
 }  // namespace
@@ -145,10 +154,10 @@ Result<RgbdFrame> make_frame(const cv::Mat& color_rgb, const cv::Mat& depth_raw,
                                                     std::to_string(depth_raw.cols) + "x" +
                                                     std::to_string(depth_raw.rows) + ") have different sizes");
   if (color_rgb.cols != intrinsics.width || color_rgb.rows != intrinsics.height)
-    return make_error(ErrorCode::kInvalidInput,
-                      "images are " + std::to_string(color_rgb.cols) + "x" + std::to_string(color_rgb.rows) +
-                          " but the intrinsics are for " + std::to_string(intrinsics.width) + "x" +
-                          std::to_string(intrinsics.height));
+    return make_error(ErrorCode::kInvalidInput, "images are " + std::to_string(color_rgb.cols) + "x" +
+                                                    std::to_string(color_rgb.rows) + " but the intrinsics are for " +
+                                                    std::to_string(intrinsics.width) + "x" +
+                                                    std::to_string(intrinsics.height));
   if (cv::countNonZero(depth_raw) == 0) return make_error(ErrorCode::kEmpty, "no valid depth (every pixel is 0)");
   RgbdFrame f;
   f.intrinsics = intrinsics.pinhole();
@@ -208,7 +217,8 @@ Result<std::vector<StampedPath>> read_tum_list(const std::string& path) {
     std::istringstream ss(line);
     StampedPath sp;
     if (!(ss >> sp.timestamp >> sp.path) || !std::isfinite(sp.timestamp))
-      return make_error(ErrorCode::kInvalidInput, path + ":" + std::to_string(lineno) + ": expected \"timestamp path\"");
+      return make_error(ErrorCode::kInvalidInput,
+                        path + ":" + std::to_string(lineno) + ": expected \"timestamp path\"");
     out.push_back(sp);
   }
   return out;
@@ -257,7 +267,10 @@ namespace {
 class ListSource : public FrameSource {
  public:
   ListSource(std::string kind, std::string root, std::vector<FrameEntry> entries, Intrinsics k, DepthEncoding encoding)
-      : kind_(std::move(kind)), root_(std::move(root)), entries_(std::move(entries)), k_(std::move(k)),
+      : kind_(std::move(kind)),
+        root_(std::move(root)),
+        entries_(std::move(entries)),
+        k_(std::move(k)),
         encoding_(encoding) {}
   std::string kind() const override { return kind_; }
   size_t size() const override { return entries_.size(); }
@@ -344,7 +357,8 @@ Result<std::unique_ptr<FrameSource>> open_tum(const fs::path& dir, const SourceO
       std::istringstream ss(line);
       FrameEntry e;
       if (!(ss >> e.color_timestamp >> e.color_path >> e.depth_timestamp >> e.depth_path))
-        return make_error(ErrorCode::kInvalidInput, o.associations_path + ": expected \"t_rgb rgb/.. t_depth depth/..\"");
+        return make_error(ErrorCode::kInvalidInput,
+                          o.associations_path + ": expected \"t_rgb rgb/.. t_depth depth/..\"");
       e.color_path = (dir / e.color_path).string();
       e.depth_path = (dir / e.depth_path).string();
       entries.push_back(e);
@@ -362,9 +376,12 @@ Result<std::unique_ptr<FrameSource>> open_tum(const fs::path& dir, const SourceO
   }
   const std::string name = lower(dir.string());
   std::string guess = "kinect";
-  if (name.find("freiburg1") != std::string::npos) guess = "fr1";
-  else if (name.find("freiburg2") != std::string::npos) guess = "fr2";
-  else if (name.find("freiburg3") != std::string::npos) guess = "fr3";
+  if (name.find("freiburg1") != std::string::npos)
+    guess = "fr1";
+  else if (name.find("freiburg2") != std::string::npos)
+    guess = "fr2";
+  else if (name.find("freiburg3") != std::string::npos)
+    guess = "fr3";
   auto k = pick_intrinsics(o, guess);
   if (!k) return k.error();
   return make_list_source("tum", dir.string(), std::move(entries), *k, o);
@@ -383,11 +400,13 @@ Result<std::unique_ptr<FrameSource>> open_numbered(const fs::path& dir, const So
   double scale = 1000.0;
   for (const auto& e : fs::directory_iterator(dir)) {
     const std::string fname = lower(e.path().filename().string());
-    if (e.path().extension() == ".json" && (fname.find("camera") != std::string::npos || fname.find("intrinsic") != std::string::npos))
+    if (e.path().extension() == ".json" &&
+        (fname.find("camera") != std::string::npos || fname.find("intrinsic") != std::string::npos))
       guess = e.path().string();
   }
   // ICL-NUIM: its pose.txt beside color/ and depth/ (or its name) tells it apart from Redwood.
-  if (guess == "kinect" && (fs::exists(dir / "pose.txt") || lower(dir.string()).find("icl_nuim") != std::string::npos)) {
+  if (guess == "kinect" &&
+      (fs::exists(dir / "pose.txt") || lower(dir.string()).find("icl_nuim") != std::string::npos)) {
     guess = "icl";
     scale = 5000.0;
   }
@@ -412,13 +431,15 @@ Result<std::unique_ptr<FrameSource>> open_frame_source(const std::string& path, 
   }
   const std::string ext = lower(p.extension().string());
   if ((ext == ".bag" || ext == ".pcd") && options.depth_encoding != DepthEncoding::kPng16)
-    return make_error(ErrorCode::kInvalidArgument, path + ": --depth-encoding applies to depth image files, not to a " + ext);
+    return make_error(ErrorCode::kInvalidArgument,
+                      path + ": --depth-encoding applies to depth image files, not to a " + ext);
   if (ext == ".bag") {
 #ifdef RGBDCAST_HAVE_ROSBAG
     return open_rosbag_source(path, options);
 #else
-    return make_error(ErrorCode::kUnavailable, path + ": this build has no ROS bag support (install "
-                                               "librosbag-storage-dev and libsensor-msgs-dev, scripts/setup.sh)");
+    return make_error(ErrorCode::kUnavailable, path +
+                                                   ": this build has no ROS bag support (install "
+                                                   "librosbag-storage-dev and libsensor-msgs-dev, scripts/setup.sh)");
 #endif
   }
   if (ext == ".pcd") {
@@ -428,7 +449,8 @@ Result<std::unique_ptr<FrameSource>> open_frame_source(const std::string& path, 
   }
   if (options.depth_path.empty())
     return make_error(ErrorCode::kInvalidArgument, path + ": a single colour image needs its depth image (--depth)");
-  if (!fs::exists(options.depth_path, ec)) return make_error(ErrorCode::kNotFound, "no such file: " + options.depth_path);
+  if (!fs::exists(options.depth_path, ec))
+    return make_error(ErrorCode::kNotFound, "no such file: " + options.depth_path);
   auto k = pick_intrinsics(options, "kinect");
   if (!k) return k.error();
   std::vector<FrameEntry> entries{{fs::absolute(p).string(), fs::absolute(options.depth_path).string(), 0.0, 0.0}};

@@ -21,13 +21,14 @@ struct RosbagTopics {
 };
 
 struct SourceOptions {
-  std::string intrinsics;  // a preset, a JSON or a 3x3 matrix .txt path (intrinsics_io.h); empty = guessed from the source
-  std::optional<double> depth_scale;  // raw units per metre; overrides the intrinsics' value
+  std::string
+      intrinsics;  // a preset, a JSON or a 3x3 matrix .txt path (intrinsics_io.h); empty = guessed from the source
+  std::optional<double> depth_scale;                     // raw units per metre; overrides the intrinsics' value
   DepthEncoding depth_encoding = DepthEncoding::kPng16;  // of depth image files (not of PCDs and bags)
-  std::string depth_path;         // for a single colour image: its depth PNG
+  std::string depth_path;                                // for a single colour image: its depth PNG
   std::string associations_path;  // TUM: read pairs from this file instead of associating rgb.txt/depth.txt
   double max_time_difference_s = 0.02;
-  RosbagTopics rosbag;            // for a .bag file
+  RosbagTopics rosbag;  // for a .bag file
 };
 
 struct FrameEntry {

@@ -17,19 +17,34 @@ std::optional<Intrinsics> intrinsics_preset(const std::string& name) {
   k.depth_scale = 5000.0;
   k.name = name;
   if (name == "fr1") {
-    k.fx = 517.3; k.fy = 516.5; k.cx = 318.6; k.cy = 255.3;
+    k.fx = 517.3;
+    k.fy = 516.5;
+    k.cx = 318.6;
+    k.cy = 255.3;
     k.distortion = {0.2624, -0.9531, -0.0054, 0.0026, 1.1633};
   } else if (name == "fr2") {
-    k.fx = 520.9; k.fy = 521.0; k.cx = 325.1; k.cy = 249.7;
+    k.fx = 520.9;
+    k.fy = 521.0;
+    k.cx = 325.1;
+    k.cy = 249.7;
     k.distortion = {0.2312, -0.7849, -0.0033, -0.0001, 0.9172};
   } else if (name == "fr3") {
-    k.fx = 535.4; k.fy = 539.2; k.cx = 320.1; k.cy = 247.6;  // fr3 images are already undistorted
+    k.fx = 535.4;
+    k.fy = 539.2;
+    k.cx = 320.1;
+    k.cy = 247.6;  // fr3 images are already undistorted
   } else if (name == "icl") {
     // ICL-NUIM publishes fy = -480 (its camera frame has y up). rgbdcast keeps the right-handed y-down frame with
     // fy = +480; ICL poses convert by conjugation with diag(1, -1, 1).
-    k.fx = 481.2; k.fy = 480.0; k.cx = 319.5; k.cy = 239.5;
+    k.fx = 481.2;
+    k.fy = 480.0;
+    k.cx = 319.5;
+    k.cy = 239.5;
   } else if (name == "kinect") {
-    k.fx = 525.0; k.fy = 525.0; k.cx = 319.5; k.cy = 239.5;
+    k.fx = 525.0;
+    k.fy = 525.0;
+    k.cx = 319.5;
+    k.cy = 239.5;
   } else {
     return std::nullopt;
   }
@@ -165,8 +180,9 @@ Result<Intrinsics> resolve_intrinsics(const std::string& spec) {
     if (!text) return text.error();
     return parse_intrinsics_matrix_text(*text, spec);
   }
-  return make_error(ErrorCode::kInvalidArgument, "unknown intrinsics \"" + spec +
-                                                     "\" (use fr1, fr2, fr3, kinect, icl, a .json or a 3x3 matrix .txt file)");
+  return make_error(
+      ErrorCode::kInvalidArgument,
+      "unknown intrinsics \"" + spec + "\" (use fr1, fr2, fr3, kinect, icl, a .json or a 3x3 matrix .txt file)");
 }
 
 }  // namespace rgbdcast

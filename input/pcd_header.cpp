@@ -84,7 +84,8 @@ Result<PcdHeader> check_pcd_header(const std::uint8_t* data, size_t size) {
     long sz = 0, count = 0;
     if (!parse_count(sizes[i], 1, 8, &sz) || (sz != 1 && sz != 2 && sz != 4 && sz != 8))
       return bad_pcd("SIZE of " + fields[i] + " must be 1, 2, 4 or 8");
-    if (types[i] != "I" && types[i] != "U" && types[i] != "F") return bad_pcd("TYPE of " + fields[i] + " must be I, U or F");
+    if (types[i] != "I" && types[i] != "U" && types[i] != "F")
+      return bad_pcd("TYPE of " + fields[i] + " must be I, U or F");
     if ((types[i] == "F" && sz != 4 && sz != 8)) return bad_pcd("a float field must be 4 or 8 bytes");
     if (!parse_count(counts[i], 1, 1024, &count)) return bad_pcd("COUNT of " + fields[i] + " must be 1..1024");
     h.point_bytes += static_cast<size_t>(sz * count);
@@ -112,9 +113,8 @@ Result<PcdHeader> check_pcd_header(const std::uint8_t* data, size_t size) {
   h.width = static_cast<int>(w);
   h.height = static_cast<int>(ht);
   const size_t npoints = static_cast<size_t>(w) * static_cast<size_t>(ht);
-  if (keys.count("POINTS") &&
-      (keys["POINTS"].size() != 1 || !parse_count(keys["POINTS"][0], 0, 1L << 40, &points) ||
-       static_cast<size_t>(points) != npoints))
+  if (keys.count("POINTS") && (keys["POINTS"].size() != 1 || !parse_count(keys["POINTS"][0], 0, 1L << 40, &points) ||
+                               static_cast<size_t>(points) != npoints))
     return bad_pcd("POINTS is not WIDTH x HEIGHT");
   if (keys.count("VERSION") && keys["VERSION"].size() != 1) return bad_pcd("VERSION takes one value");
   if (keys.count("VIEWPOINT")) {
@@ -137,15 +137,16 @@ Result<PcdHeader> check_pcd_header(const std::uint8_t* data, size_t size) {
     if (line[first] == '#') continue;
     const std::string token = line.substr(first);
     bool key = false;
-    for (const char* k : {"VERSION", "FIELDS", "COLUMNS", "SIZE", "TYPE", "COUNT", "WIDTH", "HEIGHT", "VIEWPOINT",
-                          "POINTS", "DATA"})
+    for (const char* k :
+         {"VERSION", "FIELDS", "COLUMNS", "SIZE", "TYPE", "COUNT", "WIDTH", "HEIGHT", "VIEWPOINT", "POINTS", "DATA"})
       key = key || token.rfind(k, 0) == 0;
     if (key) return bad_pcd("the data after DATA starts like a header line");
     break;
   }
   const size_t body = size - pos, need = npoints * h.point_bytes;
   if (h.data == "binary") {
-    if (body < need) return bad_pcd("binary data holds " + std::to_string(body) + " bytes, the header needs " + std::to_string(need));
+    if (body < need)
+      return bad_pcd("binary data holds " + std::to_string(body) + " bytes, the header needs " + std::to_string(need));
   } else if (h.data == "binary_compressed") {
     if (body < 8) return bad_pcd("binary_compressed data without its sizes");
     const size_t compressed = le32(data + pos), uncompressed = le32(data + pos + 4);
@@ -169,10 +170,13 @@ Result<PcdHeader> check_pcd_header(const std::uint8_t* data, size_t size) {
       std::string tok;
       size_t k = 0;
       while (ss >> tok) {
-        if (!finite_number(tok) && tok != "nan" && tok != "NaN") return bad_pcd("ascii line " + std::to_string(lines + 1) + " holds something that is not a number");
+        if (!finite_number(tok) && tok != "nan" && tok != "NaN")
+          return bad_pcd("ascii line " + std::to_string(lines + 1) + " holds something that is not a number");
         ++k;
       }
-      if (k != values) return bad_pcd("ascii line " + std::to_string(lines + 1) + " holds " + std::to_string(k) + " values, not " + std::to_string(values));
+      if (k != values)
+        return bad_pcd("ascii line " + std::to_string(lines + 1) + " holds " + std::to_string(k) + " values, not " +
+                       std::to_string(values));
       if (++lines > npoints) return bad_pcd("ascii data holds more than WIDTH x HEIGHT points");
     }
     if (lines != npoints) return bad_pcd("ascii data holds " + std::to_string(lines) + " points, not WIDTH x HEIGHT");

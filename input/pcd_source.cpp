@@ -26,7 +26,8 @@ class PcdSource : public FrameSource {
   std::string root() const override { return path_; }
 
   Result<RgbdFrame> frame(size_t i) const override {
-    if (i != 0) return make_error(ErrorCode::kNotFound, "frame " + std::to_string(i) + " is past the end (a PCD holds 1 frame)");
+    if (i != 0)
+      return make_error(ErrorCode::kNotFound, "frame " + std::to_string(i) + " is past the end (a PCD holds 1 frame)");
     {
       // rgbdcast reads the header first: PCL trusts it for its buffer sizes.
       std::ifstream in(path_, std::ios::binary);

@@ -21,7 +21,8 @@ Result<cv::Mat> wrap(const RosImageView& im, int type, const std::string& what) 
                                                     std::to_string(kMaxImageSize));
   if (im.step < row_bytes)
     return make_error(ErrorCode::kInvalidInput, what + ": step " + std::to_string(im.step) + " is shorter than a " +
-                                                    quote_for_error(im.encoding) + " row of " + std::to_string(row_bytes) + " bytes");
+                                                    quote_for_error(im.encoding) + " row of " +
+                                                    std::to_string(row_bytes) + " bytes");
   if (im.data == nullptr || im.size < size_t(im.step) * im.height)
     return make_error(ErrorCode::kInvalidInput, what + ": " + std::to_string(im.size) + " bytes of data, " +
                                                     std::to_string(size_t(im.step) * im.height) + " expected");
@@ -49,25 +50,32 @@ void to_host_order(cv::Mat& m, bool big_endian) {
 
 Result<cv::Mat> ros_color_to_rgb(const RosImageView& im, const std::string& what) {
   int type, code;
-  if (im.encoding == "rgb8") type = CV_8UC3, code = -1;
-  else if (im.encoding == "bgr8") type = CV_8UC3, code = cv::COLOR_BGR2RGB;
-  else if (im.encoding == "mono8") type = CV_8UC1, code = cv::COLOR_GRAY2RGB;
+  if (im.encoding == "rgb8")
+    type = CV_8UC3, code = -1;
+  else if (im.encoding == "bgr8")
+    type = CV_8UC3, code = cv::COLOR_BGR2RGB;
+  else if (im.encoding == "mono8")
+    type = CV_8UC1, code = cv::COLOR_GRAY2RGB;
   else
-    return make_error(ErrorCode::kInvalidInput,
-                      what + ": colour encoding \"" + quote_for_error(im.encoding) + "\" is not supported (rgb8, bgr8 or mono8)");
+    return make_error(ErrorCode::kInvalidInput, what + ": colour encoding \"" + quote_for_error(im.encoding) +
+                                                    "\" is not supported (rgb8, bgr8 or mono8)");
   auto m = wrap(im, type, what);
   if (!m) return m;
   cv::Mat rgb;
-  if (code < 0) rgb = m->clone();
-  else cv::cvtColor(*m, rgb, code);
+  if (code < 0)
+    rgb = m->clone();
+  else
+    cv::cvtColor(*m, rgb, code);
   return rgb;
 }
 
 Result<RosDepth> ros_depth(const RosImageView& im, const std::string& what) {
   RosDepth d;
   int type;
-  if (im.encoding == "16UC1") type = CV_16UC1;
-  else if (im.encoding == "32FC1") type = CV_32FC1, d.metres = true;
+  if (im.encoding == "16UC1")
+    type = CV_16UC1;
+  else if (im.encoding == "32FC1")
+    type = CV_32FC1, d.metres = true;
   else
     return make_error(ErrorCode::kInvalidInput, what + ": depth encoding \"" + quote_for_error(im.encoding) +
                                                     "\" is not supported (16UC1 in millimetres or 32FC1 in metres)");
@@ -97,7 +105,8 @@ Result<Intrinsics> intrinsics_from_camera_info(const RosCameraInfo& info, const 
     if (!std::isfinite(v)) return bad("D holds a non-finite value");
   const auto& K = info.K;
   if (!(K[0] > 0) || !(K[4] > 0)) return bad("focal lengths in K must be positive");
-  if (K[1] != 0 || K[3] != 0 || K[6] != 0 || K[7] != 0 || K[8] != 1) return bad("K is not a pinhole matrix (skew or bad last row)");
+  if (K[1] != 0 || K[3] != 0 || K[6] != 0 || K[7] != 0 || K[8] != 1)
+    return bad("K is not a pinhole matrix (skew or bad last row)");
   if (K[2] < 0 || K[2] > info.width || K[5] < 0 || K[5] > info.height) return bad("principal point outside the image");
   Intrinsics k;
   k.fx = K[0];
@@ -115,7 +124,8 @@ Result<Intrinsics> intrinsics_from_camera_info(const RosCameraInfo& info, const 
   }();
   if (!any) return k;
   if (info.distortion_model != "plumb_bob" && info.distortion_model != "rational_polynomial")
-    return bad("distortion model \"" + quote_for_error(info.distortion_model) + "\" is not supported (plumb_bob or rational_polynomial)");
+    return bad("distortion model \"" + quote_for_error(info.distortion_model) +
+               "\" is not supported (plumb_bob or rational_polynomial)");
   for (size_t i = 5; i < info.D.size(); ++i)
     if (info.D[i] != 0) return bad("distortion terms past k1 k2 p1 p2 k3 are not supported");
   for (size_t i = 0; i < 5 && i < info.D.size(); ++i) k.distortion[i] = info.D[i];

@@ -40,7 +40,7 @@ struct RosCameraInfo {
   std::uint32_t width = 0, height = 0;
   std::string distortion_model;  // "plumb_bob", "rational_polynomial" or "" (none)
   std::vector<double> D;
-  std::array<double, 9> K{};     // row-major 3x3
+  std::array<double, 9> K{};  // row-major 3x3
 };
 // Pinhole intrinsics with OpenCV-ordered distortion (plumb_bob's D is k1 k2 p1 p2 k3, OpenCV's order). A
 // rational_polynomial model is accepted when its k4..k6 are 0. Errors (kInvalidInput): non-finite or non-positive

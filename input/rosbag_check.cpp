@@ -17,8 +17,8 @@ namespace rgbdcast {
 namespace {
 
 constexpr std::string_view kMagic = "#ROSBAG V2.0\n";
-constexpr std::uint32_t kMaxHeader = 16u << 20;   // one record's header (or a connection's data)
-constexpr std::uint32_t kMaxChunk = 256u << 20;   // a chunk's data, compressed or not
+constexpr std::uint32_t kMaxHeader = 16u << 20;  // one record's header (or a connection's data)
+constexpr std::uint32_t kMaxChunk = 256u << 20;  // a chunk's data, compressed or not
 constexpr std::uint8_t kMessage = 2, kBagHeader = 3, kIndex = 4, kChunk = 5, kChunkInfo = 6, kConnection = 7;
 
 Error bad(std::uint64_t at, const std::string& why) {
@@ -81,8 +81,8 @@ Result<Record> read_record(const ReadAt& read, std::uint64_t at, std::uint64_t e
   const std::uint64_t header_len = le(len, 4);
   if (header_len > kMaxHeader) return bad(at, "a header of " + std::to_string(header_len) + " bytes");
   if (header_len > end - at - 4)
-    return bad(at, "the header claims " + std::to_string(header_len) + " bytes, " + std::to_string(end - at - 4) +
-                       " remain");
+    return bad(
+        at, "the header claims " + std::to_string(header_len) + " bytes, " + std::to_string(end - at - 4) + " remain");
   std::vector<std::uint8_t> header(header_len);
   if (!read(at + 4, header_len, header.data())) return bad(at, "the header is cut off");
   auto fields = parse_fields(header.data(), header.size(), at, "header");
@@ -93,8 +93,8 @@ Result<Record> read_record(const ReadAt& read, std::uint64_t at, std::uint64_t e
   r.data_len = static_cast<std::uint32_t>(le(len, 4));
   r.data_at = data_len_at + 4;
   if (r.data_len > end - r.data_at)
-    return bad(at, "the data claims " + std::to_string(r.data_len) + " bytes, " + std::to_string(end - r.data_at) +
-                       " remain");
+    return bad(
+        at, "the data claims " + std::to_string(r.data_len) + " bytes, " + std::to_string(end - r.data_at) + " remain");
   r.next = r.data_at + r.data_len;
   auto op = r.fields.find("op");
   if (op == r.fields.end() || op->second.size() != 1) return bad(at, "no one-byte 'op' field");
@@ -167,7 +167,7 @@ bool inflate(const std::string& compression, std::vector<std::uint8_t>& in, std:
 }
 
 struct Chunk {
-  std::uint64_t end = 0;                         // the chunk record's end in the file
+  std::uint64_t end = 0;                            // the chunk record's end in the file
   std::map<std::uint32_t, std::uint32_t> messages;  // message record offset in the uncompressed data -> connection
 };
 
@@ -181,8 +181,8 @@ Result<Chunk> check_chunk(const ReadAt& read, const Record& r, std::map<std::uin
   if (compression != "none" && compression != "bz2" && compression != "lz4")
     return bad(r.at, "chunk compression is not none, bz2 or lz4");
   if (*size > kMaxChunk || r.data_len > kMaxChunk)
-    return bad(r.at, "a chunk of " + std::to_string(std::max<std::uint64_t>(*size, r.data_len)) +
-                         " bytes (at most 256 MiB)");
+    return bad(r.at,
+               "a chunk of " + std::to_string(std::max<std::uint64_t>(*size, r.data_len)) + " bytes (at most 256 MiB)");
   if (compression == "none" && *size != r.data_len)
     return bad(r.at, "an uncompressed chunk's size " + std::to_string(*size) + " is not its data length " +
                          std::to_string(r.data_len));
@@ -222,14 +222,13 @@ Result<Chunk> check_chunk(const ReadAt& read, const Record& r, std::map<std::uin
 
 Status check(const ReadAt& read, std::uint64_t size) {
   std::uint8_t magic[kMagic.size()];
-  if (size < kMagic.size() || !read(0, kMagic.size(), magic) ||
-      std::memcmp(magic, kMagic.data(), kMagic.size()) != 0)
+  if (size < kMagic.size() || !read(0, kMagic.size(), magic) || std::memcmp(magic, kMagic.data(), kMagic.size()) != 0)
     return make_error(ErrorCode::kInvalidInput, "ROS bag: not a rosbag 2.0 file (no '#ROSBAG V2.0' line)");
 
-  std::vector<Record> top;                    // the top-level records in file order (data not kept)
-  std::map<std::uint64_t, Chunk> chunks;      // by the chunk record's offset
+  std::vector<Record> top;                               // the top-level records in file order (data not kept)
+  std::map<std::uint64_t, Chunk> chunks;                 // by the chunk record's offset
   std::map<std::uint64_t, std::vector<Record>> indexes;  // the index records following each chunk
-  std::map<std::uint32_t, bool> connections;  // every connection id a connection record declares
+  std::map<std::uint32_t, bool> connections;             // every connection id a connection record declares
   std::uint64_t last_chunk = 0;
   for (std::uint64_t at = kMagic.size(); at < size;) {
     auto r = read_record(read, at, size);
@@ -260,7 +259,8 @@ Status check(const ReadAt& read, std::uint64_t size) {
         if (auto st = check_connection(read, *r, &connections); !st) return st;
         break;
       case kChunkInfo:
-        if (auto st = need(*r, {{"ver", 4}, {"chunk_pos", 8}, {"start_time", 8}, {"end_time", 8}, {"count", 4}}); !st) return st;
+        if (auto st = need(*r, {{"ver", 4}, {"chunk_pos", 8}, {"start_time", 8}, {"end_time", 8}, {"count", 4}}); !st)
+          return st;
         if (*r->number("ver", 4) != 1) return bad(at, "chunk info version is not 1");
         if (r->data_len != *r->number("count", 4) * 8) return bad(at, "chunk info data is not 8 bytes per entry");
         break;
@@ -375,10 +375,9 @@ class MessageWalk {
   MessageWalk& header() { return fixed("header.seq", 4).fixed("header.stamp", 8).array("header.frame_id", 1); }
   Status status(const char* type) const {
     if (!failed_) return ok_status();
-    return make_error(ErrorCode::kInvalidInput, std::string(type) + " message of " + std::to_string(n_) +
-                                                    " bytes: '" + field_ + "' claims " + std::to_string(claim_) +
-                                                    " bytes at byte " + std::to_string(at_) + ", " +
-                                                    std::to_string(n_ - at_) + " remain");
+    return make_error(ErrorCode::kInvalidInput, std::string(type) + " message of " + std::to_string(n_) + " bytes: '" +
+                                                    field_ + "' claims " + std::to_string(claim_) + " bytes at byte " +
+                                                    std::to_string(at_) + ", " + std::to_string(n_ - at_) + " remain");
   }
 
  private:

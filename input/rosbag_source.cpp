@@ -80,7 +80,7 @@ class RosbagSource : public FrameSource {
   Intrinsics k_;
   mutable std::mutex mutex_;  // guards bag_: rosbag::Bag reads through one file position
   mutable rosbag::Bag bag_;
-  mutable Undistorter undistorter_;  // the camera's tables, made on the first frame
+  mutable Undistorter undistorter_;                                      // the camera's tables, made on the first frame
   std::map<std::string, std::pair<std::string, uint32_t>> topic_types_;  // topic -> (datatype, messages)
   std::vector<FrameEntry> entries_;
   std::vector<std::pair<ImageRef, ImageRef>> refs_;  // colour, depth of each entry
@@ -103,8 +103,8 @@ Status RosbagSource::check_topic(const std::string& topic, const char* type, con
   if (it == topic_types_.end()) return bad("no topic " + topic + " (" + option + hint + "); " + topic_list());
   if (it->second.first != type || it->second.second == 0)
     return bad("topic " + topic + " holds " + std::to_string(it->second.second) + " " +
-               quote_for_error(it->second.first, 80) +
-               " messages, not " + type + " (" + option + hint + "); " + topic_list());
+               quote_for_error(it->second.first, 80) + " messages, not " + type + " (" + option + hint + "); " +
+               topic_list());
   return ok_status();
 }
 
@@ -147,8 +147,8 @@ Status RosbagSource::open(const SourceOptions& o) {
     if (auto st = check_topic(topics_.color, "sensor_msgs/Image", "--color-topic"); !st) return st;
     if (auto st = check_topic(topics_.depth, "sensor_msgs/Image", "--depth-topic"); !st) return st;
     if (o.intrinsics.empty()) {
-      if (auto st = check_topic(topics_.camera_info, "sensor_msgs/CameraInfo", "--camera-info-topic",
-                                " or --intrinsics");
+      if (auto st =
+              check_topic(topics_.camera_info, "sensor_msgs/CameraInfo", "--camera-info-topic", " or --intrinsics");
           !st)
         return st;
       rosbag::View view(bag_, rosbag::TopicQuery(topics_.camera_info));
@@ -183,8 +183,7 @@ Status RosbagSource::open(const SourceOptions& o) {
                           e.color_timestamp, e.depth_timestamp});
     }
   } catch (const std::exception& e) {
-    return bad(std::string("not a readable ROS 1 bag (truncated or corrupt: ") + quote_for_error(e.what(), 200) +
-               ")");
+    return bad(std::string("not a readable ROS 1 bag (truncated or corrupt: ") + quote_for_error(e.what(), 200) + ")");
   }
   if (entries_.empty()) {
     char limit[32];
@@ -219,8 +218,8 @@ Result<RgbdFrame> RosbagSource::frame(size_t i) const {
     color_msg = *c;
     depth_msg = *d;
   } catch (const std::exception& e) {
-    return bad(std::string("frame ") + std::to_string(i) + " unreadable (truncated or corrupt bag: " +
-               quote_for_error(e.what(), 200) + ")");
+    return bad(std::string("frame ") + std::to_string(i) +
+               " unreadable (truncated or corrupt bag: " + quote_for_error(e.what(), 200) + ")");
   }
   const FrameEntry& e = entries_[i];
   auto color = ros_color_to_rgb(view_of(*color_msg), e.color_path);

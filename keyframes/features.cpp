@@ -11,9 +11,12 @@ namespace rgbdcast {
 
 const char* to_string(FeatureType type) {
   switch (type) {
-    case FeatureType::kSift: return "sift";
-    case FeatureType::kOrb: return "orb";
-    case FeatureType::kAkaze: return "akaze";
+    case FeatureType::kSift:
+      return "sift";
+    case FeatureType::kOrb:
+      return "orb";
+    case FeatureType::kAkaze:
+      return "akaze";
   }
   return "?";
 }
@@ -41,9 +44,12 @@ namespace {
 
 cv::Ptr<cv::Feature2D> make_detector(const FeatureParams& p) {
   switch (p.type) {
-    case FeatureType::kSift: return cv::SIFT::create(p.max_features);
-    case FeatureType::kOrb: return cv::ORB::create(p.max_features > 0 ? p.max_features : 500);
-    case FeatureType::kAkaze: return cv::AKAZE::create();
+    case FeatureType::kSift:
+      return cv::SIFT::create(p.max_features);
+    case FeatureType::kOrb:
+      return cv::ORB::create(p.max_features > 0 ? p.max_features : 500);
+    case FeatureType::kAkaze:
+      return cv::AKAZE::create();
   }
   return {};
 }
@@ -105,8 +111,8 @@ Result<FrameFeatures> detect_features(const RgbdFrame& frame, const FeatureParam
   }
   if (keep.empty())
     return make_error(ErrorCode::kEmpty, "frame " + std::to_string(frame.index) + ": no " + to_string(params.type) +
-                                              " keypoint with depth (" + std::to_string(out.detected) +
-                                              " detected before the depth filter)");
+                                             " keypoint with depth (" + std::to_string(out.detected) +
+                                             " detected before the depth filter)");
   out.descriptors.create(static_cast<int>(keep.size()), descriptors.cols, descriptors.type());
   for (size_t r = 0; r < keep.size(); ++r) descriptors.row(keep[r]).copyTo(out.descriptors.row(static_cast<int>(r)));
   return out;

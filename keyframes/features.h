@@ -33,10 +33,10 @@ struct FeatureParams {
 
 struct FrameFeatures {
   FeatureType type = FeatureType::kSift;
-  std::vector<cv::KeyPoint> keypoints;   // only keypoints with valid depth
-  cv::Mat descriptors;                   // one row per keypoint (CV_32F for SIFT, CV_8U for ORB/AKAZE)
-  std::vector<Eigen::Vector3d> points_m; // camera-frame 3D point of each keypoint
-  int detected = 0;                      // keypoints found before the depth filter
+  std::vector<cv::KeyPoint> keypoints;    // only keypoints with valid depth
+  cv::Mat descriptors;                    // one row per keypoint (CV_32F for SIFT, CV_8U for ORB/AKAZE)
+  std::vector<Eigen::Vector3d> points_m;  // camera-frame 3D point of each keypoint
+  int detected = 0;                       // keypoints found before the depth filter
   size_t size() const { return keypoints.size(); }
 };
 

@@ -28,12 +28,12 @@ struct OdometryParams {
 
 struct PairEstimate {
   Eigen::Matrix4d cur_to_prev = Eigen::Matrix4d::Identity();  // maps current camera points into the previous camera
-  int matches = 0;       // surviving the window (and ratio) filter
-  int inliers = 0;       // RANSAC inliers
+  int matches = 0;                                            // surviving the window (and ratio) filter
+  int inliers = 0;                                            // RANSAC inliers
   double ransac_rms_m = 0.0;
   bool icp_used = false;
   double icp_rms_m = 0.0;
-  std::string note;      // why ICP was not used, when it was asked for
+  std::string note;  // why ICP was not used, when it was asked for
   double match_ms = 0.0, ransac_ms = 0.0, icp_ms = 0.0;
 };
 

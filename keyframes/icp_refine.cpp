@@ -10,7 +10,8 @@
 namespace rgbdcast {
 
 Status IcpParams::validate() const {
-  if (max_iterations < 1 || pixel_step < 1 || image_step < 1 || image_step > 16) return make_error(ErrorCode::kInvalidArgument, "ICP: iterations and step must be >= 1");
+  if (max_iterations < 1 || pixel_step < 1 || image_step < 1 || image_step > 16)
+    return make_error(ErrorCode::kInvalidArgument, "ICP: iterations and step must be >= 1");
   if (!(min_distance_m > 0) || !(max_distance_m >= min_distance_m))
     return make_error(ErrorCode::kInvalidArgument, "ICP: need 0 < min_distance_m <= max_distance_m");
   if (!(max_normal_angle_deg > 0 && max_normal_angle_deg <= 180) || !(huber_m > 0) || !(max_depth_m > 0))

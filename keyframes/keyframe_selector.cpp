@@ -9,7 +9,8 @@ namespace rgbdcast {
 Status KeyframeParams::validate() const {
   if (!(max_translation_m > 0) || !(max_rotation_deg > 0))
     return make_error(ErrorCode::kInvalidArgument, "keyframe motion thresholds must be > 0");
-  if (!(min_overlap >= 0 && min_overlap <= 1)) return make_error(ErrorCode::kInvalidArgument, "min_overlap must be in [0, 1]");
+  if (!(min_overlap >= 0 && min_overlap <= 1))
+    return make_error(ErrorCode::kInvalidArgument, "min_overlap must be in [0, 1]");
   if (max_frame_gap < 0 || overlap_step_px < 1)
     return make_error(ErrorCode::kInvalidArgument, "max_frame_gap must be >= 0 and overlap_step_px >= 1");
   return ok_status();
@@ -41,10 +42,14 @@ KeyframeDecision KeyframeSelector::consider(const RgbdFrame& frame, const Eigen:
     d.translation_m = translation_m(kf_to_cur);
     d.rotation_deg = rotation_deg(kf_to_cur);
     d.overlap = view_overlap(kf_points_, kf_to_cur, frame.intrinsics);
-    if (d.translation_m > params_.max_translation_m) d.reason = "translation";
-    else if (d.rotation_deg > params_.max_rotation_deg) d.reason = "rotation";
-    else if (d.overlap < params_.min_overlap) d.reason = "overlap";
-    else if (params_.max_frame_gap > 0 && index - kf_index_ >= params_.max_frame_gap) d.reason = "gap";
+    if (d.translation_m > params_.max_translation_m)
+      d.reason = "translation";
+    else if (d.rotation_deg > params_.max_rotation_deg)
+      d.reason = "rotation";
+    else if (d.overlap < params_.min_overlap)
+      d.reason = "overlap";
+    else if (params_.max_frame_gap > 0 && index - kf_index_ >= params_.max_frame_gap)
+      d.reason = "gap";
     d.keyframe = !d.reason.empty();
   }
   if (d.keyframe) {

@@ -15,9 +15,9 @@ namespace rgbdcast {
 struct KeyframeParams {
   double max_translation_m = 0.15;
   double max_rotation_deg = 10.0;
-  double min_overlap = 0.7;   // in [0, 1]
-  int max_frame_gap = 0;      // force a keyframe after this many frames since the last one; 0 = never
-  int overlap_step_px = 8;    // grid step for the overlap sample
+  double min_overlap = 0.7;  // in [0, 1]
+  int max_frame_gap = 0;     // force a keyframe after this many frames since the last one; 0 = never
+  int overlap_step_px = 8;   // grid step for the overlap sample
   Status validate() const;
 };
 

@@ -25,11 +25,11 @@ Result<RpeResult> relative_pose_error(const Trajectory& est, const Trajectory& g
                                ? nearest_pose(gt, e.timestamp, params.max_time_difference_s)
                                : pose_with_index(gt, index);
     if (!g) {
-      out.warnings.push_back("estimated pose " + std::to_string(index) + " has no ground truth" +
-                             (params.association == PoseAssociation::kTimestamp
-                                  ? " within " + std::to_string(params.max_time_difference_s) + " s of t=" +
-                                        std::to_string(e.timestamp)
-                                  : std::string(" with that index")));
+      out.warnings.push_back(
+          "estimated pose " + std::to_string(index) + " has no ground truth" +
+          (params.association == PoseAssociation::kTimestamp
+               ? " within " + std::to_string(params.max_time_difference_s) + " s of t=" + std::to_string(e.timestamp)
+               : std::string(" with that index")));
       continue;
     }
     matched.push_back({&e, g, index});
@@ -53,8 +53,8 @@ Result<RpeResult> relative_pose_error(const Trajectory& est, const Trajectory& g
   }
   if (out.pairs.empty())
     return make_error(ErrorCode::kEmpty, "relative pose error: no two consecutive estimated poses with ground truth (" +
-                                             std::to_string(matched.size()) + " of " + std::to_string(est.poses.size()) +
-                                             " poses matched)");
+                                             std::to_string(matched.size()) + " of " +
+                                             std::to_string(est.poses.size()) + " poses matched)");
   double st = 0, sr = 0, at = 0, ar = 0;
   for (const RpePair& p : out.pairs) {
     st += p.translation_m * p.translation_m;

@@ -10,7 +10,8 @@ namespace rgbdcast {
 
 Status RansacParams::validate() const {
   if (max_iterations < 1) return make_error(ErrorCode::kInvalidArgument, "RANSAC iterations must be >= 1");
-  if (!(confidence > 0 && confidence < 1)) return make_error(ErrorCode::kInvalidArgument, "RANSAC confidence must be in (0, 1)");
+  if (!(confidence > 0 && confidence < 1))
+    return make_error(ErrorCode::kInvalidArgument, "RANSAC confidence must be in (0, 1)");
   if (!(min_threshold_m > 0) || !std::isfinite(min_threshold_m))
     return make_error(ErrorCode::kInvalidArgument, "RANSAC threshold must be > 0 m");
   if (!(noise_sigmas >= 0) || !std::isfinite(noise_sigmas))
@@ -98,8 +99,10 @@ Result<RigidEstimate> estimate_rigid_ransac(const std::vector<Eigen::Vector3d>& 
   for (; iterations < needed; ++iterations) {
     int idx[3];
     idx[0] = pick(rng);
-    do idx[1] = pick(rng); while (idx[1] == idx[0]);
-    do idx[2] = pick(rng); while (idx[2] == idx[0] || idx[2] == idx[1]);
+    do idx[1] = pick(rng);
+    while (idx[1] == idx[0]);
+    do idx[2] = pick(rng);
+    while (idx[2] == idx[0] || idx[2] == idx[1]);
     if (!usable_sample(src, dst, idx, thr)) continue;
     const Eigen::Matrix4d t = fit_rigid(src, dst, {idx[0], idx[1], idx[2]});
     double sq = 0;
@@ -109,14 +112,17 @@ Result<RigidEstimate> estimate_rigid_ransac(const std::vector<Eigen::Vector3d>& 
       best_sq = sq;
       const double w = static_cast<double>(best.size()) / static_cast<double>(n);
       const double p_fail = 1.0 - w * w * w;
-      if (p_fail <= 1e-12) needed = iterations + 1;
-      else needed = std::min(params.max_iterations,
-                             static_cast<int>(std::ceil(std::log(1.0 - params.confidence) / std::log(p_fail))));
+      if (p_fail <= 1e-12)
+        needed = iterations + 1;
+      else
+        needed = std::min(params.max_iterations,
+                          static_cast<int>(std::ceil(std::log(1.0 - params.confidence) / std::log(p_fail))));
     }
   }
   if (static_cast<int>(best.size()) < params.min_inliers)
     return make_error(ErrorCode::kEmpty, "RANSAC: best model has " + std::to_string(best.size()) + " inliers of " +
-                                             std::to_string(n) + " matches, need " + std::to_string(params.min_inliers));
+                                             std::to_string(n) + " matches, need " +
+                                             std::to_string(params.min_inliers));
 
   // Least-squares refit on the inliers, then once more on the refit's inliers.
   RigidEstimate est;

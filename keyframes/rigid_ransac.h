@@ -28,8 +28,8 @@ double inlier_threshold_m(double z_src_m, double z_dst_m, const RansacParams& pa
 
 struct RigidEstimate {
   Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();  // maps src points onto dst points
-  std::vector<int> inliers;  // indices into the input lists
-  double rms_m = 0.0;        // RMS residual over the inliers after the refit
+  std::vector<int> inliers;                                 // indices into the input lists
+  double rms_m = 0.0;                                       // RMS residual over the inliers after the refit
   int iterations = 0;
 };
 

@@ -36,7 +36,8 @@ Result<SequenceResult> track_sequence(size_t frame_count, const FrameLoader& loa
   if (!load) return make_error(ErrorCode::kInvalidArgument, "sequence: no frame loader");
   if (frame_count == 0 || params.from >= frame_count)
     return make_error(ErrorCode::kInvalidArgument, "sequence: range starts at frame " + std::to_string(params.from) +
-                                                       " but the source has " + std::to_string(frame_count) + " frames");
+                                                       " but the source has " + std::to_string(frame_count) +
+                                                       " frames");
   const size_t last = std::min(params.to, frame_count - 1);
   const size_t total = last - params.from + 1;
 

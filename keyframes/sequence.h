@@ -37,8 +37,8 @@ struct SequenceParams {
   OdometryParams odometry;
   KeyframeParams keyframes;
   TrackingParams tracking;
-  size_t from = 0;                                    // first frame index
-  size_t to = std::numeric_limits<size_t>::max();     // last frame index, inclusive (clamped to the source)
+  size_t from = 0;                                 // first frame index
+  size_t to = std::numeric_limits<size_t>::max();  // last frame index, inclusive (clamped to the source)
   // For live tracking at 30 Hz on 2 cores: ORB (SIFT alone costs more than a 33 ms frame), exact in-window
   // matching, ICP on every second pixel with at most 12 iterations. Defaults otherwise.
   static SequenceParams live();
@@ -48,16 +48,16 @@ struct SequenceParams {
 struct FrameRecord {
   size_t index = 0;
   double timestamp = 0.0;
-  int matches = 0;   // matches with the reference frame by the method used (0 for the first)
-  int inliers = 0;   // RANSAC inliers
-  bool tracked = false;   // has a pose
+  int matches = 0;       // matches with the reference frame by the method used (0 for the first)
+  int inliers = 0;       // RANSAC inliers
+  bool tracked = false;  // has a pose
   bool keyframe = false;
   bool icp_used = false;
   Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();  // camera to world (first tracked frame = identity)
-  double ms = 0.0;        // load + features + match + RANSAC (+ ICP) for this frame, excluding on_keyframe
-  std::string message;    // why it was skipped, or notes (ICP not used, keyframe reason, callback error)
+  double ms = 0.0;      // load + features + match + RANSAC (+ ICP) for this frame, excluding on_keyframe
+  std::string message;  // why it was skipped, or notes (ICP not used, keyframe reason, callback error)
   TrackMethod method = TrackMethod::kNone;  // how the pose was found: first, window, wide, relocalised (none: skipped)
-  int reference = -1;     // frame index the pose was estimated against (-1: first frame or skipped)
+  int reference = -1;                       // frame index the pose was estimated against (-1: first frame or skipped)
   double track_ms = 0.0;  // tracking alone: features + match + RANSAC + ICP + keyframe decision (no load)
 };
 
@@ -65,7 +65,7 @@ struct SequenceResult {
   std::vector<FrameRecord> frames;
   size_t tracked = 0, keyframes = 0, skipped = 0;
   size_t widened = 0, relocalised = 0;  // tracked frames whose pose came from the wide search / relocalisation
-  Trajectory trajectory() const;  // the tracked frames' poses (index and timestamp set)
+  Trajectory trajectory() const;        // the tracked frames' poses (index and timestamp set)
 };
 
 using FrameLoader = std::function<Result<RgbdFrame>(size_t index)>;

@@ -36,8 +36,11 @@ nlohmann::json rpe_json(const RpeResult& rpe) {
   nlohmann::json j;
   nlohmann::json pairs = nlohmann::json::array();
   for (const RpePair& p : rpe.pairs)
-    pairs.push_back({{"from", p.from_index}, {"to", p.to_index}, {"translation_m", p.translation_m},
-                     {"rotation_deg", p.rotation_deg}, {"gt_translation_m", p.gt_translation_m},
+    pairs.push_back({{"from", p.from_index},
+                     {"to", p.to_index},
+                     {"translation_m", p.translation_m},
+                     {"rotation_deg", p.rotation_deg},
+                     {"gt_translation_m", p.gt_translation_m},
                      {"gt_rotation_deg", p.gt_rotation_deg}});
   j["pairs"] = pairs;
   j["translation_rmse_m"] = rpe.translation_rmse_m;

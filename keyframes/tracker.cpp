@@ -57,11 +57,16 @@ FrameFeatures predicted_features(const FrameFeatures& ref, const Eigen::Matrix4d
 
 const char* to_string(TrackMethod method) {
   switch (method) {
-    case TrackMethod::kNone: return "none";
-    case TrackMethod::kFirst: return "first";
-    case TrackMethod::kWindow: return "window";
-    case TrackMethod::kWide: return "wide";
-    case TrackMethod::kRelocalised: return "relocalised";
+    case TrackMethod::kNone:
+      return "none";
+    case TrackMethod::kFirst:
+      return "first";
+    case TrackMethod::kWindow:
+      return "window";
+    case TrackMethod::kWide:
+      return "wide";
+    case TrackMethod::kRelocalised:
+      return "relocalised";
   }
   return "?";
 }
@@ -154,7 +159,8 @@ std::optional<Tracker::Attempt> Tracker::try_reference(const View& ref, const Rg
     const double allow_m = tracking_.prior_slack_m + tracking_.max_velocity_change_m_s * dt_s;
     const double allow_deg = tracking_.prior_slack_deg + tracking_.max_angular_velocity_change_deg_s * dt_s;
     if (off_m > allow_m || off_deg > allow_deg)
-      return reject(fmt("%.3f m / %.1f deg", off_m, off_deg) + fmt(" from the constant-velocity prediction (allowed %.3f m / %.1f deg)", allow_m, allow_deg));
+      return reject(fmt("%.3f m / %.1f deg", off_m, off_deg) +
+                    fmt(" from the constant-velocity prediction (allowed %.3f m / %.1f deg)", allow_m, allow_deg));
   }
   return a;
 }
@@ -193,8 +199,8 @@ TrackStep Tracker::push(const RgbdFrame& frame, KeyframeDecision* keyframe) {
       MatchParams wide = odometry_.matching;
       wide.window_px = tracking_.wide_window_px;
       wide.knn = std::max(wide.knn, 16);
-      found = try_reference(*last_, frame, *features, wide, true, TrackMethod::kWide, predicted, dt, have_velocity_,
-                            &why);
+      found =
+          try_reference(*last_, frame, *features, wide, true, TrackMethod::kWide, predicted, dt, have_velocity_, &why);
       if (!found && !keyframes_.empty() && keyframes_.back().frame.index != last_->frame.index)
         found = try_reference(keyframes_.back(), frame, *features, wide, true, TrackMethod::kWide, predicted, dt,
                               have_velocity_, &why);

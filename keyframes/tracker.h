@@ -28,15 +28,15 @@ enum class TrackMethod { kNone, kFirst, kWindow, kWide, kRelocalised };
 const char* to_string(TrackMethod method);  // "none", "first", "window", "wide", "relocalised"
 
 struct TrackingParams {
-  bool widen = true;       // try "wide" when the window fails
-  bool relocalise = true;  // try earlier keyframes when "wide" fails
+  bool widen = true;               // try "wide" when the window fails
+  bool relocalise = true;          // try earlier keyframes when "wide" fails
   bool reject_implausible = true;  // the plausibility gates below; false = chain whatever RANSAC/ICP returns (paper)
   int wide_window_px = 160;        // window edge around the predicted keypoint position; 0 = no window
   int max_relocalisation_keyframes = 8;  // earlier keyframes kept for relocalisation (newest first)
   // Plausibility gates.
-  int min_inliers = 15;              // RANSAC inliers
-  double max_icp_rms_m = 0.012;      // point-to-plane RMS of the refinement (Kinect noise at 1-2 m is 3-6 mm)
-  double max_speed_m_s = 2.0;        // hand-held camera: translation / time since the last tracked frame
+  int min_inliers = 15;          // RANSAC inliers
+  double max_icp_rms_m = 0.012;  // point-to-plane RMS of the refinement (Kinect noise at 1-2 m is 3-6 mm)
+  double max_speed_m_s = 2.0;    // hand-held camera: translation / time since the last tracked frame
   double max_angular_speed_deg_s = 180.0;
   // Deviation allowed from the constant-velocity prediction: slack + change * dt (dt = time since the last tracked
   // frame). 2 cm / 2 deg covers the estimates' own noise; 1 m/s and 90 deg/s of velocity change per second of gap
@@ -51,14 +51,14 @@ struct TrackingParams {
 
 struct TrackStep {
   TrackMethod method = TrackMethod::kNone;
-  int reference = -1;   // frame index the pose was estimated against (-1 for the first frame)
+  int reference = -1;            // frame index the pose was estimated against (-1 for the first frame)
   int matches = 0, inliers = 0;  // of the try that was kept; for a skipped frame, the window's matches
   bool icp_used = false;
   double icp_rms_m = 0.0;
   Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();  // camera to world
-  double features_ms = 0.0, match_ms = 0.0;  // features; everything after them (match, RANSAC, ICP, checks)
-  std::string note;     // why earlier tries failed, ICP notes
-  std::string failure;  // why the frame was skipped (empty when tracked)
+  double features_ms = 0.0, match_ms = 0.0;            // features; everything after them (match, RANSAC, ICP, checks)
+  std::string note;                                    // why earlier tries failed, ICP notes
+  std::string failure;                                 // why the frame was skipped (empty when tracked)
   bool tracked() const { return method != TrackMethod::kNone; }
 };
 

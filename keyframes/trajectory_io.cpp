@@ -106,7 +106,8 @@ Result<Trajectory> parse_redwood(std::istream& in, const std::string& path) {
     if (!ok || head.size() != 3)
       return make_error(ErrorCode::kInvalidInput, path + ":" + std::to_string(line_no) + ": expected 'i j n' header");
     if (!(head[0] >= 0 && head[0] <= 2147483647.0 && head[0] == std::floor(head[0])))
-      return make_error(ErrorCode::kInvalidInput, path + ":" + std::to_string(line_no) + ": frame index is not a non-negative integer");
+      return make_error(ErrorCode::kInvalidInput,
+                        path + ":" + std::to_string(line_no) + ": frame index is not a non-negative integer");
     StampedPose p;
     p.index = static_cast<int>(head[0]);
     for (int r = 0; r < 4; ++r) {
@@ -178,9 +179,12 @@ Result<Trajectory> read_icl_pose_txt(const std::string& path, bool icl_to_rgbdca
 Result<Trajectory> parse_trajectory(std::string_view text, TrajectoryFormat format, const std::string& name) {
   std::istringstream in{std::string(text)};
   switch (format) {
-    case TrajectoryFormat::kTum: return parse_tum(in, name);
-    case TrajectoryFormat::kRedwood: return parse_redwood(in, name);
-    case TrajectoryFormat::kIcl: return parse_icl(in, name, true);
+    case TrajectoryFormat::kTum:
+      return parse_tum(in, name);
+    case TrajectoryFormat::kRedwood:
+      return parse_redwood(in, name);
+    case TrajectoryFormat::kIcl:
+      return parse_icl(in, name, true);
   }
   return make_error(ErrorCode::kInvalidArgument, "unknown trajectory format");
 }

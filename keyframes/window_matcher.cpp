@@ -11,7 +11,8 @@
 namespace rgbdcast {
 
 Status MatchParams::validate() const {
-  if (window_px < 0 || window_px > 10000) return make_error(ErrorCode::kInvalidArgument, "window must be in [0, 10000] px");
+  if (window_px < 0 || window_px > 10000)
+    return make_error(ErrorCode::kInvalidArgument, "window must be in [0, 10000] px");
   if (knn < 1 || knn > 100) return make_error(ErrorCode::kInvalidArgument, "knn must be in [1, 100]");
   if (!(ratio > 0 && ratio <= 1)) return make_error(ErrorCode::kInvalidArgument, "ratio must be in (0, 1]");
   return ok_status();
@@ -93,7 +94,8 @@ std::vector<FeatureMatch> match_exact(const FrameFeatures& prev, const FrameFeat
 
 }  // namespace
 
-std::vector<FeatureMatch> match_in_window(const FrameFeatures& prev, const FrameFeatures& cur, const MatchParams& params) {
+std::vector<FeatureMatch> match_in_window(const FrameFeatures& prev, const FrameFeatures& cur,
+                                          const MatchParams& params) {
   std::vector<FeatureMatch> out;
   if (prev.descriptors.empty() || cur.descriptors.empty()) return out;
   if (prev.descriptors.type() != cur.descriptors.type() || prev.descriptors.cols != cur.descriptors.cols) return out;
@@ -119,8 +121,12 @@ std::vector<FeatureMatch> match_in_window(const FrameFeatures& prev, const Frame
     for (const cv::DMatch& m : knn[q]) {  // sorted by descriptor distance
       if (m.trainIdx < 0 || m.trainIdx >= static_cast<int>(prev.keypoints.size())) continue;
       if (!inside_window(at, prev.keypoints[m.trainIdx].pt, params.window_px)) continue;
-      if (!first) first = &m;
-      else if (!second) { second = &m; break; }
+      if (!first)
+        first = &m;
+      else if (!second) {
+        second = &m;
+        break;
+      }
     }
     if (!first) continue;
     keep_match({first->trainIdx, static_cast<int>(q), first->distance}, second != nullptr,

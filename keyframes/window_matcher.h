@@ -10,9 +10,9 @@
 namespace rgbdcast {
 
 struct MatchParams {
-  int window_px = 20;   // full window edge; 0 = no window (global matching, for comparison)
-  int knn = 8;          // FLANN neighbours examined per keypoint (the window filter picks among them)
-  double ratio = 0.8;   // Lowe's ratio between the best and second-best candidate inside the window; 1 = off
+  int window_px = 20;      // full window edge; 0 = no window (global matching, for comparison)
+  int knn = 8;             // FLANN neighbours examined per keypoint (the window filter picks among them)
+  double ratio = 0.8;      // Lowe's ratio between the best and second-best candidate inside the window; 1 = off
   bool one_to_one = true;  // a previous keypoint keeps only its best current match
   // false (the paper's order): FLANN's knn nearest descriptors, then the window picks among them, so a true match
   // outside the knn is lost. true: every previous keypoint inside the window is compared by brute force (an x-sorted
@@ -23,8 +23,8 @@ struct MatchParams {
 };
 
 struct FeatureMatch {
-  int prev = -1;  // index into the previous frame's FrameFeatures
-  int cur = -1;   // index into the current frame's FrameFeatures
+  int prev = -1;         // index into the previous frame's FrameFeatures
+  int cur = -1;          // index into the current frame's FrameFeatures
   float distance = 0.f;  // descriptor distance (L2 for SIFT, Hamming for binary)
 };
 
@@ -32,6 +32,7 @@ struct FeatureMatch {
 bool inside_window(const cv::Point2f& a, const cv::Point2f& b, int window_px);
 
 // Matches cur against prev. Returns an empty list when either side has no descriptors or their kinds differ.
-std::vector<FeatureMatch> match_in_window(const FrameFeatures& prev, const FrameFeatures& cur, const MatchParams& params);
+std::vector<FeatureMatch> match_in_window(const FrameFeatures& prev, const FrameFeatures& cur,
+                                          const MatchParams& params);
 
 }  // namespace rgbdcast

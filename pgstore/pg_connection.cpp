@@ -82,7 +82,8 @@ Result<std::unique_ptr<PgConnection>> PgConnection::connect(const std::string& u
     return make_error(ErrorCode::kUnavailable, "postgresql: cannot connect: " + why);
   }
   // Quiet: NOTICEs (e.g. "relation already exists, skipping") would go to stderr.
-  PQsetNoticeProcessor(c, [](void*, const char*) {}, nullptr);
+  PQsetNoticeProcessor(
+      c, [](void*, const char*) {}, nullptr);
   return std::unique_ptr<PgConnection>(new PgConnection(c));
 }
 
@@ -150,8 +151,7 @@ PgPool::Lease::~Lease() {
 
 Result<PgPool::Lease> PgPool::lease() {
   std::unique_lock lock(mutex_);
-  if (!freed_.wait_for(lock, std::chrono::duration<double>(wait_s_),
-                       [&] { return !idle_.empty() || out_ < size_; }))
+  if (!freed_.wait_for(lock, std::chrono::duration<double>(wait_s_), [&] { return !idle_.empty() || out_ < size_; }))
     return make_error(ErrorCode::kUnavailable, "postgresql: every connection of the pool is busy");
   ++out_;
   std::unique_ptr<PgConnection> c;

@@ -17,7 +17,9 @@ namespace {
 
 // A write that found nothing to change: rolled back, and not an error for the caller.
 constexpr const char* kUnchanged = "unchanged";
-bool is_unchanged(const Status& st) { return !st && st.error().code == ErrorCode::kEmpty && st.error().message == kUnchanged; }
+bool is_unchanged(const Status& st) {
+  return !st && st.error().code == ErrorCode::kEmpty && st.error().message == kUnchanged;
+}
 Status unchanged() { return make_error(ErrorCode::kEmpty, kUnchanged); }
 
 // The first statement of every mission write: the next change number, and the lock that orders the writes.
@@ -66,23 +68,26 @@ Status PgMissionStore::load_all() {
   std::map<std::string, std::map<std::int64_t, MissionKeyframe>> missions;
   std::map<std::string, std::int64_t> created;
   // One snapshot: the rows and the change number they stand at.
-  Status st = in_transaction(**conn, [&](PgConnection& c) -> Status {
-    auto clock = c.exec("SELECT last FROM change_clock WHERE id = 1");
-    if (!clock) return clock.error();
-    last = clock->integer(0, 0);
-    auto names = c.exec("SELECT name, created_change FROM missions");
-    if (!names) return names.error();
-    for (int i = 0; i < names->rows(); ++i) created[names->text(i, 0)] = names->integer(i, 1);
-    auto rows = c.exec("SELECT mission, seq, record FROM keyframes");
-    if (!rows) return rows.error();
-    for (int i = 0; i < rows->rows(); ++i) {
-      const std::string name = rows->text(i, 0);
-      auto k = service::parse_stored_keyframe(name, rows->integer(i, 1), rows->text(i, 2));
-      if (!k) return make_error(ErrorCode::kInvalidInput, "mission " + name + ": " + k.error().message);
-      missions[name].emplace(k->seq, std::move(*k));
-    }
-    return ok_status();
-  }, "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY");
+  Status st = in_transaction(
+      **conn,
+      [&](PgConnection& c) -> Status {
+        auto clock = c.exec("SELECT last FROM change_clock WHERE id = 1");
+        if (!clock) return clock.error();
+        last = clock->integer(0, 0);
+        auto names = c.exec("SELECT name, created_change FROM missions");
+        if (!names) return names.error();
+        for (int i = 0; i < names->rows(); ++i) created[names->text(i, 0)] = names->integer(i, 1);
+        auto rows = c.exec("SELECT mission, seq, record FROM keyframes");
+        if (!rows) return rows.error();
+        for (int i = 0; i < rows->rows(); ++i) {
+          const std::string name = rows->text(i, 0);
+          auto k = service::parse_stored_keyframe(name, rows->integer(i, 1), rows->text(i, 2));
+          if (!k) return make_error(ErrorCode::kInvalidInput, "mission " + name + ": " + k.error().message);
+          missions[name].emplace(k->seq, std::move(*k));
+        }
+        return ok_status();
+      },
+      "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY");
   if (!st) return st;
   std::lock_guard lock(apply_mutex_);
   const double now = now_unix_s();
@@ -99,8 +104,8 @@ void PgMissionStore::set_on_change(std::function<void(const std::string&)> f) {
   on_change_ = std::move(f);
 }
 
-void PgMissionStore::apply(std::int64_t change, const std::string& mission, const std::string& kind,
-                           std::int64_t seq, const std::string& record) {
+void PgMissionStore::apply(std::int64_t change, const std::string& mission, const std::string& kind, std::int64_t seq,
+                           const std::string& record) {
   {
     std::lock_guard lock(apply_mutex_);
     if (change <= applied_) return;
@@ -247,8 +252,6 @@ Status PgMissionStore::remove(const std::string& name) {
   return catch_up(**conn);
 }
 
-Status PgMissionStore::ping() const {
-  return pool_->ping();
-}
+Status PgMissionStore::ping() const { return pool_->ping(); }
 
 }  // namespace rgbdcast::pgstore

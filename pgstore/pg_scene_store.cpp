@@ -84,8 +84,6 @@ std::uint64_t PgSceneStore::total_bytes() const {
   return r ? static_cast<std::uint64_t>(r->integer(0, 0)) : 0;
 }
 
-Status PgSceneStore::ping() const {
-  return pool_->ping();
-}
+Status PgSceneStore::ping() const { return pool_->ping(); }
 
 }  // namespace rgbdcast::pgstore

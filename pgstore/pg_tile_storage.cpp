@@ -71,10 +71,11 @@ class PgTileStorage final : public tiles::TileStorage {
     const std::vector<PgParam> params = {PgParam::text(mission_), PgParam::text(file),
                                          PgParam::bytes(bytes.data(), bytes.size())};
     // A file the committed record keeps stays as it is; an uncommitted one (a cut or refused update's) is replaced.
-    auto r = (*conn)->exec("INSERT INTO tiles (mission, file, bytes) VALUES ($1, $2, $3) ON CONFLICT (mission, file) "
-                           "DO UPDATE SET bytes = EXCLUDED.bytes WHERE NOT tiles.file = ANY(coalesce("
-                           "(SELECT keep FROM tile_hierarchies WHERE mission = $1), '{}'))",
-                           params);
+    auto r = (*conn)->exec(
+        "INSERT INTO tiles (mission, file, bytes) VALUES ($1, $2, $3) ON CONFLICT (mission, file) "
+        "DO UPDATE SET bytes = EXCLUDED.bytes WHERE NOT tiles.file = ANY(coalesce("
+        "(SELECT keep FROM tile_hierarchies WHERE mission = $1), '{}'))",
+        params);
     if (!r) return r.error();
     if (r->affected() > 0) (void)write_file_atomically(cache_dir_ + "/" + file, bytes);  // a miss is fetched again
     return ok_status();
@@ -136,9 +137,10 @@ Result<bool> PgTileStorage::commit(const tiles::TileCommit& c) {
   }
   sizes += "}";
   Status st = locked([&](PgConnection& t, const PgParam& mission, std::uint64_t version) -> Status {
-    auto stored = t.exec("SELECT count(*) FROM tiles t JOIN unnest($2::text[], $3::bigint[]) AS n (file, size) "
-                         "ON t.file = n.file AND length(t.bytes) = n.size WHERE t.mission = $1",
-                         {mission, PgParam::text(text_array(named_files)), PgParam::text(sizes)});
+    auto stored = t.exec(
+        "SELECT count(*) FROM tiles t JOIN unnest($2::text[], $3::bigint[]) AS n (file, size) "
+        "ON t.file = n.file AND length(t.bytes) = n.size WHERE t.mission = $1",
+        {mission, PgParam::text(text_array(named_files)), PgParam::text(sizes)});
     if (!stored) return stored.error();
     refused = version >= c.version || static_cast<size_t>(stored->integer(0, 0)) != c.named.size();
     if (refused) return make_error(ErrorCode::kInvalidInput, "refused");  // rolled back: nothing changes
@@ -162,9 +164,10 @@ Result<bool> PgTileStorage::commit(const tiles::TileCommit& c) {
 Status PgTileStorage::delete_tiles(const std::set<std::string>& files) {
   if (files.empty()) return ok_status();
   Status st = locked([&](PgConnection& t, const PgParam& mission, std::uint64_t) {
-    return t.run("DELETE FROM tiles WHERE mission = $1 AND file = ANY($2::text[]) AND NOT file = ANY(coalesce("
-                 "(SELECT keep FROM tile_hierarchies WHERE mission = $1), '{}'))",
-                 {mission, PgParam::text(text_array(files))});
+    return t.run(
+        "DELETE FROM tiles WHERE mission = $1 AND file = ANY($2::text[]) AND NOT file = ANY(coalesce("
+        "(SELECT keep FROM tile_hierarchies WHERE mission = $1), '{}'))",
+        {mission, PgParam::text(text_array(files))});
   });
   (void)cache_->delete_tiles(files);
   return st;
@@ -172,11 +175,11 @@ Status PgTileStorage::delete_tiles(const std::set<std::string>& files) {
 
 Status PgTileStorage::collect(const std::set<std::string>& named, std::uint64_t committed_version) {
   Status st = locked([&](PgConnection& t, const PgParam& mission, std::uint64_t) {
-    return t.run("DELETE FROM tiles WHERE mission = $1 AND NOT file = ANY($2::text[]) AND NOT file = ANY(coalesce("
-                 "(SELECT keep FROM tile_hierarchies WHERE mission = $1), '{}')) AND "
-                 "coalesce(substring(file from '\\.v([0-9]{1,18})\\.glb$')::bigint, 0) <= $3",
-                 {mission, PgParam::text(text_array(named)),
-                  PgParam::integer(static_cast<std::int64_t>(committed_version))});
+    return t.run(
+        "DELETE FROM tiles WHERE mission = $1 AND NOT file = ANY($2::text[]) AND NOT file = ANY(coalesce("
+        "(SELECT keep FROM tile_hierarchies WHERE mission = $1), '{}')) AND "
+        "coalesce(substring(file from '\\.v([0-9]{1,18})\\.glb$')::bigint, 0) <= $3",
+        {mission, PgParam::text(text_array(named)), PgParam::integer(static_cast<std::int64_t>(committed_version))});
   });
   if (!st) return st;
   return cache_->collect(named, committed_version);

@@ -60,9 +60,10 @@ Image scaled_texture(const Image& full, double scale) {
   if (scale >= 1.0) return full;
   const cv::Mat src(full.height, full.width, CV_8UC3, const_cast<std::uint8_t*>(full.data.data()));
   cv::Mat small;
-  cv::resize(src, small, cv::Size(std::max(1, int(std::lround(full.width * scale))),
-                                  std::max(1, int(std::lround(full.height * scale)))),
-             0, 0, cv::INTER_AREA);
+  cv::resize(
+      src, small,
+      cv::Size(std::max(1, int(std::lround(full.width * scale))), std::max(1, int(std::lround(full.height * scale)))),
+      0, 0, cv::INTER_AREA);
   return image_from_rgb_mat(small);
 }
 
@@ -75,8 +76,7 @@ constexpr bool kBudgetOptimizesHuffman = false;
 // JPEG encodes of one image at several qualities, on up to `threads` workers (base/worker_threads.h).
 Result<std::vector<std::vector<std::uint8_t>>> encode_jpegs(const Image& im, const std::vector<int>& qualities,
                                                             int threads) {
-  std::vector<Result<std::vector<std::uint8_t>>> out(qualities.size(),
-                                                     make_error(ErrorCode::kInternal, "not encoded"));
+  std::vector<Result<std::vector<std::uint8_t>>> out(qualities.size(), make_error(ErrorCode::kInternal, "not encoded"));
   const int workers = std::clamp(threads, 1, static_cast<int>(qualities.size()));
   std::atomic<size_t> next{0};
   auto work = [&] {
@@ -232,16 +232,17 @@ double tried_bytes(const std::vector<TriedJpeg>& tried, int q, double scale) {
 void narrow_to_tried(const std::vector<TriedJpeg>& tried, double scale, double target, int* q_lo, int* q_hi) {
   for (const TriedJpeg& t : tried)
     if (t.scale == scale && t.quality > *q_lo && t.quality < *q_hi) {
-      if (static_cast<double>(t.bytes.size()) <= target) *q_lo = t.quality;
-      else *q_hi = t.quality;
+      if (static_cast<double>(t.bytes.size()) <= target)
+        *q_lo = t.quality;
+      else
+        *q_hi = t.quality;
     }
 }
 
 std::vector<int> next_qualities(const std::vector<TriedJpeg>& tried, double scale, int q_lo, int q_hi, double target) {
   std::vector<int> qs;
   if (q_hi - q_lo < 2) return qs;  // nothing between them
-  const int guess =
-      guess_quality(q_lo, tried_bytes(tried, q_lo, scale), q_hi, tried_bytes(tried, q_hi, scale), target);
+  const int guess = guess_quality(q_lo, tried_bytes(tried, q_lo, scale), q_hi, tried_bytes(tried, q_hi, scale), target);
   for (int q : {guess - 2, guess + 2}) {
     q = std::clamp(q, q_lo + 1, q_hi - 1);
     if (std::find(qs.begin(), qs.end(), q) == qs.end()) qs.push_back(q);
@@ -295,10 +296,21 @@ Status BudgetSearch::measure_geometry(const Mesh& mesh) {
   probe.mesh.uvs = mesh.uvs;
   probe.mesh.indices = mesh.indices;
   const int tw = mesh.texture.width, th = mesh.texture.height;
-  probe.mesh.texture_encoded = {0xFF, 0xD8, 0xFF, 0xC0, 0x00, 0x0B, 0x08,
-                                static_cast<std::uint8_t>(th >> 8), static_cast<std::uint8_t>(th & 0xFF),
-                                static_cast<std::uint8_t>(tw >> 8), static_cast<std::uint8_t>(tw & 0xFF),
-                                0x01, 0x01, 0x11, 0x00};
+  probe.mesh.texture_encoded = {0xFF,
+                                0xD8,
+                                0xFF,
+                                0xC0,
+                                0x00,
+                                0x0B,
+                                0x08,
+                                static_cast<std::uint8_t>(th >> 8),
+                                static_cast<std::uint8_t>(th & 0xFF),
+                                static_cast<std::uint8_t>(tw >> 8),
+                                static_cast<std::uint8_t>(tw & 0xFF),
+                                0x01,
+                                0x01,
+                                0x11,
+                                0x00};
   probe.mesh.texture_mime = "image/jpeg";
   probe.to_world = camera_to_world;
   GlbStats st;
@@ -393,7 +405,7 @@ Result<AtlasResult> BudgetSearch::mesh_with_texture_beside(double tolerance, dou
     before.indices = reduced->mesh.indices;
   }
   Result<AtlasResult> side_texture = make_error(ErrorCode::kInternal, "not made");
-  double moved_px = go_on ? last.moved_px + simplify_px : simplify_px;  // the outline's bound
+  double moved_px = go_on ? last.moved_px + simplify_px : simplify_px;    // the outline's bound
   const bool anticipate = !go_on && anticipates(tolerance, simplify_px);  // (a further pass: the loop's)
   const double mask_px = anticipate ? moved_px + 2 * simplify_px : moved_px;
   std::promise<double> floor_bytes;  // the texture's floor JPEG, when anticipated (-1: none)
@@ -412,8 +424,10 @@ Result<AtlasResult> BudgetSearch::mesh_with_texture_beside(double tolerance, dou
   BesideThread side([&] {
     if (!sample) {
       auto made = sample_before_collapses(before, frame, atlas);
-      if (made) sample = std::move(*made);
-      else side_texture = made.error();
+      if (made)
+        sample = std::move(*made);
+      else
+        side_texture = made.error();
     }
     if (sample) side_texture = fill_before_collapses(*sample, mask_px);
     if (!side_texture) {
@@ -448,8 +462,10 @@ Result<AtlasResult> BudgetSearch::mesh_with_texture_beside(double tolerance, dou
       const std::vector<int> qs = next_qualities(out, 1.0, q_lo, q_hi, left);
       if (!qs.empty()) st = add(qs);
     }
-    if (st) *jpegs = std::move(out);
-    else *jpegs = st.error();
+    if (st)
+      *jpegs = std::move(out);
+    else
+      *jpegs = st.error();
   });
   double limit = simplify_px;
   Result<AtlasResult> t = [&]() -> Result<AtlasResult> {
@@ -471,7 +487,8 @@ Result<AtlasResult> BudgetSearch::mesh_with_texture_beside(double tolerance, dou
     // One "simplify" stage: every pass's time, the last count.
     std::vector<StageReport> merged;
     for (StageReport& r : reduced->stages) {
-      auto first = std::find_if(merged.begin(), merged.end(), [](const StageReport& m) { return m.name == "simplify"; });
+      auto first =
+          std::find_if(merged.begin(), merged.end(), [](const StageReport& m) { return m.name == "simplify"; });
       if (r.name == "simplify" && first != merged.end()) {
         first->ms += r.ms;
         first->count = r.count;
@@ -514,9 +531,8 @@ Status BudgetSearch::remesh(double tolerance, double simplify_px) {
   Status geometry = ok_status(), texture = ok_status();
   Jpegs side_jpegs = make_error(ErrorCode::kInternal, "not encoded");
   double limit_px = simplify_px;
-  auto t = texture_beside
-               ? mesh_with_texture_beside(tolerance, simplify_px, &stages, &geometry, &side_jpegs, &limit_px)
-               : texture_at(tolerance, simplify_px, &stages);
+  auto t = texture_beside ? mesh_with_texture_beside(tolerance, simplify_px, &stages, &geometry, &side_jpegs, &limit_px)
+                          : texture_at(tolerance, simplify_px, &stages);
   if (!t) return t.error();
   const double extracted = static_cast<double>(count_at(tolerance));
   const double triangles = static_cast<double>(t->mesh.triangle_count());
@@ -557,7 +573,9 @@ Status BudgetSearch::fit_geometry() {
   // One correction when the prior was off by more than 10 %.
   if (b.geometry_bytes > 1.1 * geometry_cap && b.tolerance_factor < kMaxToleranceFactor)
     if (auto s = remesh(geometry_for(geometry_cap), simplify0); !s) return s.error();
-  b.rule = b.simplify_px > simplify0 ? "outline-capped" : b.tolerance_factor > tol0 ? "geometry-capped" : "texture-fitted";
+  b.rule = b.simplify_px > simplify0   ? "outline-capped"
+           : b.tolerance_factor > tol0 ? "geometry-capped"
+                                       : "texture-fitted";
   return ok_status();
 }
 
@@ -568,11 +586,11 @@ Status BudgetSearch::fit_geometry() {
 // pixels uncovered, so the geometry keeps more than its share before it comes to this); the texture gets what is
 // left, as below. This holds at the largest tolerance whether or not the geometry is over its share: a mesh within
 // its share can still leave the texture under its floor (TUM fr1/xyz frame 0 at 40 kB: q24 at 2 px, 29.69 dB drawn
-// at the capture pose; with this rule 4 px q42, 30.56 dB; BENCHMARKS.md, "Realtime preset against the paper preset"), but only up to kFloorSimplifyPx: further
-// straightening costs more coverage than a better texture gains (TUM fr1/xyz 200-319 frame 0 at 20 kB went to 8 px:
-// coverage 0.9968 -> 0.9889, all-valid PSNR 26.69 -> 23.35 dB). Whether the floor fits is read off the encodes tried
-// when they decide it (one at or above the floor that fits, or one at or below it that does not), so a frame whose
-// texture is well above its floor pays no encode for the check.
+// at the capture pose; with this rule 4 px q42, 30.56 dB; BENCHMARKS.md, "Realtime preset against the paper preset"),
+// but only up to kFloorSimplifyPx: further straightening costs more coverage than a better texture gains (TUM fr1/xyz
+// 200-319 frame 0 at 20 kB went to 8 px: coverage 0.9968 -> 0.9889, all-valid PSNR 26.69 -> 23.35 dB). Whether the
+// floor fits is read off the encodes tried when they decide it (one at or above the floor that fits, or one at or below
+// it that does not), so a frame whose texture is well above its floor pays no encode for the check.
 Status BudgetSearch::straighten_outline() {
   constexpr double kFloorSimplifyPx = 4;
   while (b.tolerance_factor >= kMaxToleranceFactor && simplify0 > 0 && b.simplify_px < kMaxSimplifyPx &&
@@ -627,8 +645,10 @@ Result<int> BudgetSearch::fit_quality_at(double at, double texture_target) {
     const std::vector<int> qs = next_qualities(tried, at, lo, hi, texture_target);
     if (auto s = encode_at(at, qs, threads); !s) return s.error();
     for (int q : qs) {
-      if (bytes_of(q, at) <= texture_target) lo = std::max(lo, q);
-      else hi = std::min(hi, q);
+      if (bytes_of(q, at) <= texture_target)
+        lo = std::max(lo, q);
+      else
+        hi = std::min(hi, q);
     }
     if (hi <= lo) break;  // JPEG bytes are not quite monotone in the quality: lo fits, which is enough
   }
@@ -657,8 +677,8 @@ Status BudgetSearch::fit_texture() {
       if (bytes_of(q_lo, scale) <= texture_target || scale <= kMinTextureScale) break;  // fits, or the last scale
       // The least quality does not fit: the outline's scale, when below this one, else half of this one.
       scale = scale == 1.0 && outline_scale < 1.0 && outline_scale > 0.5 ? outline_scale
-              : scale < 1.0 && scale > 0.5                             ? 0.5
-                                                                       : scale / 2;
+              : scale < 1.0 && scale > 0.5                               ? 0.5
+                                                                         : scale / 2;
     }
   }
   for (TriedJpeg& t : tried)

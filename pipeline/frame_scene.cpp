@@ -77,7 +77,8 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
   double budget_kb = options.budget_kb;
   if (options.params.preset == Preset::kRealtime) {
     // The payload's share, before the depth's preparation: made beside it on a second thread, it took as long
-    // (its two encodes compete with the preparation's two threads; BENCHMARKS.md, "Realtime preset against the paper preset").
+    // (its two encodes compete with the preparation's two threads; BENCHMARKS.md, "Realtime preset against the paper
+    // preset").
     if (options.budget_within_payload_share && budget_kb > 0) {
       auto payload_kb = payload_share_kb(frame);
       if (!payload_kb) return payload_kb.error();
@@ -86,10 +87,9 @@ Result<TexturedFrame> reduce_and_texture(const RgbdFrame& frame, const FrameRedu
     prepared = prepare_realtime(frame, options.params);
     if (!prepared) return prepared.error();
   }
-  auto texture_at = [&](double tolerance, double simplify_px,
-                        std::vector<StageReport>* stages) -> Result<AtlasResult> {
-    Result<ReducedFrame> reduced = prepared ? extract_realtime(*prepared, frame, tolerance, simplify_px)
-                                            : reduce_frame(frame, options.params);
+  auto texture_at = [&](double tolerance, double simplify_px, std::vector<StageReport>* stages) -> Result<AtlasResult> {
+    Result<ReducedFrame> reduced =
+        prepared ? extract_realtime(*prepared, frame, tolerance, simplify_px) : reduce_frame(frame, options.params);
     if (!reduced) return reduced.error();
     *stages = reduced->stages;
     if (!earlier.empty()) {

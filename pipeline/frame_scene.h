@@ -24,7 +24,7 @@ struct FrameReductionOptions {
   // the frame texture, its triangles split until affine texturing is within DepthMeshParams::texture_deviation_px
   // of the projective mapping. An explicit mode is used as given.
   TextureMode texture = TextureMode::kAuto;
-  AtlasOptions atlas;      // cell size, JPEG quality (a budget chooses the quality itself)
+  AtlasOptions atlas;  // cell size, JPEG quality (a budget chooses the quality itself)
   GlbWriteOptions glb;
   // Realtime preset: choose the mesh tolerance and the texture's quality and scale so that the GLB lands within
   // +-10 % of budget_kb * 1000 bytes, or under it when the scene needs less. 0: no budget.
@@ -56,14 +56,14 @@ struct FrameReductionOptions {
 
 // What a budget chose, and what it gave (reported in the GLB's extras and the reduce report).
 struct BudgetChoice {
-  double budget_bytes = 0;       // 0: no budget
-  double tolerance_factor = 0;   // mesh tolerance (sigma units)
-  double simplify_px = 0;        // the collapses' limit (DepthMeshParams::simplify_px, raised past the tolerance's)
+  double budget_bytes = 0;      // 0: no budget
+  double tolerance_factor = 0;  // mesh tolerance (sigma units)
+  double simplify_px = 0;       // the collapses' limit (DepthMeshParams::simplify_px, raised past the tolerance's)
   int jpeg_quality = 0;
-  double texture_scale = 1.0;    // texture resolution relative to the colour frame
+  double texture_scale = 1.0;                                   // texture resolution relative to the colour frame
   size_t geometry_bytes = 0, texture_bytes = 0, glb_bytes = 0;  // of the node alone (no extras)
-  int encodes = 0;               // GLB encodes and JPEG encodes tried
-  int meshes = 0;                // meshes extracted, textured and measured (1 or 2 when the prior was close)
+  int encodes = 0;                                              // GLB encodes and JPEG encodes tried
+  int meshes = 0;  // meshes extracted, textured and measured (1 or 2 when the prior was close)
   // Which case applied: "fits" (the scene needs less), "texture-fitted" (the mesh at its tolerance, the texture
   // fitted), "geometry-capped" (the tolerance raised too), "outline-capped" (past the largest tolerance, the
   // collapses' limit raised too), "over-budget" (the limits of tolerance, collapses and texture scale reached: the

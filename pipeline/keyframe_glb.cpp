@@ -6,11 +6,15 @@ nlohmann::json reduction_choices(const TexturedFrame& f) {
   nlohmann::json j = {{"preset", to_string(f.preset)}, {"texture", to_string(f.atlas_stats.mode)}};
   if (f.budget.budget_bytes > 0) {
     const BudgetChoice& b = f.budget;
-    j["budget"] = {{"budget_bytes", b.budget_bytes},   {"tolerance_factor", b.tolerance_factor},
+    j["budget"] = {{"budget_bytes", b.budget_bytes},
+                   {"tolerance_factor", b.tolerance_factor},
                    {"simplify_px", b.simplify_px},
-                   {"jpeg_quality", b.jpeg_quality},   {"texture_scale", b.texture_scale},
-                   {"geometry_bytes", b.geometry_bytes}, {"texture_bytes", b.texture_bytes},
-                   {"glb_bytes", b.glb_bytes},         {"encodes", b.encodes},
+                   {"jpeg_quality", b.jpeg_quality},
+                   {"texture_scale", b.texture_scale},
+                   {"geometry_bytes", b.geometry_bytes},
+                   {"texture_bytes", b.texture_bytes},
+                   {"glb_bytes", b.glb_bytes},
+                   {"encodes", b.encodes},
                    {"meshes", b.meshes},
                    {"rule", b.rule}};
   }

@@ -44,8 +44,10 @@ size_t drop_covered_triangles(Mesh& mesh, const Eigen::Matrix4d& mesh_to_world,
     const std::uint32_t a = mesh.indices[t], b = mesh.indices[t + 1], c = mesh.indices[t + 2];
     bool covered = false;
     for (size_t k = 0; k < earlier.size() && !covered; ++k) covered = seen[k][a] && seen[k][b] && seen[k][c];
-    if (covered) ++removed;
-    else kept.insert(kept.end(), {a, b, c});
+    if (covered)
+      ++removed;
+    else
+      kept.insert(kept.end(), {a, b, c});
   }
   if (removed == 0) return 0;
   // Compact: keep only referenced vertices (and their per-vertex attributes).

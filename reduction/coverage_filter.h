@@ -12,14 +12,14 @@
 namespace rgbdcast {
 
 struct CoverageView {
-  Intrinsics intrinsics;                 // pinhole
-  cv::Mat depth_m;                       // CV_32F, 0 = no depth
+  Intrinsics intrinsics;  // pinhole
+  cv::Mat depth_m;        // CV_32F, 0 = no depth
   Eigen::Matrix4d camera_to_world = Eigen::Matrix4d::Identity();
 };
 
 struct CoverageParams {
-  double depth_tolerance_m = 0.03;   // plus 3 sigma of Kinect depth noise at that range
-  int border_px = 2;                 // vertices this close to an image edge count as not seen
+  double depth_tolerance_m = 0.03;  // plus 3 sigma of Kinect depth noise at that range
+  int border_px = 2;                // vertices this close to an image edge count as not seen
 };
 
 // Removes from `mesh` (positions in its own frame, placed in the world by mesh_to_world) every triangle covered by

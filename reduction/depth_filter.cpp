@@ -172,8 +172,8 @@ Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilter
       }
       // The row padded by R on each side: 1 where there is depth, and its depth or +inf.
       std::vector<float> present(w + 2 * R, 0.f), nearest(w + 2 * R, kNone);
-      std::vector<float> count(w);   // the kept pixels in each pixel's window
-      std::vector<int> fills;        // this row's pixels to fill
+      std::vector<float> count(w);  // the kept pixels in each pixel's window
+      std::vector<int> fills;       // this row's pixels to fill
       auto aggregate = [&](int yy, Row& row) {
         const std::int16_t* k = kept.ptr<std::int16_t>(yy);
         const float* z = depth_m.ptr<float>(yy);
@@ -220,8 +220,7 @@ Result<DepthFilterResult> filter_depth(const cv::Mat& depth_m, const DepthFilter
             for (int d = 0; d < win; ++d)
               for (int l = 0; l < kLanes; ++l) sum[l] += row[l + d];
           }
-          for (; i < fills.size() && fills[i] < x0 + kLanes; ++i)
-            out[fills[i]] = sum[fills[i] - x0] / count[fills[i]];
+          for (; i < fills.size() && fills[i] < x0 + kLanes; ++i) out[fills[i]] = sum[fills[i] - x0] / count[fills[i]];
         }
         filled[band] += fills.size();
       }

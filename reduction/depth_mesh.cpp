@@ -109,8 +109,8 @@ struct RtinTable {
     for (int id = first_leaf(); id < end(); ++id) {
       const int x0 = std::min({ax[id], bx[id], cx[id]}), y0 = std::min({ay[id], by[id], cy[id]});
       if (x0 >= S || y0 >= S) continue;
-      const bool has = (ax[id] == x0 && ay[id] == y0) || (bx[id] == x0 && by[id] == y0) ||
-                       (cx[id] == x0 && cy[id] == y0);
+      const bool has =
+          (ax[id] == x0 && ay[id] == y0) || (bx[id] == x0 && by[id] == y0) || (cx[id] == x0 && cy[id] == y0);
       auto& slot = leaf_of_point[static_cast<size_t>(y0) * S + x0];
       if (has && slot < 0) slot = id;
     }
@@ -120,12 +120,14 @@ struct RtinTable {
     point_x.assign(point_of_leaf.size(), -1);
     point_y.assign(point_of_leaf.size(), -1);
     for (size_t i = 0; i < point_of_leaf.size(); ++i)
-      if (point_of_leaf[i] >= 0) point_x[i] = static_cast<std::int16_t>(point_of_leaf[i] % S), point_y[i] = static_cast<std::int16_t>(point_of_leaf[i] / S);
+      if (point_of_leaf[i] >= 0)
+        point_x[i] = static_cast<std::int16_t>(point_of_leaf[i] % S),
+        point_y[i] = static_cast<std::int16_t>(point_of_leaf[i] / S);
     points_of.assign(static_cast<size_t>(first_leaf()), 0);
     for (int id = first_leaf() - 1; id >= 2; --id)
-      points_of[id] = id >= first_leaf() / 2
-                          ? (point_of_leaf[2 * id - first_leaf()] >= 0) + (point_of_leaf[2 * id + 1 - first_leaf()] >= 0)
-                          : points_of[2 * id] + points_of[2 * id + 1];
+      points_of[id] = id >= first_leaf() / 2 ? (point_of_leaf[2 * id - first_leaf()] >= 0) +
+                                                   (point_of_leaf[2 * id + 1 - first_leaf()] >= 0)
+                                             : points_of[2 * id] + points_of[2 * id + 1];
   }
 };
 
@@ -140,8 +142,8 @@ std::shared_ptr<const RtinTable> table_for(int S) {
 struct Moments {
   double n = 0, su = 0, sv = 0, sw = 0, suu = 0, suv = 0, svv = 0, suw = 0, svw = 0, sww = 0;
   void add(const Moments& o) {
-    n += o.n, su += o.su, sv += o.sv, sw += o.sw, suu += o.suu, suv += o.suv, svv += o.svv, suw += o.suw,
-        svw += o.svw, sww += o.sww;
+    n += o.n, su += o.su, sv += o.sv, sw += o.sw, suu += o.suu, suv += o.suv, svv += o.svv, suw += o.suw, svw += o.svw,
+        sww += o.sww;
   }
 };
 
@@ -189,8 +191,8 @@ struct DepthMeshLayout {
   // skipped; texture_deviation_bound).
   std::vector<std::uint8_t> level_texture_check;
   std::vector<std::array<std::int32_t, 3>> vertex_offset;  // each triangle's vertices as tile-local grid offsets
-  std::vector<std::int32_t> mid_offset;                     // each internal triangle's hypotenuse midpoint, the same
-  int fit_end = 2, fit_shift = 0, root_level = 0;           // see build()
+  std::vector<std::int32_t> mid_offset;                    // each internal triangle's hypotenuse midpoint, the same
+  int fit_end = 2, fit_shift = 0, root_level = 0;          // see build()
   bool skip_smooth = false;
 
   bool fits(int w, int h, const DepthMeshParams& p) const {
@@ -260,8 +262,8 @@ std::shared_ptr<const DepthMeshLayout> make_depth_mesh_layout(int width, int hei
     const int px[3] = {t.ax[id], t.bx[id], t.cx[id]}, py[3] = {t.ay[id], t.by[id], t.cy[id]};
     double r[3];  // a chain of 8-neighbour steps, as many as the edge's Chebyshev length
     for (int e = 0; e < 3; ++e)
-      r[e] = std::pow(double(kSmoothStep),
-                      std::max(std::abs(px[e] - px[(e + 1) % 3]), std::abs(py[e] - py[(e + 1) % 3])));
+      r[e] =
+          std::pow(double(kSmoothStep), std::max(std::abs(px[e] - px[(e + 1) % 3]), std::abs(py[e] - py[(e + 1) % 3])));
     skip_smooth = texture_deviation_bound(level_len[d].data(), r) <= p.texture_deviation_px * 0.99;
   }
   l->skip_smooth = skip_smooth;
@@ -294,10 +296,8 @@ void mark_smooth_roots(const float* g, int GW, int S, int cells_x, int cells_y, 
   }
   auto rough_at = [&](int x, int y) { return rough[static_cast<size_t>(y) * (S + 1) + x]; };
   for (int root = fit_end / 2; root < fit_end; ++root) {
-    const int x0 = std::min({t.ax[root], t.bx[root], t.cx[root]}),
-              x1 = std::max({t.ax[root], t.bx[root], t.cx[root]});
-    const int y0 = std::min({t.ay[root], t.by[root], t.cy[root]}),
-              y1 = std::max({t.ay[root], t.by[root], t.cy[root]});
+    const int x0 = std::min({t.ax[root], t.bx[root], t.cx[root]}), x1 = std::max({t.ax[root], t.bx[root], t.cx[root]});
+    const int y0 = std::min({t.ay[root], t.by[root], t.cy[root]}), y1 = std::max({t.ay[root], t.by[root], t.cy[root]});
     smooth_root[root - fit_end / 2] = x1 <= cells_x && y1 <= cells_y &&
                                       rough_at(x1, y1) - rough_at(x0, y1) - rough_at(x1, y0) + rough_at(x0, y0) == 0;
   }
@@ -362,8 +362,9 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
   if (!(std::isfinite(k.fx) && std::isfinite(k.fy) && k.fx > 0 && k.fy > 0 && std::isfinite(k.cx) &&
         std::isfinite(k.cy)))
     return make_error(ErrorCode::kInvalidArgument, "depth mesh: intrinsics must be finite with fx, fy > 0");
-  const std::shared_ptr<const DepthMeshLayout> L =
-      layout && layout->fits(depth_m.cols, depth_m.rows, p) ? layout : make_depth_mesh_layout(depth_m.cols, depth_m.rows, p);
+  const std::shared_ptr<const DepthMeshLayout> L = layout && layout->fits(depth_m.cols, depth_m.rows, p)
+                                                       ? layout
+                                                       : make_depth_mesh_layout(depth_m.cols, depth_m.rows, p);
   DepthMeshHierarchy h;
   h.width_ = depth_m.cols;
   h.height_ = depth_m.rows;
@@ -409,7 +410,7 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
   // stage after this one (extraction 2.6 -> 10.7 ms on TUM 200-319 frame 0).
   std::atomic<int> next_tile{0};
   auto work = [&] {
-    std::vector<Moments> m(fit_end);                   // the fitted triangles' pixel moments
+    std::vector<Moments> m(fit_end);                  // the fitted triangles' pixel moments
     std::vector<std::uint16_t> valid_px(first_leaf);  // every internal triangle's valid pixels
     std::vector<std::uint8_t> smooth_cell(skip_smooth ? static_cast<size_t>(S) * S : 0);
     std::vector<std::uint8_t> smooth_root(skip_smooth ? fit_end / 2 : 0);  // by root id - fit_end / 2
@@ -461,8 +462,10 @@ Result<DepthMeshHierarchy> DepthMeshHierarchy::build(const cv::Mat& depth_m, con
       if (skip_smooth) {
         for (int root = fit_end / 2; root < fit_end; ++root) {
           const int lo = root << leaf_depth, hi = (root + 1) << leaf_depth;
-          if (smooth_root[root - fit_end / 2]) std::fill(leaf_ok + (lo - first_leaf), leaf_ok + (hi - first_leaf), 1);
-          else for (int id = lo; id < hi; ++id) leaf_test(id);
+          if (smooth_root[root - fit_end / 2])
+            std::fill(leaf_ok + (lo - first_leaf), leaf_ok + (hi - first_leaf), 1);
+          else
+            for (int id = lo; id < hi; ++id) leaf_test(id);
         }
       } else {
         for (int id = first_leaf; id < end; ++id) leaf_test(id);

@@ -31,23 +31,23 @@ struct RtinTable;        // the implicit triangle tree of one tile size (depth_m
 struct DepthMeshLayout;  // the tables a hierarchy's build needs for one image size and parameters (depth_mesh.cpp)
 
 struct DepthMeshParams {
-  double tolerance_factor = 2.0;      // split while a triangle's RMS distance from its pixels exceeds this many sigma
-  double noise_m_per_m2 = 1.425e-3;   // sensor depth noise: sigma_z = noise * z^2 (Kinect-class)
-  double jump_relative = 0.08;        // as DepthFilterParams: per pixel of edge length
-  double boundary_px_per_sigma = 1.0; // a border triangle dropped whole loses its inner valid pixels: this many cost
-                                      // as much as one sigma of fit error
-  double boundary_max_lost_px = 2.0;  // ... and it splits, whatever the tolerance, when it would lose more than this
-                                      // many (a budget then trades interior detail, not coverage, for bytes)
+  double tolerance_factor = 2.0;       // split while a triangle's RMS distance from its pixels exceeds this many sigma
+  double noise_m_per_m2 = 1.425e-3;    // sensor depth noise: sigma_z = noise * z^2 (Kinect-class)
+  double jump_relative = 0.08;         // as DepthFilterParams: per pixel of edge length
+  double boundary_px_per_sigma = 1.0;  // a border triangle dropped whole loses its inner valid pixels: this many cost
+                                       // as much as one sigma of fit error
+  double boundary_max_lost_px = 2.0;   // ... and it splits, whatever the tolerance, when it would lose more than this
+                                       // many (a budget then trades interior detail, not coverage, for bytes)
   // After extraction (extract_realtime): edge collapses while the mesh moves less than this many pixels across the
   // image or sigma of inverse depth (meshoptimizer's quadric simplifier in (u, v, w / sigma_w) space; 0: off). The
   // RTIN follows a discontinuity or a hole's edge in one-pixel steps, 2-4 triangles a pixel of outline; the
   // collapses turn each straight run into a few long edges. Away from the outline, vertices move only where the
   // surface is close enough to fronto-parallel that affine texturing stays near texture_deviation_px on triangles
-  // of up to 48 pixels (reduction/simplify.cpp). 2 px rather than 1 (BENCHMARKS.md, "Realtime preset against the paper preset"): at the 40 kB budget
-  // the frames whose outline the budget straightens take one collapse run instead of two (realtime_bench speed,
-  // median ms: fr2 pair 35.4 -> 27.9, augmented ICL 34.8 -> 28.5, fr3 39.0 -> 33.4, TUM fr1/xyz 200-319 26.0 ->
-  // 24.6), with capture-pose coverage and PSNR within 0.1 dB or better except ICL-NUIM's all-valid PSNR (38.80 ->
-  // 37.56 dB), and novel views at 40 kB 21.80 -> 21.85 dB on augmented ICL and 9.36 on TUM, as before.
+  // of up to 48 pixels (reduction/simplify.cpp). 2 px rather than 1 (BENCHMARKS.md, "Realtime preset against the paper
+  // preset"): at the 40 kB budget the frames whose outline the budget straightens take one collapse run instead of two
+  // (realtime_bench speed, median ms: fr2 pair 35.4 -> 27.9, augmented ICL 34.8 -> 28.5, fr3 39.0 -> 33.4, TUM fr1/xyz
+  // 200-319 26.0 -> 24.6), with capture-pose coverage and PSNR within 0.1 dB or better except ICL-NUIM's all-valid PSNR
+  // (38.80 -> 37.56 dB), and novel views at 40 kB 21.80 -> 21.85 dB on augmented ICL and 9.36 on TUM, as before.
   double simplify_px = 2.0;
   double max_hole_fraction = 0.5;     // a triangle may bridge invalid pixels up to this fraction of its pixels
   double texture_deviation_px = 0.5;  // split while affine texture interpolation deviates more (0: no such split)
@@ -57,7 +57,7 @@ struct DepthMeshParams {
   // fit measures noise; skipping those levels (87 % of the tree's triangles) is most of the hierarchy's time.
   // 0 or 1: every level.
   double fit_min_leg_px = 4.0;
-  int tile_px = 128;                  // largest triangle legs; a power of two, 2..128
+  int tile_px = 128;  // largest triangle legs; a power of two, 2..128
   // Boundary vertices move this far outwards (0: none; at most 2). Half a pixel covers the border pixels; a pixel
   // also covers the flying pixels the filter dropped beside them (valid depth the sensor gave, mixed between two
   // surfaces): on TUM fr1/xyz frame 0 at 40 kB coverage 0.988 -> 0.994 and PSNR over all valid pixels +1.8 dB, for
@@ -130,8 +130,8 @@ class DepthMeshHierarchy {
   int width_ = 0, height_ = 0, tile_ = 0, tiles_x_ = 0, tiles_y_ = 0, grid_w_ = 0;
   Intrinsics k_;
   DepthMeshParams params_;
-  std::vector<float> depth_;        // grid (grid_w_ x grid_h), metres, 0 = none
-  std::vector<float> error_;        // grid: Martini-style max error (sigma units) at each hypotenuse midpoint
+  std::vector<float> depth_;           // grid (grid_w_ x grid_h), metres, 0 = none
+  std::vector<float> error_;           // grid: Martini-style max error (sigma units) at each hypotenuse midpoint
   std::vector<std::uint8_t> leaf_ok_;  // per tile, per leaf triangle: emittable
   std::shared_ptr<const RtinTable> table_;
 };

@@ -19,7 +19,7 @@ std::vector<std::uint32_t> greedy_triangulate(const Cloud::ConstPtr& cloud, cons
   ne.setInputCloud(cloud);
   ne.setSearchMethod(tree);
   ne.setKSearch(params.normal_k);
-  ne.setViewPoint(0.f, 0.f, 0.f);  // the camera: normals face it
+  ne.setViewPoint(0.f, 0.f, 0.f);                         // the camera: normals face it
   ne.setNumberOfThreads(openmp_threads(params.threads));  // else PCL takes every core, whatever OMP_NUM_THREADS says
   ne.compute(normals);
 

@@ -36,9 +36,11 @@ Status ReductionParams::validate() const {
     if (auto st = filter.validate(); !st) return st;
   }
   auto positive = [](double v) { return std::isfinite(v) && v > 0; };
-  if (threads < 0 || threads > 256) return make_error(ErrorCode::kInvalidArgument, "threads must be 0..256 (0: OpenMP's default)");
+  if (threads < 0 || threads > 256)
+    return make_error(ErrorCode::kInvalidArgument, "threads must be 0..256 (0: OpenMP's default)");
   if (outlier_k < 1 || outlier_k > 1000) return make_error(ErrorCode::kInvalidArgument, "outlier K must be 1..1000");
-  if (!positive(outlier_std_mul)) return make_error(ErrorCode::kInvalidArgument, "outlier std-dev multiplier must be > 0");
+  if (!positive(outlier_std_mul))
+    return make_error(ErrorCode::kInvalidArgument, "outlier std-dev multiplier must be > 0");
   if (!positive(voxel_size_m) || voxel_size_m > 10)
     return make_error(ErrorCode::kInvalidArgument, "voxel size must be > 0 and at most 10 m");
   if (!positive(max_edge_m) || max_edge_m > 10)

@@ -35,26 +35,26 @@ struct ReductionParams {
   DepthMeshParams depth_mesh;
   // paper preset
   OutlierMethod outlier_method = OutlierMethod::kKdTree;
-  int outlier_k = 50;              // neighbours for the mean distance (paper: K = 50)
-  double outlier_std_mul = 1.0;    // standard-deviation multiplier (paper: T = 1.0)
-  double voxel_size_m = 0.01;      // voxel edge (paper: 1 cm)
-  double max_edge_m = 0.05;        // d: greedy triangulation's maximum edge length (search radius)
-  double mu = 2.5;                 // greedy triangulation: neighbour distance multiplier
-  int max_neighbours = 100;        // greedy triangulation: nearest neighbours searched
-  int normal_k = 20;               // neighbours for normal estimation
-  double perimeter_factor = 3.0;   // drop triangles with perimeter > factor * d (paper: 3)
-  double simplify_error_m = 0.0;   // beyond the paper: collapse edges while the surface moves less than this (0 = off)
+  int outlier_k = 50;             // neighbours for the mean distance (paper: K = 50)
+  double outlier_std_mul = 1.0;   // standard-deviation multiplier (paper: T = 1.0)
+  double voxel_size_m = 0.01;     // voxel edge (paper: 1 cm)
+  double max_edge_m = 0.05;       // d: greedy triangulation's maximum edge length (search radius)
+  double mu = 2.5;                // greedy triangulation: neighbour distance multiplier
+  int max_neighbours = 100;       // greedy triangulation: nearest neighbours searched
+  int normal_k = 20;              // neighbours for normal estimation
+  double perimeter_factor = 3.0;  // drop triangles with perimeter > factor * d (paper: 3)
+  double simplify_error_m = 0.0;  // beyond the paper: collapse edges while the surface moves less than this (0 = off)
   // both presets
-  int threads = 0;                 // OpenMP threads of the parallel stages (reduction/openmp_threads.h); 0 = OpenMP's
-                                   // default (OMP_NUM_THREADS, else the cores). The service sets cores / reducers.
+  int threads = 0;  // OpenMP threads of the parallel stages (reduction/openmp_threads.h); 0 = OpenMP's
+                    // default (OMP_NUM_THREADS, else the cores). The service sets cores / reducers.
 
   // Returns an error naming the first parameter out of range.
   Status validate() const;
 };
 
 struct StageReport {
-  std::string name;   // valid, outliers, voxel, triangulate, perimeter, simplify (when on), then later stages
-  std::string unit;   // "points" or "triangles" (or what the stage counts: "texels", "bytes")
+  std::string name;  // valid, outliers, voxel, triangulate, perimeter, simplify (when on), then later stages
+  std::string unit;  // "points" or "triangles" (or what the stage counts: "texels", "bytes")
   size_t count = 0;
   double ms = 0.0;
 };

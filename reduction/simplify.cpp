@@ -51,8 +51,8 @@ void simplify_mesh(Mesh& mesh, double max_error_m) {
 // units of `w_unit` (the sensor's inverse-depth sigma times the tolerance), so one unit of quadric error is one pixel
 // across the image or one tolerance in depth. Borders are not locked: a staircase of one-pixel steps along a depth
 // discontinuity or a hole collapses into a few long edges that stay within max_error of it.
-size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, double max_error,
-                            double texture_limit_px, const std::vector<std::uint32_t>* edge_uses) {
+size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, double max_error, double texture_limit_px,
+                            const std::vector<std::uint32_t>* edge_uses) {
   if (mesh.indices.size() < 3 || !(w_unit > 0)) return mesh.triangle_count();
   std::vector<float> uvw(3 * mesh.positions.size());
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
@@ -98,9 +98,9 @@ size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, doub
   const float scale = meshopt_simplifyScale(uvw.data(), mesh.positions.size(), 3 * sizeof(float));
   if (!(scale > 0)) return mesh.triangle_count();
   std::vector<std::uint32_t> out(mesh.indices.size());
-  const size_t n = meshopt_simplify(out.data(), mesh.indices.data(), mesh.indices.size(), uvw.data(),
-                                    mesh.positions.size(), 3 * sizeof(float), /*target_index_count=*/0,
-                                    static_cast<float>(max_error / scale), 0, nullptr);
+  const size_t n =
+      meshopt_simplify(out.data(), mesh.indices.data(), mesh.indices.size(), uvw.data(), mesh.positions.size(),
+                       3 * sizeof(float), /*target_index_count=*/0, static_cast<float>(max_error / scale), 0, nullptr);
   out.resize(n);
   // meshoptimizer rejects collapses that flip a triangle in its own space, where the inverse depth axis makes
   // triangles steep; a few still fold over in the image. Those (no longer counter-clockwise seen from the camera,
@@ -152,4 +152,3 @@ size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, doub
 }
 
 }  // namespace rgbdcast
-

@@ -40,8 +40,7 @@ std::vector<std::uint32_t> filter_by_perimeter(const Cloud& cloud, const std::ve
 void simplify_mesh(Mesh& mesh, double max_error_m);
 // The realtime mesh's edge collapses in (u, v, w / w_unit) space, borders free (simplify.cpp); returns triangles.
 // edge_uses: edge_use_counts(mesh.indices) when the caller has it (counted here otherwise).
-size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, double max_error,
-                            double texture_limit_px, const std::vector<std::uint32_t>* edge_uses = nullptr);
-
+size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, double max_error, double texture_limit_px,
+                            const std::vector<std::uint32_t>* edge_uses = nullptr);
 
 }  // namespace rgbdcast

@@ -25,8 +25,7 @@ Result<RendererSelection> create_renderer(BackendChoice choice, const RendererCo
   auto gl = create_osmesa_renderer();
   if (gl) return RendererSelection{std::move(gl.value()), "auto: no usable Vulkan device (" + vk.error().message + ")"};
   return make_error(ErrorCode::kUnavailable, "no renderer available: " + vk.error().message + "; " +
-                                                 gl.error().message +
-                                                 " (install mesa-vulkan-drivers or libosmesa6)");
+                                                 gl.error().message + " (install mesa-vulkan-drivers or libosmesa6)");
 }
 
 }  // namespace rgbdcast

@@ -33,8 +33,8 @@ Result<Image> to_rgba(const Mesh& mesh, const std::string& what) {
   if (mesh.texture_encoded.size() > static_cast<size_t>(std::numeric_limits<int>::max()))
     return make_error(ErrorCode::kInvalidInput, what + ": encoded texture too large");
   int w = 0, h = 0, n = 0;
-  stbi_uc* px = stbi_load_from_memory(mesh.texture_encoded.data(), static_cast<int>(mesh.texture_encoded.size()), &w,
-                                      &h, &n, 4);
+  stbi_uc* px =
+      stbi_load_from_memory(mesh.texture_encoded.data(), static_cast<int>(mesh.texture_encoded.size()), &w, &h, &n, 4);
   if (!px) return make_error(ErrorCode::kInvalidInput, what + ": cannot decode texture (" + mesh.texture_mime + ")");
   if (w > kMaxTextureSize || h > kMaxTextureSize) {
     stbi_image_free(px);
@@ -77,17 +77,17 @@ Result<PreparedScene> prepare_scene(const Scene& scene) {
     const Mesh& m = node.mesh;
     const size_t nv = m.positions.size();
     if (!m.uvs.empty() && m.uvs.size() != nv)
-      return make_error(ErrorCode::kInvalidInput, what + ": " + std::to_string(m.uvs.size()) + " uvs for " +
-                                                      std::to_string(nv) + " positions");
+      return make_error(ErrorCode::kInvalidInput,
+                        what + ": " + std::to_string(m.uvs.size()) + " uvs for " + std::to_string(nv) + " positions");
     if (!m.colors.empty() && m.colors.size() != nv)
-      return make_error(ErrorCode::kInvalidInput, what + ": " + std::to_string(m.colors.size()) +
-                                                      " colours for " + std::to_string(nv) + " positions");
+      return make_error(ErrorCode::kInvalidInput, what + ": " + std::to_string(m.colors.size()) + " colours for " +
+                                                      std::to_string(nv) + " positions");
     if (m.indices.size() % 3 != 0)
       return make_error(ErrorCode::kInvalidInput, what + ": index count is not a multiple of 3");
     for (std::uint32_t i : m.indices)
       if (i >= nv)
-        return make_error(ErrorCode::kInvalidInput,
-                          what + ": index " + std::to_string(i) + " out of range (" + std::to_string(nv) + " vertices)");
+        return make_error(ErrorCode::kInvalidInput, what + ": index " + std::to_string(i) + " out of range (" +
+                                                        std::to_string(nv) + " vertices)");
     const bool has_texture = !m.uvs.empty() && (!m.texture.empty() || !m.texture_encoded.empty());
     const bool has_colors = !m.colors.empty();
     const bool draws_mesh_vertices = nv > 0 && (!m.indices.empty() || node.points.size() == 0);
@@ -96,8 +96,8 @@ Result<PreparedScene> prepare_scene(const Scene& scene) {
     if (nv > 0) {
       pn.mesh_vertices.reserve(nv);
       for (size_t i = 0; i < nv; ++i)
-        pn.mesh_vertices.push_back(make_vertex(m.positions[i], m.uvs.empty() ? nullptr : &m.uvs[i],
-                                               has_colors ? &m.colors[i] : nullptr));
+        pn.mesh_vertices.push_back(
+            make_vertex(m.positions[i], m.uvs.empty() ? nullptr : &m.uvs[i], has_colors ? &m.colors[i] : nullptr));
       pn.indices = m.indices;
       pn.mesh_colors = has_texture ? ColorSource::kTextureFragment : ColorSource::kVertex;
       // Points of a mesh: captured colours when there are any, else the texture at the vertex uv.
@@ -115,7 +115,8 @@ Result<PreparedScene> prepare_scene(const Scene& scene) {
         return make_error(ErrorCode::kInvalidInput, what + ": " + std::to_string(pc.colors.size()) +
                                                         " point colours for " + std::to_string(pc.size()) + " points");
       pn.point_vertices.reserve(pc.size());
-      for (size_t i = 0; i < pc.size(); ++i) pn.point_vertices.push_back(make_vertex(pc.positions[i], nullptr, &pc.colors[i]));
+      for (size_t i = 0; i < pc.size(); ++i)
+        pn.point_vertices.push_back(make_vertex(pc.positions[i], nullptr, &pc.colors[i]));
       pn.point_colors = ColorSource::kVertex;
     }
     out.triangle_count += pn.indices.size() / 3;

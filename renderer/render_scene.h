@@ -39,12 +39,12 @@ DrawParams make_draw_params(const Eigen::Matrix4d& clip_from_node, float point_s
 struct PreparedNode {
   std::string name;
   Eigen::Matrix4d to_world = Eigen::Matrix4d::Identity();
-  std::vector<GpuVertex> mesh_vertices;   // empty when the node has no triangles
+  std::vector<GpuVertex> mesh_vertices;  // empty when the node has no triangles
   std::vector<std::uint32_t> indices;
   ColorSource mesh_colors = ColorSource::kVertex;
   std::vector<GpuVertex> point_vertices;  // the node's points; or empty: points mode then draws mesh_vertices
   ColorSource point_colors = ColorSource::kVertex;
-  Image texture;                          // RGBA8; empty when no draw of this node samples a texture
+  Image texture;  // RGBA8; empty when no draw of this node samples a texture
 };
 
 struct PreparedScene {

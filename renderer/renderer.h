@@ -1,8 +1,8 @@
 #pragma once
 // The one rendering interface, header-only (the INTERFACE target rgbdcast_renderer_api). Backends
 // (renderer/vulkan/, renderer/osmesa/) implement it; create_renderer() (renderer/create_renderer.h, in the library
-// rgbdcast_renderer) is the single place that chooses one. A Renderer is used by one thread at a time; scenes stay resident on the device
-// between renders (upload once, render many views).
+// rgbdcast_renderer) is the single place that chooses one. A Renderer is used by one thread at a time; scenes stay
+// resident on the device between renders (upload once, render many views).
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -24,9 +24,12 @@ inline const char* to_string(RenderMode mode) { return mode == RenderMode::kMesh
 
 inline const char* to_string(BackendChoice choice) {
   switch (choice) {
-    case BackendChoice::kAuto: return "auto";
-    case BackendChoice::kVulkan: return "vulkan";
-    case BackendChoice::kOsmesa: return "osmesa";
+    case BackendChoice::kAuto:
+      return "auto";
+    case BackendChoice::kVulkan:
+      return "vulkan";
+    case BackendChoice::kOsmesa:
+      return "osmesa";
   }
   return "auto";
 }
@@ -41,9 +44,9 @@ inline Result<BackendChoice> parse_backend_choice(const std::string& name) {
 
 struct RenderOptions {
   RenderMode mode = RenderMode::kMesh;
-  float point_size_px = 1.0f;                 // splat edge length in pixels, points mode
+  float point_size_px = 1.0f;  // splat edge length in pixels, points mode
   std::array<std::uint8_t, 3> background{0, 0, 0};
-  bool want_depth = false;                    // read back depth too (for evaluation)
+  bool want_depth = false;  // read back depth too (for evaluation)
 };
 
 struct RenderTimings {

@@ -30,8 +30,8 @@ Result<ViewCamera> ViewCamera::look_at(const Eigen::Vector3d& eye, const Eigen::
   if (!eye.allFinite() || !target.allFinite() || !up.allFinite() || !std::isfinite(vertical_fov_deg))
     return make_error(ErrorCode::kInvalidArgument, "camera parameters must be finite numbers");
   if (width < 1 || height < 1 || width > kMaxImageSize || height > kMaxImageSize)
-    return make_error(ErrorCode::kInvalidArgument, "image size must be between 1 and " +
-                                                       std::to_string(kMaxImageSize) + " pixels per side");
+    return make_error(ErrorCode::kInvalidArgument,
+                      "image size must be between 1 and " + std::to_string(kMaxImageSize) + " pixels per side");
   if (!(vertical_fov_deg > 0.5 && vertical_fov_deg <= kMaxVerticalFovDeg))
     return make_error(ErrorCode::kInvalidArgument, "field of view must be above 0.5 and at most 179 degrees");
   const Eigen::Vector3d forward = target - eye;

@@ -12,10 +12,10 @@
 namespace rgbdcast {
 
 struct CaptureCamera {
-  Intrinsics intrinsics;                                      // pinhole, after undistortion
+  Intrinsics intrinsics;  // pinhole, after undistortion
   Eigen::Matrix4d camera_to_world = Eigen::Matrix4d::Identity();
-  double timestamp = 0.0;                                     // seconds, as in the source (0 if unknown)
-  std::string source;                                         // e.g. "rgb/1305031102.175304.png"
+  double timestamp = 0.0;  // seconds, as in the source (0 if unknown)
+  std::string source;      // e.g. "rgb/1305031102.175304.png"
   int frame_index = -1;
 };
 

@@ -12,7 +12,7 @@ struct Intrinsics {
   double fx = 525.0, fy = 525.0, cx = 319.5, cy = 239.5;
   int width = 640, height = 480;
   std::array<double, 5> distortion{};  // k1 k2 p1 p2 k3 (OpenCV order); all zero = ideal pinhole
-  double depth_scale = 5000.0;          // raw depth units per metre (TUM: 5000, millimetre sensors: 1000)
+  double depth_scale = 5000.0;         // raw depth units per metre (TUM: 5000, millimetre sensors: 1000)
   std::string name = "kinect";
 
   bool has_distortion() const {

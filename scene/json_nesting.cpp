@@ -18,7 +18,9 @@ Status check_json_nesting(std::string_view text, size_t max_bytes, int max_depth
       continue;
     }
     switch (c) {
-      case '"': in_string = true; break;
+      case '"':
+        in_string = true;
+        break;
       case '[':
       case '{':
         if (++depth > max_depth)
@@ -29,7 +31,8 @@ Status check_json_nesting(std::string_view text, size_t max_bytes, int max_depth
       case '}':
         if (depth > 0) --depth;  // unbalanced text is the parser's to reject
         break;
-      default: break;
+      default:
+        break;
     }
   }
   return ok_status();

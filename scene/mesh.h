@@ -15,10 +15,10 @@ using Rgb8 = std::array<std::uint8_t, 3>;
 
 struct Mesh {
   std::vector<Eigen::Vector3f> positions;
-  std::vector<Eigen::Vector2f> uvs;      // one per position, texture space with (0,0) the top-left corner; or empty
-  std::vector<Rgb8> colors;              // one per position; or empty
-  std::vector<std::uint32_t> indices;    // three per triangle, counter-clockwise seen from the capture camera
-  Image texture;                         // RGB8 base colour; empty when the mesh is vertex-coloured
+  std::vector<Eigen::Vector2f> uvs;    // one per position, texture space with (0,0) the top-left corner; or empty
+  std::vector<Rgb8> colors;            // one per position; or empty
+  std::vector<std::uint32_t> indices;  // three per triangle, counter-clockwise seen from the capture camera
+  Image texture;                       // RGB8 base colour; empty when the mesh is vertex-coloured
   std::vector<std::uint8_t> texture_encoded;  // the texture as stored (JPEG/PNG bytes), when it came from a file
   std::string texture_mime;                   // "image/jpeg" or "image/png" for texture_encoded
 

@@ -8,9 +8,8 @@ size_t render_bytes(const Mesh& mesh) {
   size_t bytes = mesh.positions.size() * 24 + mesh.indices.size() * 4;
   if (!mesh.texture.empty()) {
     bytes += static_cast<size_t>(mesh.texture.width) * mesh.texture.height * 4;
-  } else if (int w = 0, h = 0;
-             !mesh.texture_encoded.empty() &&
-             probe_image_size(mesh.texture_encoded.data(), mesh.texture_encoded.size(), &w, &h)) {
+  } else if (int w = 0, h = 0; !mesh.texture_encoded.empty() &&
+                               probe_image_size(mesh.texture_encoded.data(), mesh.texture_encoded.size(), &w, &h)) {
     bytes += static_cast<size_t>(w) * static_cast<size_t>(h) * 4;
   }
   return bytes;

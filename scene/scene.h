@@ -12,9 +12,9 @@ namespace rgbdcast {
 
 struct SceneNode {
   std::string name;
-  Mesh mesh;                                              // may be empty
-  PointCloud points;                                      // may be empty
-  Eigen::Matrix4d to_world = Eigen::Matrix4d::Identity(); // node frame -> world frame
+  Mesh mesh;                                               // may be empty
+  PointCloud points;                                       // may be empty
+  Eigen::Matrix4d to_world = Eigen::Matrix4d::Identity();  // node frame -> world frame
 };
 
 struct Scene {

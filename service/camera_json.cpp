@@ -49,8 +49,7 @@ Result<Eigen::Matrix4d> pose_value(const nlohmann::json& j) {
 }  // namespace
 
 Result<ViewCamera> parse_camera_json(std::string_view text, int max_size) {
-  if (text.size() > kMaxCameraJsonBytes)
-    return bad("JSON over " + std::to_string(kMaxCameraJsonBytes) + " bytes");
+  if (text.size() > kMaxCameraJsonBytes) return bad("JSON over " + std::to_string(kMaxCameraJsonBytes) + " bytes");
   const nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (j.is_discarded()) return bad("not valid JSON");
   if (!j.is_object()) return bad("must be a JSON object {fx, fy, cx, cy, width, height, pose}");
@@ -87,8 +86,9 @@ Result<ViewCamera> parse_camera_json(std::string_view text, int max_size) {
 std::string camera_json(const ViewCamera& c) {
   nlohmann::json pose = nlohmann::json::array();
   for (int r = 0; r < 4; ++r)
-    pose.push_back({c.camera_to_world(r, 0), c.camera_to_world(r, 1), c.camera_to_world(r, 2), c.camera_to_world(r, 3)});
-  return nlohmann::json{{"fx", c.fx},       {"fy", c.fy},         {"cx", c.cx},    {"cy", c.cy},
+    pose.push_back(
+        {c.camera_to_world(r, 0), c.camera_to_world(r, 1), c.camera_to_world(r, 2), c.camera_to_world(r, 3)});
+  return nlohmann::json{{"fx", c.fx},       {"fy", c.fy},         {"cx", c.cx},  {"cy", c.cy},
                         {"width", c.width}, {"height", c.height}, {"pose", pose}}
       .dump();
 }

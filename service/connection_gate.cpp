@@ -75,7 +75,7 @@ void ip_and_port(const sockaddr_storage& a, std::string& ip, int& port) {
 
 struct Connection {
   int fd = -1;
-  std::string pending;   // bytes received and not yet consumed by a request
+  std::string pending;  // bytes received and not yet consumed by a request
   Clock::time_point deadline;
   int served = 0;
   bool lingering = false;  // answered and half-closed: what the client still sends is read and dropped

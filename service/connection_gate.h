@@ -21,13 +21,13 @@
 namespace rgbdcast::service {
 
 struct GateOptions {
-  int workers = 32;                    // threads that process requests
-  double header_timeout_s = 5.0;       // accept (or the end of the previous request) to the end of the header block
-  double idle_timeout_s = 5.0;         // keep-alive connection without a new request
-  size_t max_header_bytes = 16384;     // request line and headers
+  int workers = 32;                 // threads that process requests
+  double header_timeout_s = 5.0;    // accept (or the end of the previous request) to the end of the header block
+  double idle_timeout_s = 5.0;      // keep-alive connection without a new request
+  size_t max_header_bytes = 16384;  // request line and headers
   int max_connections = 512;
   int max_requests_per_connection = 100;
-  double io_timeout_s = 10.0;          // one read or write while a worker serves the request
+  double io_timeout_s = 10.0;  // one read or write while a worker serves the request
   double body_grace_s = 3.0;
   double body_min_bytes_per_s = 4096.0;
   std::string response_header;  // "Name: value" added to the gate's own answers (408, 431, 503), or empty

@@ -1,6 +1,6 @@
 // The server-side reduction of an uploaded RGB-D frame (the multipart route of POST /v1/scenes): decode and validate
-// the images, read the intrinsics, reduce and texture (pipeline/frame_scene.h, as `rgbdcast reduce`), encode the GLB. The
-// result is what `rgbdcast reduce` writes for the same frame, and is then checked like any uploaded GLB.
+// the images, read the intrinsics, reduce and texture (pipeline/frame_scene.h, as `rgbdcast reduce`), encode the GLB.
+// The result is what `rgbdcast reduce` writes for the same frame, and is then checked like any uploaded GLB.
 #include "base/stopwatch.h"
 #include "gltf/gltf_io.h"
 #include "pipeline/frame_defaults.h"
@@ -21,8 +21,8 @@ nlohmann::json stage_json(const StageReport& s) { return {{"name", s.name}, {s.u
 Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   std::vector<StageReport> stages;
   auto t = Clock::now();
-  auto frame = decode_frame_parts(upload.color, upload.depth, upload.intrinsics_json, upload.max_width,
-                                  upload.max_height);
+  auto frame =
+      decode_frame_parts(upload.color, upload.depth, upload.intrinsics_json, upload.max_width, upload.max_height);
   if (!frame) return frame.error();
   stages.push_back({"decode", "pixels", static_cast<size_t>(frame->color_rgb.total()), ms_since(t)});
 
@@ -43,11 +43,11 @@ Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
   const Intrinsics k = textured->camera.intrinsics;
   nlohmann::json stage_list = nlohmann::json::array();
   for (const auto& s : stages) stage_list.push_back(stage_json(s));
-  const nlohmann::json capture = {{"source", "upload"},
-                                  {"intrinsics",
-                                   {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy},
-                                    {"width", k.width}, {"height", k.height}}},
-                                  {"stages", stage_list}};
+  const nlohmann::json capture = {
+      {"source", "upload"},
+      {"intrinsics",
+       {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"width", k.width}, {"height", k.height}}},
+      {"stages", stage_list}};
   t = Clock::now();
   auto glb = encode_keyframe_glb(std::move(*textured), capture, options.glb);
   if (!glb) return glb.error();
@@ -55,8 +55,8 @@ Result<IngestedScene> ingest_frame(const FrameUpload& upload) {
 
   // The stored GLB goes through the same check as an uploaded one.
   auto checked = ingest_glb(std::move(*glb));
-  if (!checked) return make_error(ErrorCode::kInternal, "the server's own GLB does not decode: " +
-                                                            checked.error().message);
+  if (!checked)
+    return make_error(ErrorCode::kInternal, "the server's own GLB does not decode: " + checked.error().message);
   stages.push_back({"export", "bytes", checked->glb.size(), export_ms});
   checked->stats["source"] = "frame";
   checked->stats["stages"] = nlohmann::json::array();

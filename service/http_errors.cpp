@@ -6,37 +6,62 @@ namespace rgbdcast::service {
 
 int http_status_for(ErrorCode code) {
   switch (code) {
-    case ErrorCode::kNotFound: return 404;
-    case ErrorCode::kInvalidArgument: return 400;
-    case ErrorCode::kInvalidInput: return 422;
-    case ErrorCode::kEmpty: return 422;
-    case ErrorCode::kUnavailable: return 503;
-    case ErrorCode::kIo: return 500;
-    case ErrorCode::kInternal: return 500;
+    case ErrorCode::kNotFound:
+      return 404;
+    case ErrorCode::kInvalidArgument:
+      return 400;
+    case ErrorCode::kInvalidInput:
+      return 422;
+    case ErrorCode::kEmpty:
+      return 422;
+    case ErrorCode::kUnavailable:
+      return 503;
+    case ErrorCode::kIo:
+      return 500;
+    case ErrorCode::kInternal:
+      return 500;
   }
   return 500;
 }
 
 const char* error_name_for(int status) {
   switch (status) {
-    case 400: return "bad_request";
-    case 401: return "unauthorized";
-    case 403: return "forbidden";
-    case 404: return "not_found";
-    case 405: return "method_not_allowed";
-    case 408: return "request_timeout";
-    case 409: return "conflict";
-    case 411: return "length_required";
-    case 413: return "payload_too_large";
-    case 414: return "uri_too_long";
-    case 415: return "unsupported_media_type";
-    case 416: return "range_not_satisfiable";
-    case 422: return "unprocessable_entity";
-    case 431: return "request_header_fields_too_large";
-    case 501: return "not_implemented";
-    case 500: return "internal_error";
-    case 503: return "unavailable";
-    default: return status >= 500 ? "server_error" : "client_error";
+    case 400:
+      return "bad_request";
+    case 401:
+      return "unauthorized";
+    case 403:
+      return "forbidden";
+    case 404:
+      return "not_found";
+    case 405:
+      return "method_not_allowed";
+    case 408:
+      return "request_timeout";
+    case 409:
+      return "conflict";
+    case 411:
+      return "length_required";
+    case 413:
+      return "payload_too_large";
+    case 414:
+      return "uri_too_long";
+    case 415:
+      return "unsupported_media_type";
+    case 416:
+      return "range_not_satisfiable";
+    case 422:
+      return "unprocessable_entity";
+    case 431:
+      return "request_header_fields_too_large";
+    case 501:
+      return "not_implemented";
+    case 500:
+      return "internal_error";
+    case 503:
+      return "unavailable";
+    default:
+      return status >= 500 ? "server_error" : "client_error";
   }
 }
 
@@ -45,9 +70,7 @@ std::string error_body(int status, const std::string& detail) {
   nlohmann::ordered_json body;  // "error" first, for people reading it
   body["error"] = error_name_for(status);
   body["detail"] = detail;
-  return body.dump(
-             -1, ' ', false, nlohmann::json::error_handler_t::replace) +
-         "\n";
+  return body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 }  // namespace rgbdcast::service
@@ -80,6 +103,4 @@ std::string redact_paths(const std::string& text) {
 
 }  // namespace rgbdcast::service
 
-namespace rgbdcast::service {
-
-}  // namespace rgbdcast::service
+namespace rgbdcast::service {}  // namespace rgbdcast::service

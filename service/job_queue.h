@@ -23,7 +23,7 @@ class JobQueue {
   JobQueue& operator=(const JobQueue&) = delete;
 
   bool try_submit(std::function<void()> job);
-  size_t waiting() const;   // jobs queued, not yet started
+  size_t waiting() const;  // jobs queued, not yet started
   size_t running() const;
   size_t rejected() const;  // since start
 

@@ -20,10 +20,14 @@ std::string number(double v) {
 std::string escape_label(const std::string& value) {
   std::string out;
   for (char c : value) {
-    if (c == '\\') out += "\\\\";
-    else if (c == '"') out += "\\\"";
-    else if (c == '\n') out += "\\n";
-    else out += c;
+    if (c == '\\')
+      out += "\\\\";
+    else if (c == '"')
+      out += "\\\"";
+    else if (c == '\n')
+      out += "\\n";
+    else
+      out += c;
   }
   return out;
 }
@@ -79,8 +83,9 @@ std::string Metrics::prometheus_text(const MetricsGauges& g) const {
   out += "# TYPE rgbdcast_http_request_duration_seconds histogram\n";
   for (const auto& [route, h] : latency_)
     h.write(out, "rgbdcast_http_request_duration_seconds", "route=\"" + escape_label(route) + "\"");
-  out += "# HELP rgbdcast_render_duration_seconds Renderer time per view (submission to idle, without readback), by "
-         "mode and backend.\n";
+  out +=
+      "# HELP rgbdcast_render_duration_seconds Renderer time per view (submission to idle, without readback), by "
+      "mode and backend.\n";
   out += "# TYPE rgbdcast_render_duration_seconds histogram\n";
   for (const auto& [key, h] : render_)
     h.write(out, "rgbdcast_render_duration_seconds",
@@ -92,8 +97,9 @@ std::string Metrics::prometheus_text(const MetricsGauges& g) const {
   out += "# TYPE rgbdcast_tiles_built_total counter\n";
   out += "rgbdcast_tiles_built_total{kind=\"leaf\"} " + std::to_string(g.leaves_built) + "\n";
   out += "rgbdcast_tiles_built_total{kind=\"inner\"} " + std::to_string(g.inner_built) + "\n";
-  out += "# HELP rgbdcast_tile_hierarchies_loaded_total Mission tile hierarchies opened as committed (from the disk or "
-         "the database), not built.\n";
+  out +=
+      "# HELP rgbdcast_tile_hierarchies_loaded_total Mission tile hierarchies opened as committed (from the disk or "
+      "the database), not built.\n";
   out += "# TYPE rgbdcast_tile_hierarchies_loaded_total counter\n";
   out += "rgbdcast_tile_hierarchies_loaded_total " + std::to_string(g.hierarchies_loaded) + "\n";
   auto gauge = [&out](const char* name, const char* help, const std::string& value) {
@@ -105,9 +111,10 @@ std::string Metrics::prometheus_text(const MetricsGauges& g) const {
   gauge("rgbdcast_missions_stored", "Live missions in the store.", std::to_string(g.missions_stored));
   gauge("rgbdcast_event_streams_open", "Mission event streams open (each holds an HTTP thread).",
         std::to_string(g.event_streams_open));
-  gauge("rgbdcast_resident_part_bytes",
-        "Estimated device bytes of the mission tiles and keyframes resident on the renderers (capped by --resident-mb).",
-        std::to_string(g.resident_part_bytes));
+  gauge(
+      "rgbdcast_resident_part_bytes",
+      "Estimated device bytes of the mission tiles and keyframes resident on the renderers (capped by --resident-mb).",
+      std::to_string(g.resident_part_bytes));
   gauge("rgbdcast_resident_parts", "Mission tiles and keyframes resident on the renderers.",
         std::to_string(g.resident_parts));
   return out;

@@ -18,7 +18,8 @@ Status cut_tile(const json& tile, double max_error_m, std::vector<std::string>* 
   const bool has_content = tile.contains("content") && tile["content"].contains("uri");
   if (has_content && (tile["geometricError"].get<double>() <= max_error_m || !has_children)) {
     const std::string uri = tile["content"]["uri"].get<std::string>();
-    if (uri.rfind("tiles/", 0) != 0) return make_error(ErrorCode::kInvalidInput, "tileset: a content uri outside tiles/");
+    if (uri.rfind("tiles/", 0) != 0)
+      return make_error(ErrorCode::kInvalidInput, "tileset: a content uri outside tiles/");
     files->push_back(uri.substr(6));
     return ok_status();
   }
@@ -38,7 +39,8 @@ std::string error_text(double max_error_m) {
 
 Result<std::vector<std::string>> tileset_cut(const std::string& tileset_json, double max_error_m) {
   const json tileset = json::parse(tileset_json, nullptr, false);
-  if (tileset.is_discarded() || !tileset.contains("root")) return make_error(ErrorCode::kInvalidInput, "tileset: no root");
+  if (tileset.is_discarded() || !tileset.contains("root"))
+    return make_error(ErrorCode::kInvalidInput, "tileset: no root");
   std::vector<std::string> files;
   if (auto st = cut_tile(tileset["root"], max_error_m, &files); !st) return st.error();
   return files;
@@ -71,8 +73,10 @@ void send_tile_model(const httplib::Request& req, httplib::Response& res, const 
     snapshot = tiles.snapshot(mission);
     if (!snapshot || snapshot->tiles == 0) {
       res.set_header("Retry-After", "1");
-      return send_error(res, 409, "mission " + mission + " has no tileset yet (it is built in the background after "
-                                  "each keyframe; the event stream reports 'tileset' when it is)");
+      return send_error(res, 409,
+                        "mission " + mission +
+                            " has no tileset yet (it is built in the background after "
+                            "each keyframe; the event stream reports 'tileset' when it is)");
     }
     auto cut = tileset_cut(snapshot->tileset_json, max_error_m);
     if (!cut) return send_error(res, cut.error());
@@ -85,8 +89,10 @@ void send_tile_model(const httplib::Request& req, httplib::Response& res, const 
       paths.push_back(*path);
     }
     if (paths.size() == files.size()) opened = glb::GlbFileMerge::open(paths);
-    if (opened) merge = std::move(*opened);
-    else if (opened.error().code != ErrorCode::kNotFound) return send_error(res, opened.error());
+    if (opened)
+      merge = std::move(*opened);
+    else if (opened.error().code != ErrorCode::kNotFound)
+      return send_error(res, opened.error());
   }
   if (!merge) {
     res.set_header("Retry-After", "1");
@@ -97,17 +103,17 @@ void send_tile_model(const httplib::Request& req, httplib::Response& res, const 
   res.set_header("X-Tileset-Version", std::to_string(snapshot->version));
   res.set_header("X-Tiles", std::to_string(files.size()));
   res.set_header("X-Max-Error", max_error);
-  if (answer_not_modified(req, res, "\"" + mission + "-v" + std::to_string(snapshot->version) + "-e" + max_error + "\""))
+  if (answer_not_modified(req, res,
+                          "\"" + mission + "-v" + std::to_string(snapshot->version) + "-e" + max_error + "\""))
     return;
   res.status = 200;
   res.set_header("Content-Disposition", "attachment; filename=\"" + mission + "-e" + max_error + ".glb\"");
   const size_t size = merge->size();
-  res.set_content_provider(size, "model/gltf-binary",
-                           [merge](size_t offset, size_t length, httplib::DataSink& sink) {
-                             std::vector<char> buffer(std::min<size_t>(length, 256u << 10));
-                             if (!merge->read(offset, buffer.data(), buffer.size())) return false;
-                             return sink.write(buffer.data(), buffer.size());
-                           });
+  res.set_content_provider(size, "model/gltf-binary", [merge](size_t offset, size_t length, httplib::DataSink& sink) {
+    std::vector<char> buffer(std::min<size_t>(length, 256u << 10));
+    if (!merge->read(offset, buffer.data(), buffer.size())) return false;
+    return sink.write(buffer.data(), buffer.size());
+  });
 }
 
 }  // namespace rgbdcast::service

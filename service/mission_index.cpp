@@ -53,9 +53,8 @@ void MissionIndex::load(const std::string& name, std::map<std::int64_t, MissionK
     if (k.first_available <= 0) k.first_available = k.available;
     order.push_back(&k);
   }
-  std::stable_sort(order.begin(), order.end(), [](const MissionKeyframe* a, const MissionKeyframe* b) {
-    return a->available < b->available;
-  });
+  std::stable_sort(order.begin(), order.end(),
+                   [](const MissionKeyframe* a, const MissionKeyframe* b) { return a->available < b->available; });
   for (const auto* k : order) {
     m.arrival.push_back(*k);
     m.arrived.emplace(k->seq, k->rev);
@@ -132,15 +131,13 @@ EventBatch MissionIndex::wait_events(const std::string& name, EventCursor& curso
   auto ready = [&] {
     auto m = missions_.find(name);
     if (m == missions_.end() || m->second.generation != cursor.generation) return true;
-    return m->second.arrival.size() > cursor.next || m->second.tileset_version != cursor.tileset_version ||
-           stopped_;
+    return m->second.arrival.size() > cursor.next || m->second.tileset_version != cursor.tileset_version || stopped_;
   };
   changed_.wait_for(lock, timeout, ready);
   auto m = missions_.find(name);
   if (m == missions_.end() || m->second.generation != cursor.generation) return batch;
   batch.exists = true;
-  for (; cursor.next < m->second.arrival.size(); ++cursor.next)
-    batch.events.push_back(m->second.arrival[cursor.next]);
+  for (; cursor.next < m->second.arrival.size(); ++cursor.next) batch.events.push_back(m->second.arrival[cursor.next]);
   if (m->second.tileset_version != cursor.tileset_version) {
     cursor.tileset_version = m->second.tileset_version;
     batch.tileset_version = cursor.tileset_version;

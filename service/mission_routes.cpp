@@ -96,8 +96,8 @@ bool is_tile_file_name(const std::string& f) {
 
 std::string mission_scene_key(const std::string& name) { return "mission/" + name; }
 
-MissionRoutes::MissionRoutes(MissionRouteOptions options, MissionStore& missions, MissionTiles& tiles,
-                             RenderPool& pool, Slots& uploads, RenderView render_view)
+MissionRoutes::MissionRoutes(MissionRouteOptions options, MissionStore& missions, MissionTiles& tiles, RenderPool& pool,
+                             Slots& uploads, RenderView render_view)
     : options_(options),
       missions_(missions),
       tiles_(tiles),
@@ -116,16 +116,16 @@ void MissionRoutes::stop() {
 void MissionRoutes::install(httplib::Server& server, const Guard& guard, const GuardReader& guard_reader) {
   using Req = const httplib::Request&;
   using Res = httplib::Response&;
-  server.Get("/v1/missions", guard([this](Req, Res res) {
-    nlohmann::json list = nlohmann::json::array();
-    for (const auto& m : missions_.list())
-      list.push_back({{"name", m.name}, {"keyframes", m.keyframes}, {"bytes", m.bytes}, {"updated", m.updated}});
-    send_json(res, 200, {{"count", list.size()}, {"missions", list}});
-  }));
+  server.Get(
+      "/v1/missions", guard([this](Req, Res res) {
+        nlohmann::json list = nlohmann::json::array();
+        for (const auto& m : missions_.list())
+          list.push_back({{"name", m.name}, {"keyframes", m.keyframes}, {"bytes", m.bytes}, {"updated", m.updated}});
+        send_json(res, 200, {{"count", list.size()}, {"missions", list}});
+      }));
   server.Post(R"(/v1/missions/([^/]+)/keyframes)",
-              guard_reader([this](Req req, Res res, const httplib::ContentReader& reader) {
-                post_keyframe(req, res, reader);
-              }));
+              guard_reader(
+                  [this](Req req, Res res, const httplib::ContentReader& reader) { post_keyframe(req, res, reader); }));
   server.Get(R"(/v1/missions/([^/]+))", guard([this](Req req, Res res) { get_mission(req, res); }));
   server.Delete(R"(/v1/missions/([^/]+))", guard([this](Req req, Res res) { delete_mission(req, res); }));
   server.Get(R"(/v1/missions/([^/]+)/model\.glb)", guard([this](Req req, Res res) { get_model(req, res); }));
@@ -150,8 +150,7 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   static const std::set<std::string> kKnown = {"seq", "rev", "pose", "captured"};
   std::map<std::string, std::string> q;
   for (const auto& [k, v] : req.params) {
-    if (!kKnown.count(k))
-      return refuse(400, "unknown parameter '" + k.substr(0, 40) + "' (seq, rev, pose, captured)");
+    if (!kKnown.count(k)) return refuse(400, "unknown parameter '" + k.substr(0, 40) + "' (seq, rev, pose, captured)");
     if (!q.emplace(k, v).second) return refuse(400, k + ": given more than once");
   }
   if (!q.count("seq")) return refuse(400, "seq: missing (the keyframe's sequence number, 0..2^31-1)");
@@ -202,8 +201,8 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   auto put = missions_.put(k, glb);
   if (!put) return send_error(res, put.error());
   if (put->outcome == PutOutcome::kConflict) {
-    nlohmann::json body = nlohmann::json::parse(error_body(409, "keyframe " + std::to_string(*seq) + " of mission " +
-                                                                    *name + " is stored with another body or pose"));
+    nlohmann::json body = nlohmann::json::parse(error_body(
+        409, "keyframe " + std::to_string(*seq) + " of mission " + *name + " is stored with another body or pose"));
     body["error"] = "conflict";
     body["stored"] = put->keyframe.answer();
     return send_json(res, 409, body);
@@ -391,9 +390,10 @@ void MissionRoutes::get_view(const httplib::Request& req, httplib::Response& res
   res.set_header("X-Pending-Keyframes", std::to_string(plan->pending));
   res.set_header("X-Stale-Tiles", std::to_string(plan->stale_tiles));
   if (plan->pending_left_out > 0) res.set_header("X-Pending-Left-Out", std::to_string(plan->pending_left_out));
-  render_view_(req, *request, [this, plan, request = *request] {
-    return pool_.render_parts(std::move(plan->parts), plan->camera, request);
-  }, res);
+  render_view_(
+      req, *request,
+      [this, plan, request = *request] { return pool_.render_parts(std::move(plan->parts), plan->camera, request); },
+      res);
 }
 
 void MissionRoutes::get_events(const httplib::Request& req, httplib::Response& res) {
@@ -412,8 +412,9 @@ void MissionRoutes::get_events(const httplib::Request& req, httplib::Response& r
   if (!cursor) return send_error(res, 404, "no mission " + *name);
   if (!streams_.try_acquire()) {
     res.set_header("Retry-After", "5");
-    return send_error(res, 503, "too many event streams open (" + std::to_string(options_.max_event_streams) +
-                                    ", --max-event-streams); retry later");
+    return send_error(res, 503,
+                      "too many event streams open (" + std::to_string(options_.max_event_streams) +
+                          ", --max-event-streams); retry later");
   }
   struct Stream {
     std::string name;
@@ -425,9 +426,8 @@ void MissionRoutes::get_events(const httplib::Request& req, httplib::Response& r
   auto stream = std::make_shared<Stream>();
   stream->name = *name;
   stream->cursor = *cursor;
-  stream->ends = std::chrono::steady_clock::now() +
-                 std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                     std::chrono::duration<double>(options_.event_stream_max_s));
+  stream->ends = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                        std::chrono::duration<double>(options_.event_stream_max_s));
   res.set_header("Cache-Control", "no-store");
   res.set_header("X-Accel-Buffering", "no");  // a proxy in front (nginx) must not buffer the stream
   // The stream's slot goes back when the stream decides to end, before its last chunk is sent: a client that sees
@@ -452,8 +452,8 @@ void MissionRoutes::get_events(const httplib::Request& req, httplib::Response& r
         const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(stream->ends - now);
         const auto keep_alive = std::chrono::milliseconds(static_cast<long long>(options_.keep_alive_s * 1000));
         // Backlog first (no wait), then wait for the next keyframe.
-        EventBatch batch = missions_.wait_events(stream->name, stream->cursor,
-                                                 out.empty() ? std::min(left, keep_alive) : std::chrono::milliseconds(0));
+        EventBatch batch = missions_.wait_events(
+            stream->name, stream->cursor, out.empty() ? std::min(left, keep_alive) : std::chrono::milliseconds(0));
         if (!batch.exists) {
           if (!out.empty()) sink.write(out.data(), out.size());
           release();
@@ -487,8 +487,7 @@ void MissionRoutes::get_tileset(const httplib::Request& req, httplib::Response& 
   if (!missions_.keyframes(*name)) return send_error(res, 404, "no mission " + *name);
   auto snapshot = tiles_.snapshot(*name);
   // Before the first update commits, an empty tileset of version 0: a client polls or waits for the "tileset" event.
-  const std::string body = snapshot ? snapshot->tileset_json
-                                    : tiles::make_tileset({}, 1, 0, "tiles/").dump();
+  const std::string body = snapshot ? snapshot->tileset_json : tiles::make_tileset({}, 1, 0, "tiles/").dump();
   const std::string etag = "\"tileset-" + std::to_string(snapshot ? snapshot->version : 0) + "\"";
   res.set_header("Cache-Control", "no-cache");
   if (answer_not_modified(req, res, etag)) return;
@@ -501,7 +500,8 @@ void MissionRoutes::get_tile(const httplib::Request& req, httplib::Response& res
   if (!name) return;
   const std::string file = req.matches.size() > 2 ? req.matches[2].str() : std::string();
   if (!is_tile_file_name(file))
-    return send_error(res, 400, "malformed tile name (expected <level>_<x>_<z>.v<version>.glb, as tileset.json names it)");
+    return send_error(res, 400,
+                      "malformed tile name (expected <level>_<x>_<z>.v<version>.glb, as tileset.json names it)");
   if (!req.params.empty()) return send_error(res, 400, "a tile takes no parameters");
   auto snapshot = tiles_.snapshot(*name);
   if (!snapshot || !snapshot->files.count(file))

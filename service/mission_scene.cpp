@@ -76,8 +76,9 @@ nlohmann::json mission_camera_json(const CaptureCamera& camera) {
 
 Result<ViewCamera> mission_view_camera(const MissionKeyframe& keyframe, int width, int height) {
   auto native = parse_camera_json(keyframe.camera.dump(), kMaxImageSize);
-  if (!native) return make_error(ErrorCode::kInternal, "stored camera of keyframe " + std::to_string(keyframe.seq) +
-                                                           ": " + native.error().message);
+  if (!native)
+    return make_error(ErrorCode::kInternal,
+                      "stored camera of keyframe " + std::to_string(keyframe.seq) + ": " + native.error().message);
   CaptureCamera cam;
   cam.intrinsics.fx = native->fx;
   cam.intrinsics.fy = native->fy;

@@ -118,15 +118,27 @@ bool is_valid_mission_name(std::string_view name) {
 }
 
 nlohmann::json MissionKeyframe::answer() const {
-  return {{"mission", mission},   {"seq", seq},           {"rev", rev},
-          {"bytes", bytes},       {"triangles", triangles}, {"captured", captured},
-          {"received", received}, {"available", available}, {"first_available", first_available}};
+  return {{"mission", mission},
+          {"seq", seq},
+          {"rev", rev},
+          {"bytes", bytes},
+          {"triangles", triangles},
+          {"captured", captured},
+          {"received", received},
+          {"available", available},
+          {"first_available", first_available}};
 }
 
 nlohmann::json MissionKeyframe::entry() const {
-  return {{"seq", seq},           {"rev", rev},           {"pose", pose},
-          {"bytes", bytes},       {"triangles", triangles}, {"captured", captured},
-          {"received", received}, {"available", available}, {"first_available", first_available}};
+  return {{"seq", seq},
+          {"rev", rev},
+          {"pose", pose},
+          {"bytes", bytes},
+          {"triangles", triangles},
+          {"captured", captured},
+          {"received", received},
+          {"available", available},
+          {"first_available", first_available}};
 }
 
 std::string MissionKeyframe::event_id() const {

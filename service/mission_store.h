@@ -75,8 +75,8 @@ struct EventCursor {
 };
 
 struct EventBatch {
-  bool exists = false;                   // false: no such mission (or deleted since the cursor was made)
-  std::vector<MissionKeyframe> events;   // available keyframes from the cursor on, in arrival order
+  bool exists = false;                           // false: no such mission (or deleted since the cursor was made)
+  std::vector<MissionKeyframe> events;           // available keyframes from the cursor on, in arrival order
   std::optional<std::uint64_t> tileset_version;  // set when the tileset changed since the cursor's
 };
 

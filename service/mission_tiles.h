@@ -47,7 +47,7 @@ struct MissionTilesStats {
   std::uint64_t updates = 0, failures = 0, leaves_built = 0, inner_built = 0, bytes_written = 0;
   std::uint64_t opened_committed = 0;  // hierarchies opened with a committed version (loaded, not built)
   std::uint64_t superseded = 0;        // commits refused because another replica committed first
-  double update_seconds = 0.0;  // summed over updates
+  double update_seconds = 0.0;         // summed over updates
   std::string last_error;
 };
 
@@ -106,8 +106,8 @@ class MissionTiles {
   std::deque<std::string> order_;  // the same, first come first served (a mission that steps again goes last)
   std::map<std::string, std::chrono::steady_clock::time_point> delayed_;  // the sweeper's: stale tiles due then
   std::chrono::steady_clock::time_point epoch_;  // the hierarchies' clock (TileHierarchy's now_s) starts here
-  std::string busy_;      // the mission the leaf worker is updating, or empty
-  std::string sweeping_;  // the mission the sweeper is building a tile of, or empty
+  std::string busy_;                             // the mission the leaf worker is updating, or empty
+  std::string sweeping_;                         // the mission the sweeper is building a tile of, or empty
   bool stopping_ = false;
   std::atomic<bool> stop_update_{false};  // set by stop(), read by the update under way
   std::map<std::string, std::unique_ptr<Entry>> hierarchies_;

@@ -48,10 +48,11 @@ MissionViewPlan plan_mission_view(const MissionStore& store, const MissionTiles&
     plan.tileset_version = snapshot->version;
     // The far plane first: tiles beyond the default far plane would be culled by the selection.
     for (const auto& [key, r] : snapshot->records)
-      if (key.level == snapshot->top_level) plan.camera.far_m = std::max(plan.camera.far_m, farthest_corner(r.box, camera));
-    const tiles::TileSelection selection = tiles::select_tiles_to_fit(
-        snapshot->records, snapshot->top_level, plan.camera, max_error_px, fit_bytes, kMaxMaxErrorPx,
-        &plan.max_error_px);
+      if (key.level == snapshot->top_level)
+        plan.camera.far_m = std::max(plan.camera.far_m, farthest_corner(r.box, camera));
+    const tiles::TileSelection selection =
+        tiles::select_tiles_to_fit(snapshot->records, snapshot->top_level, plan.camera, max_error_px, fit_bytes,
+                                   kMaxMaxErrorPx, &plan.max_error_px);
     for (const tiles::TileRecord* r : selection.tiles) {
       const std::string file = r->file();
       // A tile file stays on disk for one more version after it is replaced (tiles/tile_hierarchy.h); a view that

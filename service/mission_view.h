@@ -42,7 +42,6 @@ struct MissionViewPlan {
 // `keyframes` is the mission's current listing (MissionStore::keyframes), `camera` the view's.
 MissionViewPlan plan_mission_view(const MissionStore& store, const MissionTiles& tiles, const std::string& name,
                                   const std::vector<MissionKeyframe>& keyframes, const ViewCamera& camera,
-                                  double max_error_px, size_t fit_bytes = 0,
-                                  size_t max_pending = kMaxPendingKeyframes);
+                                  double max_error_px, size_t fit_bytes = 0, size_t max_pending = kMaxPendingKeyframes);
 
 }  // namespace rgbdcast::service

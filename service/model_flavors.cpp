@@ -34,8 +34,8 @@ Result<FlavoredModel> make_flavor(const StoredScene& scene, ModelFlavor flavor, 
     return FlavoredModel{std::make_shared<const std::vector<std::uint8_t>>(std::move(*stored)), scene.etag, true};
   auto out = convert_glb(stored->data(), stored->size(), flavor_write_options(flavor));
   if (!out)
-    return make_error(ErrorCode::kInternal, "stored scene " + scene.id + " does not convert to " +
-                                                to_string(flavor) + ": " + out.error().message);
+    return make_error(ErrorCode::kInternal, "stored scene " + scene.id + " does not convert to " + to_string(flavor) +
+                                                ": " + out.error().message);
   *converted = true;
   std::string etag = etag_of(out->data(), out->size());
   return FlavoredModel{std::make_shared<const std::vector<std::uint8_t>>(std::move(*out)), std::move(etag)};
@@ -45,9 +45,12 @@ Result<FlavoredModel> make_flavor(const StoredScene& scene, ModelFlavor flavor, 
 
 const char* to_string(ModelFlavor flavor) {
   switch (flavor) {
-    case ModelFlavor::kCompat: return "compat";
-    case ModelFlavor::kDraco: return "draco";
-    default: return "compact";
+    case ModelFlavor::kCompat:
+      return "compat";
+    case ModelFlavor::kDraco:
+      return "draco";
+    default:
+      return "compact";
   }
 }
 
@@ -56,9 +59,10 @@ Result<ModelFlavor> parse_model_flavor(std::string_view name) {
   if (name == "compat") return ModelFlavor::kCompat;
   if (name == "draco") return ModelFlavor::kDraco;
   return make_error(ErrorCode::kInvalidArgument,
-                    "unknown GLB flavor '" + std::string(name) + "' (compact: meshopt + quantized, for three.js, "
-                    "Babylon.js, Foxglove; draco: KHR_draco_mesh_compression, for three.js with DRACOLoader; "
-                    "compat: plain floats, for Blender, Assimp and every viewer)");
+                    "unknown GLB flavor '" + std::string(name) +
+                        "' (compact: meshopt + quantized, for three.js, "
+                        "Babylon.js, Foxglove; draco: KHR_draco_mesh_compression, for three.js with DRACOLoader; "
+                        "compat: plain floats, for Blender, Assimp and every viewer)");
 }
 
 GlbWriteOptions flavor_write_options(ModelFlavor flavor) {

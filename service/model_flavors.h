@@ -8,8 +8,8 @@
 // - compat: converted once per scene (convert_glb) and cached in memory, keyed by scene id and the stored file's
 //   ETag, so a replaced scene is never served stale. Concurrent first requests convert once: the others wait.
 // - Each flavour has its own strong ETag (of its bytes); If-None-Match gives 304. X-Flavor-Cache says "miss" on the
-//   request that converted, "hit" when it came from the cache, "stored" for the stored file itself. An unknown flavour is 400 with a
-//   JSON body naming the flavours; a stored file that no longer converts is 500.
+//   request that converted, "hit" when it came from the cache, "stored" for the stored file itself. An unknown flavour
+//   is 400 with a JSON body naming the flavours; a stored file that no longer converts is 500.
 // The cache holds at most max_cached_bytes of converted files (oldest evicted first). Thread-safe.
 #include <cstdint>
 #include <future>
@@ -52,7 +52,7 @@ void send_model(const httplib::Request& req, httplib::Response& res,
 
 struct FlavoredModel {
   std::shared_ptr<const std::vector<std::uint8_t>> bytes;
-  std::string etag;  // quoted strong ETag of bytes
+  std::string etag;          // quoted strong ETag of bytes
   bool stored_file = false;  // the stored file itself (compact asked of a compact scene), not a conversion
 };
 

@@ -11,9 +11,7 @@
 #include "scene/render_bytes.h"
 
 namespace rgbdcast::service {
-namespace {
-
-}  // namespace
+namespace {}  // namespace
 
 struct RenderPool::Worker {
   struct Resident {
@@ -24,19 +22,19 @@ struct RenderPool::Worker {
   };
   std::thread thread;
   std::unique_ptr<Renderer> renderer;
-  std::list<Resident> resident;       // most recently used first
+  std::list<Resident> resident;  // most recently used first
   struct Part {
     std::string key;
     ResidentSceneId device_id;
     size_t bytes;
   };
-  std::list<Part> parts;               // most recently used first
+  std::list<Part> parts;  // most recently used first
   std::unordered_map<std::string, std::list<Part>::iterator> part_index;
   std::atomic<size_t> part_bytes{0}, part_count{0};  // written by the worker, read by stats
-  std::vector<std::string> forgotten;  // guarded by the pool's mutex
-  std::vector<std::shared_ptr<Append>> appends;  // guarded by the pool's mutex
-  bool rendered_large = false;         // since the renderer was made
-  bool heap_dirty = false;             // rendered since the last malloc_trim
+  std::vector<std::string> forgotten;                // guarded by the pool's mutex
+  std::vector<std::shared_ptr<Append>> appends;      // guarded by the pool's mutex
+  bool rendered_large = false;                       // since the renderer was made
+  bool heap_dirty = false;                           // rendered since the last malloc_trim
 };
 
 RenderPool::RenderPool(const RenderPoolOptions& options, SceneLoader loader)
@@ -101,8 +99,8 @@ Result<RenderOutput> RenderPool::submit(std::unique_ptr<Job> job) {
     // Admitted when a worker is idle or the queue has room: waiting + rendering < workers + capacity.
     if (queue_.size() + busy_ >= workers_.size() + static_cast<size_t>(options_.queue_capacity)) {
       ++rejected_;
-      return make_error(ErrorCode::kUnavailable, "render queue full (" + std::to_string(queue_.size()) +
-                                                     " views waiting); retry later");
+      return make_error(ErrorCode::kUnavailable,
+                        "render queue full (" + std::to_string(queue_.size()) + " views waiting); retry later");
     }
     queue_.push_back(std::move(job));
   }
@@ -140,8 +138,10 @@ void RenderPool::apply_append(Worker* w, Append& task) {
   Scene fresh;  // the part without the nodes this resident scene already has
   bool all_fresh = true;
   for (const SceneNode& node : task.part->nodes) {
-    if (it->node_names.count(node.name)) all_fresh = false;
-    else fresh.nodes.push_back(node);
+    if (it->node_names.count(node.name))
+      all_fresh = false;
+    else
+      fresh.nodes.push_back(node);
   }
   if (fresh.nodes.empty()) return;
   Status st = make_error(ErrorCode::kInternal, "append threw");
@@ -227,8 +227,7 @@ void RenderPool::release_when_idle(Worker* w, const RendererFactory& factory) {
     Result<std::unique_ptr<Renderer>> fresh = make_error(ErrorCode::kInternal, "renderer factory threw");
     try {
       fresh = factory();
-    } catch (const std::exception&) {
-    }
+    } catch (const std::exception&) {}
     if (fresh) {  // else the old renderer stays: a view is better served with extra memory than not at all
       release_all(w);
       w->renderer = std::move(*fresh);
@@ -265,9 +264,8 @@ void RenderPool::run(Worker* w, RendererFactory factory, std::promise<Status> st
     {
       std::unique_lock lock(mutex_);
       const auto idle = std::chrono::duration<double>(options_.idle_release_s);
-      if (!cv_.wait_for(lock, idle, [&] {
-            return stopping_ || !queue_.empty() || !w->appends.empty() || !w->forgotten.empty();
-          })) {
+      if (!cv_.wait_for(lock, idle,
+                        [&] { return stopping_ || !queue_.empty() || !w->appends.empty() || !w->forgotten.empty(); })) {
         lock.unlock();
         release_when_idle(w, factory);
         continue;
@@ -349,8 +347,7 @@ Result<RenderOutput> RenderPool::render_scene_job(Worker* w, Job& job, RenderOut
   auto rendered = w->renderer->render(r.device_id, *camera, options);
   if (!rendered) return rendered.error();
   w->heap_dirty = true;
-  if (static_cast<long long>(job.request.width) * job.request.height > options_.large_view_px)
-    w->rendered_large = true;
+  if (static_cast<long long>(job.request.width) * job.request.height > options_.large_view_px) w->rendered_large = true;
   out.color = std::move(rendered->color);
   out.render_ms = rendered->timings.render_ms;
   out.readback_ms = rendered->timings.readback_ms;

@@ -2,8 +2,8 @@
 // A fixed set of renderers, each owned by one worker thread (a Renderer is used by one thread at a time, and an
 // OSMesa context belongs to the thread that made it), fed by one bounded queue. Contract:
 // - render() blocks until the view is rendered, or fails at once with kUnavailable "render queue full" when every
-//   worker is busy and `queue_capacity` jobs are already waiting (the HTTP layer answers 503 with Retry-After): load sheds instead of
-//   piling up.
+//   worker is busy and `queue_capacity` jobs are already waiting (the HTTP layer answers 503 with Retry-After): load
+//   sheds instead of piling up.
 // - Each worker keeps up to `resident_scenes` scenes uploaded (least recently used goes first); forget() drops a
 //   deleted scene from every worker at once (a busy worker after its current job).
 // - Scenes are loaded through the SceneLoader (decoded GLB) on a cache miss; a loader error is returned as is.
@@ -55,12 +55,12 @@ struct ViewPart {
 };
 
 struct RenderOutput {
-  Image color;               // RGBA8
-  double render_ms = 0.0;    // renderer: submission to idle
+  Image color;             // RGBA8
+  double render_ms = 0.0;  // renderer: submission to idle
   double readback_ms = 0.0;
-  double upload_ms = 0.0;    // > 0 only when this request uploaded the scene
-  double load_ms = 0.0;      // GLB decode on a cache miss
-  double queue_ms = 0.0;     // waiting for a worker
+  double upload_ms = 0.0;  // > 0 only when this request uploaded the scene
+  double load_ms = 0.0;    // GLB decode on a cache miss
+  double queue_ms = 0.0;   // waiting for a worker
   std::string backend;
   // render_parts(): parts drawn, loaded by this view (misses), and left out because they no longer load (kNotFound:
   // a tile file retired meanwhile).
@@ -82,8 +82,7 @@ class RenderPool {
   Result<RenderOutput> render(const std::string& scene_id, const ViewRequest& request);
   // The parts drawn together from `camera` (request gives the mode, point size and image format). Queued and shed
   // like render().
-  Result<RenderOutput> render_parts(std::vector<ViewPart> parts, const ViewCamera& camera,
-                                    const ViewRequest& request);
+  Result<RenderOutput> render_parts(std::vector<ViewPart> parts, const ViewCamera& camera, const ViewRequest& request);
   void forget(const std::string& scene_id);
   // Adds `part`'s nodes and cameras to `scene_id` on every worker that has it resident, and returns once every worker
   // has done so (a worker busy with a view finishes that view first; nothing waits in the render queue). Nodes whose
@@ -96,7 +95,7 @@ class RenderPool {
   const std::string& device() const { return device_; }
   size_t queue_depth() const;
   size_t rejected() const;
-  size_t renderer_resets() const;  // renderers replaced after idle (see idle_release_s)
+  size_t renderer_resets() const;      // renderers replaced after idle (see idle_release_s)
   size_t resident_part_bytes() const;  // over all workers, as the cap counts them
   size_t part_cap_bytes() const;       // one worker's share of the cap: the most one view keeps resident
   size_t resident_parts() const;

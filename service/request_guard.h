@@ -25,7 +25,7 @@ struct RequestHead {
 struct Refusal {
   int status = 400;
   std::string detail;
-  std::string allow;             // 405: the Allow header
+  std::string allow;              // 405: the Allow header
   bool www_authenticate = false;  // 401: send WWW-Authenticate: Bearer
 };
 

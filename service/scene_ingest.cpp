@@ -38,11 +38,11 @@ nlohmann::json scene_stats(const Scene& scene, size_t glb_bytes) {
     std::vector<double> pose;
     for (int r = 0; r < 4; ++r)
       for (int col = 0; col < 4; ++col) pose.push_back(c.camera_to_world(r, col));
-    stats["capture_camera"] = {{"fx", c.intrinsics.fx},         {"fy", c.intrinsics.fy},
-                               {"cx", c.intrinsics.cx},         {"cy", c.intrinsics.cy},
-                               {"width", c.intrinsics.width},   {"height", c.intrinsics.height},
-                               {"camera_to_world", pose},       {"timestamp", c.timestamp},
-                               {"source", c.source},            {"frame_index", c.frame_index}};
+    stats["capture_camera"] = {{"fx", c.intrinsics.fx},       {"fy", c.intrinsics.fy},
+                               {"cx", c.intrinsics.cx},       {"cy", c.intrinsics.cy},
+                               {"width", c.intrinsics.width}, {"height", c.intrinsics.height},
+                               {"camera_to_world", pose},     {"timestamp", c.timestamp},
+                               {"source", c.source},          {"frame_index", c.frame_index}};
   } else {
     stats["capture_camera"] = nullptr;
   }

@@ -40,7 +40,7 @@ struct FrameUpload {
   // min(40 kB, a quarter of its JPEG90+PNG16 payload)). The paper preset takes none.
   double budget_kb = -1;
   int max_width = 1920, max_height = 1080;  // images larger than this are refused from their header, undecoded
-  int threads = 0;                   // OpenMP threads of the reduction (ReductionParams::threads)
+  int threads = 0;                          // OpenMP threads of the reduction (ReductionParams::threads)
 };
 // Checks first, before anything is decoded or reduced: both images are PNG/JPEG no larger than max_width x
 // max_height (kInvalidInput, HTTP 422), the intrinsics parse and have finite positive focal lengths. Error texts

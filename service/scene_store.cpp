@@ -70,7 +70,8 @@ Result<StoredScene> parse_scene_metadata(const std::string& id, const std::strin
   if (meta.is_discarded() || !meta.is_object())
     return make_error(ErrorCode::kInvalidInput, "metadata is not a JSON object");
   try {
-    if (meta.contains("id") && meta["id"] != id) return make_error(ErrorCode::kInvalidInput, "metadata names another id");
+    if (meta.contains("id") && meta["id"] != id)
+      return make_error(ErrorCode::kInvalidInput, "metadata names another id");
     StoredScene s;
     s.id = id;
     s.bytes = meta.value("bytes", std::uint64_t{0});
@@ -196,8 +197,7 @@ StoredScene new_stored_scene(const std::vector<std::uint8_t>& glb, nlohmann::jso
   s.id = new_scene_id();
   s.bytes = glb.size();
   s.etag = etag_of(glb.data(), glb.size());
-  s.created_unix_s =
-      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  s.created_unix_s = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   metadata["id"] = s.id;
   metadata["bytes"] = s.bytes;
   metadata["etag"] = s.etag;
@@ -237,9 +237,8 @@ std::vector<StoredScene> DirectorySceneStore::list() const {
     std::lock_guard lock(mutex_);
     for (const auto& [id, s] : scenes_) out.push_back(s);
   }
-  std::stable_sort(out.begin(), out.end(), [](const StoredScene& a, const StoredScene& b) {
-    return a.created_unix_s < b.created_unix_s;
-  });
+  std::stable_sort(out.begin(), out.end(),
+                   [](const StoredScene& a, const StoredScene& b) { return a.created_unix_s < b.created_unix_s; });
   return out;
 }
 
@@ -248,9 +247,8 @@ void DirectorySceneStore::for_each(const std::function<void(const StoredScene&)>
   std::vector<const StoredScene*> order;
   order.reserve(scenes_.size());
   for (const auto& [id, s] : scenes_) order.push_back(&s);
-  std::stable_sort(order.begin(), order.end(), [](const StoredScene* a, const StoredScene* b) {
-    return a->created_unix_s < b->created_unix_s;
-  });
+  std::stable_sort(order.begin(), order.end(),
+                   [](const StoredScene* a, const StoredScene* b) { return a->created_unix_s < b->created_unix_s; });
   for (const StoredScene* s : order) f(*s);
 }
 

@@ -25,8 +25,8 @@ std::string new_scene_id();
 // of heap, and every stored scene holds one for the server's lifetime. The listing's fields are copied out once.
 struct StoredScene {
   std::string id;
-  std::uint64_t bytes = 0;       // size of the GLB
-  std::string etag;              // quoted strong ETag of the GLB bytes
+  std::uint64_t bytes = 0;  // size of the GLB
+  std::string etag;         // quoted strong ETag of the GLB bytes
   double created_unix_s = 0.0;
   // The listing's fields of the metadata, when present with these types (a hand-edited file may lack them).
   std::optional<std::uint64_t> points, triangles, vertices;

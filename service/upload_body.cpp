@@ -11,8 +11,9 @@ namespace rgbdcast::service {
 namespace {
 
 BodyRefusal over_limit(size_t limit) {
-  return {413, "request body over the limit of " + std::to_string(limit) + " bytes (--max-body-mib), counted after "
-               "decoding"};
+  return {413, "request body over the limit of " + std::to_string(limit) +
+                   " bytes (--max-body-mib), counted after "
+                   "decoding"};
 }
 
 Status check_image_size(const std::vector<unsigned char>& bytes, const char* part, int max_width, int max_height) {
@@ -61,13 +62,16 @@ std::optional<BodyRefusal> read_frame_parts(const httplib::ContentReader& reader
   if (!read) {
     if (budget.over) return over_limit(limit);
     if (duplicate) return BodyRefusal{400, "multipart upload with a repeated part or more than 8 parts"};
-    return BodyRefusal{400, "request body could not be read (cut short, bad chunked framing, bad compressed data or "
-                            "malformed multipart)"};
+    return BodyRefusal{400,
+                       "request body could not be read (cut short, bad chunked framing, bad compressed data or "
+                       "malformed multipart)"};
   }
   for (const char* name : {"color", "depth", "intrinsics"})
     if (!parts.count(name))
-      return BodyRefusal{400, std::string("multipart upload lacks the part '") + name +
-                                  "' (parts: color, depth, intrinsics; optional: preset, budget_kb)", false};
+      return BodyRefusal{400,
+                         std::string("multipart upload lacks the part '") + name +
+                             "' (parts: color, depth, intrinsics; optional: preset, budget_kb)",
+                         false};
   for (auto [name, field] : {std::pair{"preset", &out->preset}, std::pair{"budget_kb", &out->budget_kb}})
     if (parts.count(name)) *field = parts[name].substr(0, 40);
   out->color.assign(parts["color"].begin(), parts["color"].end());

@@ -36,9 +36,11 @@ Result<int> parse_int_in_range(const std::string& name, const std::string& text,
   long long v = 0;
   const char* end = text.data() + text.size();
   auto [p, ec] = std::from_chars(text.data(), end, v);
-  if (ec == std::errc::result_out_of_range) return bad(name, "out of range " + std::to_string(lo) + ".." + std::to_string(hi));
+  if (ec == std::errc::result_out_of_range)
+    return bad(name, "out of range " + std::to_string(lo) + ".." + std::to_string(hi));
   if (ec != std::errc() || p != end) return bad(name, single_quoted_for_error(text) + " is not an integer");
-  if (v < lo || v > hi) return bad(name, std::to_string(v) + " is outside " + std::to_string(lo) + ".." + std::to_string(hi));
+  if (v < lo || v > hi)
+    return bad(name, std::to_string(v) + " is outside " + std::to_string(lo) + ".." + std::to_string(hi));
   return static_cast<int>(v);
 }
 
@@ -59,7 +61,7 @@ Result<Eigen::Vector3d> parse_vec3(const std::string& name, const std::string& t
 }
 
 Result<ViewRequest> parse_view_request(const QueryParams& params) {
-  static const std::set<std::string> kKnown = {"pose",   "eye",  "target", "up",      "fov",       "width",
+  static const std::set<std::string> kKnown = {"pose",   "eye",  "target", "up",      "fov",        "width",
                                                "height", "mode", "format", "quality", "point_size", "camera"};
   std::map<std::string, std::string> one;
   for (const auto& [name, value] : params) {
@@ -124,15 +126,21 @@ Result<ViewRequest> parse_view_request(const QueryParams& params) {
   }
   if (has("mode")) {
     const std::string& m = one["mode"];
-    if (m == "mesh") r.mode = RenderMode::kMesh;
-    else if (m == "points") r.mode = RenderMode::kPoints;
-    else return bad("mode", single_quoted_for_error(m) + " is neither mesh nor points");
+    if (m == "mesh")
+      r.mode = RenderMode::kMesh;
+    else if (m == "points")
+      r.mode = RenderMode::kPoints;
+    else
+      return bad("mode", single_quoted_for_error(m) + " is neither mesh nor points");
   }
   if (has("format")) {
     const std::string& f = one["format"];
-    if (f == "jpeg" || f == "jpg") r.format = ImageFormat::kJpeg;
-    else if (f == "png") r.format = ImageFormat::kPng;
-    else return bad("format", single_quoted_for_error(f) + " is neither jpeg nor png");
+    if (f == "jpeg" || f == "jpg")
+      r.format = ImageFormat::kJpeg;
+    else if (f == "png")
+      r.format = ImageFormat::kPng;
+    else
+      return bad("format", single_quoted_for_error(f) + " is neither jpeg nor png");
   }
   if (has("quality")) {
     auto q = parse_int_in_range("quality", one["quality"], 1, 100);
@@ -156,8 +164,7 @@ Result<ViewCamera> make_view_camera(const ViewRequest& request, const std::vecto
       return make_error(ErrorCode::kInvalidInput, "the scene's capture camera has no image size");
     return ViewCamera::from_capture(cam, request.width, request.height);
   }
-  return ViewCamera::look_at(request.eye, request.target, request.up, request.fov_deg, request.width,
-                             request.height);
+  return ViewCamera::look_at(request.eye, request.target, request.up, request.fov_deg, request.width, request.height);
 }
 
 }  // namespace rgbdcast::service

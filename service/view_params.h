@@ -21,16 +21,16 @@ const char* to_string(ImageFormat format);
 const char* mime_type(ImageFormat format);
 
 struct ViewRequest {
-  bool capture_pose = true;                 // pose=capture: the first capture camera, intrinsics scaled to the size
+  bool capture_pose = true;  // pose=capture: the first capture camera, intrinsics scaled to the size
   Eigen::Vector3d eye{0, 0, 0}, target{0, 0, 1};
-  Eigen::Vector3d up{0, -1, 0};              // world up in the camera convention (y down)
-  double fov_deg = 49.0;                     // vertical; about a Kinect's
+  Eigen::Vector3d up{0, -1, 0};  // world up in the camera convention (y down)
+  double fov_deg = 49.0;         // vertical; about a Kinect's
   int width = 640, height = 480;
   RenderMode mode = RenderMode::kMesh;
   ImageFormat format = ImageFormat::kJpeg;
-  int quality = 85;                          // JPEG quality 1..100 (ignored for PNG)
-  float point_size_px = 2.0f;                // points mode splat size 1..64
-  bool full_camera = false;                  // camera=JSON (service/camera_json.h): replaces pose and size
+  int quality = 85;            // JPEG quality 1..100 (ignored for PNG)
+  float point_size_px = 2.0f;  // points mode splat size 1..64
+  bool full_camera = false;    // camera=JSON (service/camera_json.h): replaces pose and size
   ViewCamera camera;
 };
 

@@ -81,10 +81,10 @@ int reduce_threads(const ServeOptions& o) {
 
 struct ViewService::Impl {
   ServeOptions options;
-  std::string replica;     // the name sent as X-Rgbdcast-Replica
-  std::string store_kind;  // "directory" or "postgresql"
+  std::string replica;                                                          // the name sent as X-Rgbdcast-Replica
+  std::string store_kind;                                                       // "directory" or "postgresql"
   std::function<void(std::function<void(const std::string&)>)> follow_changes;  // OpenedStores::follow_changes
-  TileStorageFactory tile_storage;                                             // OpenedStores::tile_storage
+  TileStorageFactory tile_storage;                                              // OpenedStores::tile_storage
   std::atomic<bool> draining{false};
   std::unique_ptr<SceneStore> store;
   std::unique_ptr<RenderPool> pool;
@@ -119,8 +119,7 @@ struct ViewService::Impl {
       run_guarded(res, [&] { f(req, res); });
     };
   }
-  using ReaderHandler =
-      std::function<void(const httplib::Request&, httplib::Response&, const httplib::ContentReader&)>;
+  using ReaderHandler = std::function<void(const httplib::Request&, httplib::Response&, const httplib::ContentReader&)>;
   static httplib::Server::HandlerWithContentReader guarded_reader(ReaderHandler f) {
     return [f = std::move(f)](const httplib::Request& req, httplib::Response& res, const httplib::ContentReader& r) {
       run_guarded(res, [&] { f(req, res, r); });
@@ -180,8 +179,10 @@ Result<IngestedScene> ViewService::Impl::reduce_frame_upload(FrameUpload upload,
   });
   if (!queued) {
     *busy = true;
-    send_busy(res, "reduction queue full (" + std::to_string(options.reducers + options.reduce_queue) +
-                       " frames in progress); retry later", 5);
+    send_busy(res,
+              "reduction queue full (" + std::to_string(options.reducers + options.reduce_queue) +
+                  " frames in progress); retry later",
+              5);
     return make_error(ErrorCode::kUnavailable, "busy");
   }
   try {
@@ -206,8 +207,10 @@ void ViewService::Impl::post_scene(const httplib::Request& req, httplib::Respons
   const bool multipart = req.is_multipart_form_data();
   if (type != "model/gltf-binary" && !multipart) {
     GatedServer::close_after_response();
-    return send_error(res, 415, "Content-Type must be model/gltf-binary (a GLB) or multipart/form-data (color, "
-                                "depth, intrinsics); got '" + type.substr(0, 60) + "'");
+    return send_error(res, 415,
+                      "Content-Type must be model/gltf-binary (a GLB) or multipart/form-data (color, "
+                      "depth, intrinsics); got '" +
+                          type.substr(0, 60) + "'");
   }
   std::vector<std::uint8_t> glb;
   FrameParts parts;
@@ -261,7 +264,8 @@ void ViewService::Impl::get_view(const httplib::Request& req, httplib::Response&
   if (req.method == "POST") params.emplace("camera", req.body);  // the camera JSON as the body (camera_json.h)
   auto request = parse_view_request(params);
   if (!request) return send_error(res, request.error());
-  render_and_send(req, *request, [&] { return pool->render(scene->id, *request); }, res);
+  render_and_send(
+      req, *request, [&] { return pool->render(scene->id, *request); }, res);
 }
 
 void ViewService::Impl::render_and_send(const httplib::Request& req, const ViewRequest& view,
@@ -326,8 +330,9 @@ void ViewService::Impl::get_readyz(httplib::Response& res) {
   check("missions", missions->ping());
   check("renderer", pool->backend().empty() ? make_error(ErrorCode::kUnavailable, "no renderer") : ok_status());
   check("draining", draining ? make_error(ErrorCode::kUnavailable, "stopping: no new work") : ok_status());
-  send_json(res, ready ? 200 : 503,
-            {{"status", ready ? "ready" : "not ready"}, {"replica", replica}, {"store", store_kind}, {"checks", checks}});
+  send_json(
+      res, ready ? 200 : 503,
+      {{"status", ready ? "ready" : "not ready"}, {"replica", replica}, {"store", store_kind}, {"checks", checks}});
 }
 
 void ViewService::Impl::routes() {
@@ -361,11 +366,21 @@ void ViewService::Impl::routes() {
     // client retries (rgbdcast stream's sender gives any other 4xx up for good).
     if (res.status == 400 && GatedServer::request_read_failed()) res.status = 408;
     switch (res.status) {
-      case 408: detail = "request body not received in time"; break;
-      case 404: detail = "no route " + req.method.substr(0, 20) + " " + req.path.substr(0, 200); break;
-      case 413: detail = "request body over the limit of " + std::to_string(limit_bytes) + " bytes (--max-body-mib)"; break;
-      case 414: detail = "request line over the limit of 8192 bytes"; break;
-      default: detail = "request rejected by the HTTP layer"; break;
+      case 408:
+        detail = "request body not received in time";
+        break;
+      case 404:
+        detail = "no route " + req.method.substr(0, 20) + " " + req.path.substr(0, 200);
+        break;
+      case 413:
+        detail = "request body over the limit of " + std::to_string(limit_bytes) + " bytes (--max-body-mib)";
+        break;
+      case 414:
+        detail = "request line over the limit of 8192 bytes";
+        break;
+      default:
+        detail = "request rejected by the HTTP layer";
+        break;
     }
     res.set_content(error_body(res.status, detail), "application/json");
   });
@@ -375,8 +390,7 @@ void ViewService::Impl::routes() {
       if (ep) std::rethrow_exception(ep);
     } catch (const std::exception& e) {
       what += std::string(": ") + e.what();
-    } catch (...) {
-    }
+    } catch (...) {}
     send_error(res, 500, redact_paths(what));
   });
   server->set_logger([this](const httplib::Request& req, const httplib::Response& res) {
@@ -394,56 +408,60 @@ void ViewService::Impl::routes() {
   // Liveness: the process answers. Readiness: its stores answer, its renderers are up, and it is not draining; a
   // balancer sends work only to a ready replica.
   server->Get("/livez", guarded([this](Req, Res res) {
-    send_json(res, 200, {{"status", "alive"}, {"replica", replica}});
-  }));
+                send_json(res, 200, {{"status", "alive"}, {"replica", replica}});
+              }));
   server->Get("/readyz", guarded([this](Req, Res res) { get_readyz(res); }));
   server->Get("/healthz", guarded([this](Req, Res res) {
-    send_json(res, 200, {{"status", "ok"}, {"backend", pool->backend()}, {"device", pool->device()},
-                         {"scenes", store->count()}, {"missions", missions->count()},
-                         {"web_modules", web->modules_present()}});
-  }));
+                send_json(res, 200,
+                          {{"status", "ok"},
+                           {"backend", pool->backend()},
+                           {"device", pool->device()},
+                           {"scenes", store->count()},
+                           {"missions", missions->count()},
+                           {"web_modules", web->modules_present()}});
+              }));
   server->Get("/metrics", guarded([this](Req, Res res) {
-    MetricsGauges g;
-    g.scenes_stored = store->count();
-    g.bytes_stored = store->total_bytes();
-    g.render_queue_depth = pool->queue_depth();
-    g.render_rejected = pool->rejected();
-    g.missions_stored = missions->count();
-    g.event_streams_open = static_cast<size_t>(mission_routes->open_streams());
-    g.resident_part_bytes = pool->resident_part_bytes();
-    g.resident_parts = pool->resident_parts();
-    const MissionTilesStats t = tiles->stats();
-    g.leaves_built = t.leaves_built;
-    g.inner_built = t.inner_built;
-    g.hierarchies_loaded = t.opened_committed;
-    res.set_content(metrics.prometheus_text(g), "text/plain; version=0.0.4; charset=utf-8");
-  }));
+                MetricsGauges g;
+                g.scenes_stored = store->count();
+                g.bytes_stored = store->total_bytes();
+                g.render_queue_depth = pool->queue_depth();
+                g.render_rejected = pool->rejected();
+                g.missions_stored = missions->count();
+                g.event_streams_open = static_cast<size_t>(mission_routes->open_streams());
+                g.resident_part_bytes = pool->resident_part_bytes();
+                g.resident_parts = pool->resident_parts();
+                const MissionTilesStats t = tiles->stats();
+                g.leaves_built = t.leaves_built;
+                g.inner_built = t.inner_built;
+                g.hierarchies_loaded = t.opened_committed;
+                res.set_content(metrics.prometheus_text(g), "text/plain; version=0.0.4; charset=utf-8");
+              }));
   server->Post("/v1/scenes", guarded_reader([this](Req req, Res res, const httplib::ContentReader& reader) {
-    post_scene(req, res, reader);
-  }));
+                 post_scene(req, res, reader);
+               }));
   server->Get("/v1/scenes", guarded([this](Req, Res res) {
-    nlohmann::json body = {{"scenes", nlohmann::json::array()}};
-    nlohmann::json& list = body["scenes"];
-    store->for_each([&list](const StoredScene& s) { list.push_back(scene_summary(s)); });
-    body["count"] = list.size();
-    send_json(res, 200, body);
-  }));
+                nlohmann::json body = {{"scenes", nlohmann::json::array()}};
+                nlohmann::json& list = body["scenes"];
+                store->for_each([&list](const StoredScene& s) { list.push_back(scene_summary(s)); });
+                body["count"] = list.size();
+                send_json(res, 200, body);
+              }));
   server->Get(R"(/v1/scenes/([^/]+))", guarded([this](Req req, Res res) {
-    auto s = scene_or_error(req, res);
-    if (!s) return;
-    nlohmann::json body = s->metadata();
-    body["links"] = scene_summary(*s)["links"];
-    send_json(res, 200, body);
-  }));
+                auto s = scene_or_error(req, res);
+                if (!s) return;
+                nlohmann::json body = s->metadata();
+                body["links"] = scene_summary(*s)["links"];
+                send_json(res, 200, body);
+              }));
   server->Delete(R"(/v1/scenes/([^/]+))", guarded([this](Req req, Res res) {
-    auto s = scene_or_error(req, res);
-    if (!s) return;
-    auto st = store->remove(s->id);
-    if (!st) return send_error(res, st.error());
-    pool->forget(s->id);
-    flavors.forget(s->id);
-    res.status = 204;
-  }));
+                   auto s = scene_or_error(req, res);
+                   if (!s) return;
+                   auto st = store->remove(s->id);
+                   if (!st) return send_error(res, st.error());
+                   pool->forget(s->id);
+                   flavors.forget(s->id);
+                   res.status = 204;
+                 }));
   server->Get(R"(/v1/scenes/([^/]+)/model\.glb)", guarded([this](Req req, Res res) { get_glb(req, res); }));
   server->Get(R"(/v1/scenes/([^/]+)/view)", guarded([this](Req req, Res res) { get_view(req, res); }));
   server->Post(R"(/v1/scenes/([^/]+)/view)", guarded([this](Req req, Res res) { get_view(req, res); }));
@@ -489,7 +507,8 @@ Status check_options(const ServeOptions& o) {
           std::string::npos)
     return bad("replica name must be up to 64 of A-Z a-z 0-9 . _ -");
   if (!is_loopback_address(o.bind) && o.token.empty() && !o.insecure_no_auth)
-    return bad("binding to " + o.bind + " (not loopback) without --token-file would let anyone on the network "
+    return bad("binding to " + o.bind +
+               " (not loopback) without --token-file would let anyone on the network "
                "upload and delete; give --token-file, or --insecure-no-auth to accept that");
   return ok_status();
 }
@@ -529,10 +548,8 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   impl->store_kind = stores->kind;
   impl->follow_changes = std::move(stores->follow_changes);
   impl->tile_storage = std::move(stores->tile_storage);
-  for (const auto& q : impl->store->quarantined())
-    std::fprintf(stderr, "rgbdcast serve: warning: %s\n", q.c_str());
-  for (const auto& q : impl->missions->quarantined())
-    std::fprintf(stderr, "rgbdcast serve: warning: %s\n", q.c_str());
+  for (const auto& q : impl->store->quarantined()) std::fprintf(stderr, "rgbdcast serve: warning: %s\n", q.c_str());
+  for (const auto& q : impl->missions->quarantined()) std::fprintf(stderr, "rgbdcast serve: warning: %s\n", q.c_str());
 
   cap_renderer_threads(options.renderers);
   // The server's malloc profile (base/malloc_settings.h has the reasons); the environment's MALLOC_* win.
@@ -559,8 +576,9 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
         auto bytes = store_ptr->read_glb(id);
         if (!bytes) return bytes.error();
         auto scene = decode_glb(bytes->data(), bytes->size());
-        if (!scene) return make_error(ErrorCode::kInternal, "stored scene " + id + " no longer decodes: " +
-                                                                 scene.error().message);
+        if (!scene)
+          return make_error(ErrorCode::kInternal,
+                            "stored scene " + id + " no longer decodes: " + scene.error().message);
         return std::shared_ptr<const Scene>(std::make_shared<Scene>(std::move(*scene)));
       });
   if (!pool) return pool.error();
@@ -573,15 +591,17 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   mission_options.event_stream_max_s = options.event_stream_max_s;
   mission_options.keep_alive_s = options.keep_alive_s;
   Impl* raw = impl.get();
-  impl->tiles = std::make_unique<MissionTiles>(options.data_dir, *impl->missions, tiles::TilingOptions{},
-                                               impl->tile_storage);
+  impl->tiles =
+      std::make_unique<MissionTiles>(options.data_dir, *impl->missions, tiles::TilingOptions{}, impl->tile_storage);
   impl->tiles->start();
   // Keyframes and removals made through other replicas (a shared store) bring this replica's tiles up to date too.
   MissionTiles* tiles = impl->tiles.get();
   MissionStore* mission_store = impl->missions.get();
   impl->follow_changes([tiles, mission_store](const std::string& name) {
-    if (mission_store->keyframes(name)) tiles->enqueue(name);
-    else tiles->forget(name);
+    if (mission_store->keyframes(name))
+      tiles->enqueue(name);
+    else
+      tiles->forget(name);
   });
   impl->mission_routes = std::make_unique<MissionRoutes>(
       mission_options, *impl->missions, *impl->tiles, *impl->pool, *impl->uploads,
@@ -608,8 +628,8 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
     impl->port = options.port;
   }
   if (!impl->server->widen_backlog()) return make_error(ErrorCode::kIo, "cannot set the listen backlog");
-  impl->guard = make_guard_config(options.bind, impl->port, options.allow_origins, options.token,
-                                  options.max_body_bytes);
+  impl->guard =
+      make_guard_config(options.bind, impl->port, options.allow_origins, options.token, options.max_body_bytes);
   impl->routes();
   return std::unique_ptr<ViewService>(new ViewService(std::move(impl)));
 }

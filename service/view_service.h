@@ -25,33 +25,33 @@ struct ServeOptions {
   // (postgresql://...) for a database shared by replicas (pgstore/), tiles included; data_dir then holds this
   // replica's copy of the tiles it served.
   std::string store;
-  std::string replica;  // this replica's name, sent as X-Rgbdcast-Replica on every response; empty: the host name
+  std::string replica;   // this replica's name, sent as X-Rgbdcast-Replica on every response; empty: the host name
   double drain_s = 0.0;  // on stop(): seconds /readyz answers 503 while requests are still served, then the stop
-  std::string bind = "127.0.0.1";  // loopback unless asked
-  int port = 8080;                 // 0: any free port (the bound port is printed)
-  int threads = 32;                // HTTP worker threads; a connection holds one only while a request is served
-                                   // (service/connection_gate.h). Must exceed renderers + render_queue + max_uploads
-                                   // + max_event_streams so that the queues, not the threads, fill up first.
+  std::string bind = "127.0.0.1";     // loopback unless asked
+  int port = 8080;                    // 0: any free port (the bound port is printed)
+  int threads = 32;                   // HTTP worker threads; a connection holds one only while a request is served
+                                      // (service/connection_gate.h). Must exceed renderers + render_queue + max_uploads
+                                      // + max_event_streams so that the queues, not the threads, fill up first.
   size_t max_body_bytes = 64u << 20;  // bytes received, after any Content-Encoding is inflated
   BackendChoice backend = BackendChoice::kAuto;
-  int renderers = 2;               // renderer instances: two overlap one view's render with another's readback and
-                                   // encoding (bench/load.sh on 2 cores: 64 -> 80 views/s on lavapipe)
-  int render_queue = 16;           // views waiting beyond those rendering; more get 503
-  size_t resident_mb = 512;        // missions' tiles and keyframes resident on the renderers, all together (MiB;
-                                   // least recently used evicted: service/render_pool.h)
-  int reducers = 1;                // frame reductions at once
-  int reduce_threads = 0;          // OpenMP threads per reduction (ReductionParams::threads); 0 = max(1, cores /
-                                   // reducers), so reductions at once never ask for more threads than cores
-  int reduce_queue = 2;            // frame uploads waiting for a reducer; more get 503
-  int max_uploads = 8;             // request bodies being received at once; more get 503
+  int renderers = 2;         // renderer instances: two overlap one view's render with another's readback and
+                             // encoding (bench/load.sh on 2 cores: 64 -> 80 views/s on lavapipe)
+  int render_queue = 16;     // views waiting beyond those rendering; more get 503
+  size_t resident_mb = 512;  // missions' tiles and keyframes resident on the renderers, all together (MiB;
+                             // least recently used evicted: service/render_pool.h)
+  int reducers = 1;          // frame reductions at once
+  int reduce_threads = 0;    // OpenMP threads per reduction (ReductionParams::threads); 0 = max(1, cores /
+                             // reducers), so reductions at once never ask for more threads than cores
+  int reduce_queue = 2;      // frame uploads waiting for a reducer; more get 503
+  int max_uploads = 8;       // request bodies being received at once; more get 503
   int max_frame_width = 1920, max_frame_height = 1080;  // multipart frames, checked from the image headers
   // Access control: a token makes POST and DELETE need "Authorization: Bearer <token>". Binding to a non-loopback
   // address without a token is refused unless insecure_no_auth.
   std::string token;
   bool insecure_no_auth = false;
   std::vector<std::string> allow_origins;  // extra origins (and their hosts) accepted besides the server's own
-  double header_timeout_s = 5.0;   // a new connection has this long to send its request headers
-  double idle_timeout_s = 5.0;     // keep-alive connections close after this long without a request
+  double header_timeout_s = 5.0;           // a new connection has this long to send its request headers
+  double idle_timeout_s = 5.0;             // keep-alive connections close after this long without a request
   int max_connections = 512;
   // Live missions' event streams (service/mission_routes.h): each open stream holds an HTTP thread.
   int max_event_streams = 4;
@@ -69,9 +69,9 @@ class ViewService {
   static Result<std::unique_ptr<ViewService>> create(const ServeOptions& options);
   ~ViewService();
 
-  int port() const;                  // the bound port
-  std::string url() const;           // http://<bind address>:<port>
-  std::string backend() const;       // "vulkan" or "osmesa"
+  int port() const;             // the bound port
+  std::string url() const;      // http://<bind address>:<port>
+  std::string backend() const;  // "vulkan" or "osmesa"
   std::string backend_reason() const;
   std::string device() const;
   std::string web_modules_dir() const;  // the folder the page's modules come from

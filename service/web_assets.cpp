@@ -103,8 +103,7 @@ std::string web_module_media_type(const std::string& path) {
 
 bool WebAssets::modules_present() const {
   std::error_code ec;
-  return !modules_dir_.empty() &&
-         std::filesystem::is_regular_file(modules_dir_ + "/three/build/three.module.js", ec) &&
+  return !modules_dir_.empty() && std::filesystem::is_regular_file(modules_dir_ + "/three/build/three.module.js", ec) &&
          std::filesystem::is_regular_file(modules_dir_ + "/3d-tiles-renderer/build/index.three.js", ec);
 }
 
@@ -112,29 +111,32 @@ void WebAssets::install(httplib::Server& server, const Guard& guard) const {
   using Req = const httplib::Request&;
   using Res = httplib::Response&;
   server.Get(R"(/page/([^/]+))", guard([](Req req, Res res) {
-    const std::string name = req.matches[1].str();
-    auto file = operator_page_file(name);
-    if (!file) return send_error(res, 404, "no page file " + name.substr(0, 100));
-    res.set_header("Cache-Control", "no-cache");
-    res.set_content(*file, ends_with(name, ".js") ? "text/javascript; charset=utf-8" : "text/plain; charset=utf-8");
-  }));
+               const std::string name = req.matches[1].str();
+               auto file = operator_page_file(name);
+               if (!file) return send_error(res, 404, "no page file " + name.substr(0, 100));
+               res.set_header("Cache-Control", "no-cache");
+               res.set_content(*file,
+                               ends_with(name, ".js") ? "text/javascript; charset=utf-8" : "text/plain; charset=utf-8");
+             }));
   server.Get(R"(/web/modules/(.+))", guard([this, dir = modules_dir_](Req req, Res res) {
-    const std::string path = req.matches[1].str();
-    if (!is_plain_path(path)) return send_error(res, 400, "malformed module path");
-    const std::string type = web_module_media_type(path);
-    if (type.empty()) return send_error(res, 404, "not a module the page loads: " + path.substr(0, 100));
-    if (dir.empty()) return send_error(res, 404, "no modules folder (serve --web-modules); the page renders on the server");
-    auto m = module(path);
-    if (!m)
-      return send_error(res, 404, "module " + path.substr(0, 100) +
-                                      " is not installed (npm ci in tools/); the page renders on the server");
-    // The modules change only when tools/package.json's pins do; an hour of caching spares the reloads.
-    res.set_header("Cache-Control", "public, max-age=3600");
-    res.set_header("Vary", "Accept-Encoding");
-    const bool gzipped = !m->gzipped.empty() && accepts_gzip(req);
-    if (gzipped) res.set_header("Content-Encoding", "gzip");
-    send_bytes(res, std::move(m), gzipped, type);
-  }));
+               const std::string path = req.matches[1].str();
+               if (!is_plain_path(path)) return send_error(res, 400, "malformed module path");
+               const std::string type = web_module_media_type(path);
+               if (type.empty()) return send_error(res, 404, "not a module the page loads: " + path.substr(0, 100));
+               if (dir.empty())
+                 return send_error(res, 404, "no modules folder (serve --web-modules); the page renders on the server");
+               auto m = module(path);
+               if (!m)
+                 return send_error(res, 404,
+                                   "module " + path.substr(0, 100) +
+                                       " is not installed (npm ci in tools/); the page renders on the server");
+               // The modules change only when tools/package.json's pins do; an hour of caching spares the reloads.
+               res.set_header("Cache-Control", "public, max-age=3600");
+               res.set_header("Vary", "Accept-Encoding");
+               const bool gzipped = !m->gzipped.empty() && accepts_gzip(req);
+               if (gzipped) res.set_header("Content-Encoding", "gzip");
+               send_bytes(res, std::move(m), gzipped, type);
+             }));
 }
 
 }  // namespace rgbdcast::service

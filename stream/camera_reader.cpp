@@ -6,9 +6,7 @@ namespace rgbdcast::stream {
 
 namespace {
 
-double unix_now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
+double unix_now() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
 
 double thread_cpu_ms() {
   timespec ts{};

@@ -43,9 +43,9 @@ struct CameraReaderOptions {
 
 struct CameraFrame {
   RgbdFrame frame;
-  double captured = 0;                          // Unix s
-  double began_s = 0;                           // on the clock, s: due (realtime) or when its read started
-  double read_cpu_ms = 0;                       // the reader thread's CPU time for it
+  double captured = 0;     // Unix s
+  double began_s = 0;      // on the clock, s: due (realtime) or when its read started
+  double read_cpu_ms = 0;  // the reader thread's CPU time for it
 };
 
 class CameraReader {
@@ -72,7 +72,7 @@ class CameraReader {
   // The slot: the newest frame read and not yet taken (index, and the frame or its read error).
   std::optional<size_t> slot_index_;
   std::optional<Result<CameraFrame>> slot_;
-  size_t next_to_read_ = 0;  // the reader's position: frames below it were read or passed over
+  size_t next_to_read_ = 0;       // the reader's position: frames below it were read or passed over
   std::optional<size_t> wanted_;  // the frame the tracker last asked for
   bool finished_ = false, stopping_ = false;
   size_t dropped_ = 0;

@@ -32,12 +32,12 @@ Eigen::Matrix4d tum_pose(const std::array<double, 7>& p) {
 struct KeyframeJob {
   RgbdFrame frame;
   int frame_index = 0;
-  Eigen::Matrix4d pose;   // camera to world, in the mission's world
+  Eigen::Matrix4d pose;              // camera to world, in the mission's world
   double captured = 0, tracked = 0;  // Unix s, for the records
   // Its capture on the runtime's clock (CameraFrame::began_s), which its age is measured on; none for a resumed one
   // (captured by an earlier run: only its Unix time is known).
   std::optional<double> captured_s;
-  bool resumed = false;   // a deferred keyframe reloaded from the outbox's records
+  bool resumed = false;  // a deferred keyframe reloaded from the outbox's records
 };
 
 DeferredKeyframe deferred_record(const KeyframeJob& job) {
@@ -183,7 +183,7 @@ class StreamRun {
 
   std::mutex planner_mu_;
   RefinementPlanner planner_;
-  std::mutex refine_mu_;  // one refinement at a time
+  std::mutex refine_mu_;             // one refinement at a time
   bool refine_turned_away_ = false;  // (under mu_) refine_one found refine_mu_ held since the last one ended
   std::atomic<bool> tracking_done_for_refiner_{false};  // the drain's refinements are not counted as while tracking
 
@@ -374,7 +374,7 @@ bool StreamRun::hold_back(std::unique_lock<std::mutex>& lock, std::uint64_t seen
   if (!holding_) {
     holding_ = true;
     ++changes_;
-    ++seen;  // its own change does not end its wait; one that came before still does
+    ++seen;                 // its own change does not end its wait; one that came before still does
     jobs_cv_.notify_all();  // a tracker waiting for this reduction goes on (and may supersede it)
   }
   auto held = queues_.hold();
@@ -508,13 +508,13 @@ void StreamRun::coarsen_backlog(int newest, double interval_s) {
 void StreamRun::start_prefetch(const KeyframeJob& job, int seq, double budget_kb) {
   prefetch_.seq = seq;
   prefetch_.budget_kb = budget_kb;
-  prefetch_.thread = std::thread([this, frame = job.frame, pose = job.pose, views = earlier_than(seq),
-                                  nice = std::max(1, options_.reduce_nice)] {
-    renice_this_thread(nice);
-    const double t0 = clock_.now_s();
-    prefetch_.result = encode_keyframe(frame, reduction_for(prefetch_.budget_kb), prefetch_.budget_kb, pose, views);
-    prefetch_.took_s = clock_.now_s() - t0;
-  });
+  prefetch_.thread = std::thread(
+      [this, frame = job.frame, pose = job.pose, views = earlier_than(seq), nice = std::max(1, options_.reduce_nice)] {
+        renice_this_thread(nice);
+        const double t0 = clock_.now_s();
+        prefetch_.result = encode_keyframe(frame, reduction_for(prefetch_.budget_kb), prefetch_.budget_kb, pose, views);
+        prefetch_.took_s = clock_.now_s() - t0;
+      });
 }
 
 void StreamRun::drop_prefetch() {
@@ -669,8 +669,8 @@ bool StreamRun::await_answer(const RefineChoice& c, int only_seq) {
     // The entry's answer, a POST failing (link_down) and the sender's stop wake it; the timeout is only the period
     // at which should_stop_ is polled.
     now = sender_.wait_entry(
-        seq, [&](const auto& e) { return !e || !e->rejected.empty() || e->rev != rev || e->acked; },
-        kStopPollPeriod, s.link_down);
+        seq, [&](const auto& e) { return !e || !e->rejected.empty() || e->rev != rev || e->acked; }, kStopPollPeriod,
+        s.link_down);
   }
 }
 

@@ -26,15 +26,15 @@ struct StreamOptions {
   FrameReductionOptions reduction;  // the realtime preset; budget_kb is set per keyframe
   SequenceParams sequence;
   BudgetRule budget;
-  LatencyRule latency;              // --latency-ms: the budget is also kept to what reaches the view in time
-  std::string link_kbps_file;       // --link-kbps-file: re-read on every frame (and while draining); empty: none
+  LatencyRule latency;         // --latency-ms: the budget is also kept to what reaches the view in time
+  std::string link_kbps_file;  // --link-kbps-file: re-read on every frame (and while draining); empty: none
   double max_backlog_s = 2.0;
   double coarse_factor = 0.25;
-  int reduce_nice = 5;              // --reduce-nice: added to the reduction thread's niceness (0: as the caller)
-  bool supersede = true;            // the backlog rule's first step; --keep-every-keyframe turns it off
-  size_t max_deferred = 16;         // deferred keyframes waiting at most (beyond: the oldest is dropped)
-  double refine_ceiling_kb = 200;   // --refine-kb: a refinement's largest budget (0: no refinements)
-  double refine_window_s = 1.0;     // --refine-window-ms: a refinement's longest time on the line
+  int reduce_nice = 5;             // --reduce-nice: added to the reduction thread's niceness (0: as the caller)
+  bool supersede = true;           // the backlog rule's first step; --keep-every-keyframe turns it off
+  size_t max_deferred = 16;        // deferred keyframes waiting at most (beyond: the oldest is dropped)
+  double refine_ceiling_kb = 200;  // --refine-kb: a refinement's largest budget (0: no refinements)
+  double refine_window_s = 1.0;    // --refine-window-ms: a refinement's longest time on the line
   // --no-refine-while-tracking turns off: refinements between keyframes while tracking, on their own thread at the
   // idle scheduling class (docs/streaming.md).
   bool refine_while_tracking = true;
@@ -47,32 +47,32 @@ struct StreamOptions {
 
 struct StreamProgress {
   size_t frames_done = 0, frames_total = 0;
-  size_t keyframes = 0;          // added to the outbox by this run
-  double budget_kb = 0;          // of the last keyframe
-  double interval_s = 0;         // keyframe interval estimate
-  double overhead_s = 0;         // of the last keyframe: the latency rule's time before its POST (estimated)
-  std::string tracking;          // the last frame's tracking note
-  bool draining = false;         // every frame read; waiting for the sender
+  size_t keyframes = 0;   // added to the outbox by this run
+  double budget_kb = 0;   // of the last keyframe
+  double interval_s = 0;  // keyframe interval estimate
+  double overhead_s = 0;  // of the last keyframe: the latency rule's time before its POST (estimated)
+  std::string tracking;   // the last frame's tracking note
+  bool draining = false;  // every frame read; waiting for the sender
   SenderStats sender;
 };
 
 struct StreamSummary {
   size_t frames = 0, tracked = 0, dropped = 0;  // dropped: stale frames skipped in realtime
-  size_t keyframes = 0;       // new outbox entries of this run
-  size_t covered = 0;         // keyframes with nothing new (not sent)
+  size_t keyframes = 0;                         // new outbox entries of this run
+  size_t covered = 0;                           // keyframes with nothing new (not sent)
   size_t coarsened = 0;
-  size_t superseded = 0;      // tracked keyframes deferred: a newer one went first while the link owed too much
-  size_t deferred_sent = 0;   // of which reduced later (coarsened) and written to the outbox
+  size_t superseded = 0;        // tracked keyframes deferred: a newer one went first while the link owed too much
+  size_t deferred_sent = 0;     // of which reduced later (coarsened) and written to the outbox
   size_t deferred_dropped = 0;  // deferred keyframes dropped (more than max_deferred waited; resumed ones included)
-  size_t refined = 0;         // refinements written to the outbox (revisions)
+  size_t refined = 0;           // refinements written to the outbox (revisions)
   size_t refined_while_tracking = 0;  // of which made between keyframes, before every frame was read
-  size_t refined_ahead = 0;   // of which reduced while their keyframe's POST was out (added once it was answered)
+  size_t refined_ahead = 0;         // of which reduced while their keyframe's POST was out (added once it was answered)
   size_t refined_ahead_redone = 0;  // sized to the cap before any answer, too large for the measured link: made again
   size_t refined_beside_keyframe = 0;  // of the refinements added, reduced beside their keyframe's own reduction
-  size_t refined_not_kept = 0;  // refinements reduced but not added: under kRefinementKeepRatio x the bytes
+  size_t refined_not_kept = 0;         // refinements reduced but not added: under kRefinementKeepRatio x the bytes
   size_t refine_saturated = 0;  // keyframe revisions not refined: they "fit", so a larger budget gives them again
-  size_t cap_changes = 0;     // values taken from --link-kbps-file
-  size_t failed = 0;          // keyframes whose reduction or outbox write failed (message in errors)
+  size_t cap_changes = 0;       // values taken from --link-kbps-file
+  size_t failed = 0;            // keyframes whose reduction or outbox write failed (message in errors)
   bool resumed = false;
   int resumed_at_frame = -1;
   size_t resumed_entries = 0;
@@ -80,7 +80,7 @@ struct StreamSummary {
   size_t resumed_deferred_sent = 0;  // of which reduced (coarsened) and written to the outbox by this run
   size_t deferred_waiting = 0;       // deferred keyframes still waiting in the outbox's records at the end (a stop)
   double seconds = 0;
-  bool stopped = false;       // stop was asked before everything was delivered
+  bool stopped = false;  // stop was asked before everything was delivered
   std::vector<std::string> errors;
   SenderStats sender;
   // Is tracking keeping up: per frame read (not the dropped ones), the wall time from the frame being due (or its

@@ -15,8 +15,10 @@ Status LinkEstimatorParams::validate() const {
     return make_error(ErrorCode::kInvalidArgument, "link estimator: the initial fixed cost must be >= 0");
   if (!finite_positive(initial_kbps) || !finite_positive(floor_kbps))
     return make_error(ErrorCode::kInvalidArgument, "link estimator: initial and floor rates must be > 0");
-  if (!(alpha > 0 && alpha <= 1) || !(alpha_down > 0 && alpha_down <= 1) || !(failure_factor > 0 && failure_factor <= 1))
-    return make_error(ErrorCode::kInvalidArgument, "link estimator: alpha, alpha_down and failure_factor must be in (0, 1]");
+  if (!(alpha > 0 && alpha <= 1) || !(alpha_down > 0 && alpha_down <= 1) ||
+      !(failure_factor > 0 && failure_factor <= 1))
+    return make_error(ErrorCode::kInvalidArgument,
+                      "link estimator: alpha, alpha_down and failure_factor must be in (0, 1]");
   return ok_status();
 }
 
@@ -120,7 +122,8 @@ double SmoothedDuration::value() const { return samples_ == 0 ? initial_s_ : mea
 double latency_budget_kb(double estimate_kbps, double overhead_s, const LatencyRule& latency, const BudgetRule& rule,
                          double fixed_s) {
   if (!(latency.target_s > 0)) return rule.ceiling_kb;
-  const double post_s = std::max(latency.target_s - std::max(overhead_s, 0.0), latency.min_post_share * latency.target_s);
+  const double post_s =
+      std::max(latency.target_s - std::max(overhead_s, 0.0), latency.min_post_share * latency.target_s);
   const double kb = estimate_kbps / 8.0 * (post_s * rule.headroom - std::max(fixed_s, 0.0));
   if (!std::isfinite(kb)) return rule.floor_kb;
   return std::clamp(kb, rule.floor_kb, rule.ceiling_kb);

@@ -5,18 +5,18 @@
 // bytes divided by the seconds from the request's start to the server's answer (so it includes the round trip and the
 // server's own time: it is what the link actually delivers to an operator, not the raw line rate). A new sample has
 // weight `alpha` when it is above the average and `alpha_down` when below (a degrading link is
-// followed faster than a recovering one, as congestion control does). Each failed attempt (timeout, connection error, 5xx) multiplies the estimate by `failure_factor`,
-// so that a dead link quickly asks for small keyframes; the first acknowledged samples after it raise it again. The
-// estimate never falls below floor_kbps and what it reports never exceeds the cap (--link-kbps): the raw average
-// is kept uncapped, so a cap that is raised again takes effect at once.
+// followed faster than a recovering one, as congestion control does). Each failed attempt (timeout, connection error,
+// 5xx) multiplies the estimate by `failure_factor`, so that a dead link quickly asks for small keyframes; the first
+// acknowledged samples after it raise it again. The estimate never falls below floor_kbps and what it reports never
+// exceeds the cap (--link-kbps): the raw average is kept uncapped, so a cap that is raised again takes effect at once.
 //
 // The POST model: besides the goodput, the estimator fits each acknowledged POST's seconds as
 // fixed_s + bytes / line rate (PostCostModel below), so that the budgets can ask what a POST of N bytes will take,
 // instead of diluting the line rate by the round trip and the server's time of small POSTs.
 //
 // Budget per keyframe: the line rate (bytes/s) x (the keyframe interval x headroom - the fixed cost per POST),
-// clamped to [floor_kb, ceiling_kb]: a keyframe should be carried before the next one is due. The interval is an EWMA of the wall time between
-// keyframes (KeyframeInterval). Not thread-safe: the owner (stream/sender.h) guards it.
+// clamped to [floor_kb, ceiling_kb]: a keyframe should be carried before the next one is due. The interval is an EWMA
+// of the wall time between keyframes (KeyframeInterval). Not thread-safe: the owner (stream/sender.h) guards it.
 #include <algorithm>
 #include <cstddef>
 #include <optional>
@@ -40,7 +40,9 @@ class PostCostModel {
  public:
   explicit PostCostModel(double forget = 0.8, double min_spread = 0.15, double max_fixed_s = 2.0,
                          double initial_fixed_s = 0)
-      : forget_(forget), min_spread_(min_spread), max_fixed_s_(max_fixed_s),
+      : forget_(forget),
+        min_spread_(min_spread),
+        max_fixed_s_(max_fixed_s),
         fixed_s_(std::clamp(initial_fixed_s, 0.0, max_fixed_s)) {}
   void on_sample(size_t bytes, double seconds);
   bool empty() const { return w_ == 0; }
@@ -77,7 +79,7 @@ class LinkEstimator {
   void on_failure();
   void set_cap_kbps(double cap_kbps);  // 0 = no cap
   double cap_kbps() const { return params_.cap_kbps; }
-  double estimate_kbps() const;        // goodput of whole POSTs, kbit/s (1000 bit), capped
+  double estimate_kbps() const;  // goodput of whole POSTs, kbit/s (1000 bit), capped
   size_t samples() const { return samples_; }
   // The POST model's line rate (kbit/s, capped, lowered by failures as the goodput is) and fixed cost per POST (s).
   // Until the model is fitted (see PostCostModel) the line rate is the goodput estimate and the fixed cost 0.
@@ -123,9 +125,9 @@ class SmoothedDuration {
 };
 
 struct BudgetRule {
-  double floor_kb = 4;      // smallest budget: below it a realtime keyframe is mostly its header and texture header
-  double ceiling_kb = 40;   // the realtime preset's default budget: more buys little (BENCHMARKS: rate-distortion)
-  double headroom = 0.9;    // leave 10 % for HTTP and TCP overhead
+  double floor_kb = 4;     // smallest budget: below it a realtime keyframe is mostly its header and texture header
+  double ceiling_kb = 40;  // the realtime preset's default budget: more buys little (BENCHMARKS: rate-distortion)
+  double headroom = 0.9;   // leave 10 % for HTTP and TCP overhead
 };
 
 // rate_kbps * 1000 / 8 bytes/s x (interval_s x headroom - fixed_s), in kB, clamped to the rule's [floor_kb,
@@ -145,7 +147,7 @@ double keyframe_budget_kb(double rate_kbps, double interval_s, const BudgetRule&
 // and its fixed cost per POST fixed_s > 0) the POST's time is fixed_s + bytes / rate, so the bytes are
 // rate/8 x (max(...) x headroom - fixed_s): the fixed point the goodput rule converges to, from the first keyframe.
 struct LatencyRule {
-  double target_s = 1.0;        // --latency-ms / 1000; 0: off
+  double target_s = 1.0;  // --latency-ms / 1000; 0: off
   double min_post_share = 0.25;
   // Before the first acknowledged POST the estimate is a guess of the line rate (--initial-kbps or the cap) without
   // the round trip and the server's time in it: the caller adds this much to the overhead until then.

@@ -20,10 +20,18 @@ namespace {
 std::vector<std::uint8_t> text_bytes(const std::string& s) { return {s.begin(), s.end()}; }
 
 json entry_json(const OutboxEntry& e) {
-  json j = {{"seq", e.seq},           {"frame", e.frame_index}, {"timestamp", e.timestamp},
-            {"pose", e.pose},         {"captured", e.captured}, {"budget_kb", e.budget_kb},
-            {"bytes", e.bytes},       {"triangles", e.triangles}, {"coarsened", e.coarsened},
-            {"attempted", e.attempted}, {"acked", e.acked},      {"rejected", e.rejected}};
+  json j = {{"seq", e.seq},
+            {"frame", e.frame_index},
+            {"timestamp", e.timestamp},
+            {"pose", e.pose},
+            {"captured", e.captured},
+            {"budget_kb", e.budget_kb},
+            {"bytes", e.bytes},
+            {"triangles", e.triangles},
+            {"coarsened", e.coarsened},
+            {"attempted", e.attempted},
+            {"acked", e.acked},
+            {"rejected", e.rejected}};
   if (e.rev > 0) {
     j["rev"] = e.rev;
     j["first_bytes"] = e.first_bytes;
@@ -39,7 +47,8 @@ json entry_json(const OutboxEntry& e) {
 
 Result<OutboxEntry> parse_entry(const std::string& text, const std::string& name) {
   json j = json::parse(text, nullptr, false);
-  if (j.is_discarded() || !j.is_object()) return make_error(ErrorCode::kInvalidInput, "outbox entry " + name + " is not JSON");
+  if (j.is_discarded() || !j.is_object())
+    return make_error(ErrorCode::kInvalidInput, "outbox entry " + name + " is not JSON");
   try {
     OutboxEntry e;
     e.seq = j.at("seq").get<int>();
@@ -70,8 +79,11 @@ Result<OutboxEntry> parse_entry(const std::string& text, const std::string& name
 }
 
 json deferred_json(const DeferredKeyframe& k) {
-  return {{"frame", k.frame_index}, {"timestamp", k.timestamp}, {"pose", k.pose},
-          {"captured", k.captured}, {"tracked", k.tracked}};
+  return {{"frame", k.frame_index},
+          {"timestamp", k.timestamp},
+          {"pose", k.pose},
+          {"captured", k.captured},
+          {"tracked", k.tracked}};
 }
 
 Result<DeferredKeyframe> parse_deferred(const std::string& text, const std::string& name) {
@@ -133,8 +145,7 @@ Result<std::unique_ptr<Outbox>> Outbox::open(const std::string& dir, const std::
     if (j["mission"].get<std::string>() != mission)
       return make_error(ErrorCode::kInvalidArgument, "outbox " + dir + " holds mission '" +
                                                          j["mission"].get<std::string>() + "', not '" + mission + "'");
-  } else if (auto st = write_file_atomically(mission_path, text_bytes(json{{"mission", mission}}.dump() + "\n"));
-             !st) {
+  } else if (auto st = write_file_atomically(mission_path, text_bytes(json{{"mission", mission}}.dump() + "\n")); !st) {
     return st.error();
   }
   auto entry_files = read_json_files(dir, "kf-");
@@ -217,7 +228,8 @@ Result<OutboxEntry> Outbox::add(OutboxEntry e, const std::vector<std::uint8_t>& 
   if (auto st = write_file_atomically(path(e.seq, ".glb"), glb); !st) return st.error();
   if (auto st = write_meta(e); !st) return st.error();
   entries_[e.seq] = e;
-  if (deferred_.count(e.frame_index)) (void)remove_deferred_locked(e.frame_index);  // open() removes it, should this fail
+  if (deferred_.count(e.frame_index))
+    (void)remove_deferred_locked(e.frame_index);  // open() removes it, should this fail
   return e;
 }
 
@@ -342,8 +354,7 @@ std::string Outbox::deferred_path(int frame_index) const {
 Status Outbox::defer(const DeferredKeyframe& k) {
   if (k.frame_index < 0) return make_error(ErrorCode::kInvalidArgument, "outbox: a deferred keyframe needs a frame");
   std::lock_guard lock(mu_);
-  if (auto st = write_file_atomically(deferred_path(k.frame_index), text_bytes(deferred_json(k).dump(1) + "\n"));
-      !st)
+  if (auto st = write_file_atomically(deferred_path(k.frame_index), text_bytes(deferred_json(k).dump(1) + "\n")); !st)
     return st;
   deferred_[k.frame_index] = k;
   return ok_status();
@@ -353,8 +364,8 @@ Status Outbox::remove_deferred_locked(int frame_index) {
   std::error_code ec;
   fs::remove(deferred_path(frame_index), ec);
   if (ec)
-    return make_error(ErrorCode::kIo, "outbox: removing deferred keyframe " + std::to_string(frame_index) + ": " +
-                                          ec.message());
+    return make_error(ErrorCode::kIo,
+                      "outbox: removing deferred keyframe " + std::to_string(frame_index) + ": " + ec.message());
   deferred_.erase(frame_index);
   return ok_status();
 }

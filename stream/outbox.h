@@ -43,37 +43,37 @@ namespace rgbdcast::stream {
 
 struct OutboxEntry {
   int seq = -1;
-  int frame_index = -1;           // in the input source
-  double timestamp = 0;           // the frame's own timestamp (s; 0 when the source has none)
-  std::array<double, 7> pose{};   // camera to world, TUM order tx ty tz qx qy qz qw
-  double captured = 0;            // Unix s
+  int frame_index = -1;          // in the input source
+  double timestamp = 0;          // the frame's own timestamp (s; 0 when the source has none)
+  std::array<double, 7> pose{};  // camera to world, TUM order tx ty tz qx qy qz qw
+  double captured = 0;           // Unix s
   // Where the time of a keyframe goes (Unix s; 0 when not known, e.g. an outbox written before they were kept):
-  double tracked = 0;             // the tracker had its pose (its budget was chosen then)
-  double reduced = 0;             // its GLB was ready (written to the outbox)
-  double post_started = 0;        // its first POST started
-  double budget_kb = 0;           // the budget it was reduced to (the coarser one once coarsened)
-  size_t bytes = 0;               // of the GLB on disk
+  double tracked = 0;       // the tracker had its pose (its budget was chosen then)
+  double reduced = 0;       // its GLB was ready (written to the outbox)
+  double post_started = 0;  // its first POST started
+  double budget_kb = 0;     // the budget it was reduced to (the coarser one once coarsened)
+  size_t bytes = 0;         // of the GLB on disk
   size_t triangles = 0;
   bool coarsened = false;
-  int rev = 0;                    // the revision now in the outbox (0: the keyframe as first sent)
-  size_t first_bytes = 0;         // of revision 0 (0 while rev == 0: then it is `bytes`)
-  double first_budget_kb = 0;     // of revision 0 (0 while rev == 0: then it is `budget_kb`)
-  std::string first_ack;          // the server's answer to revision 0 (empty while rev == 0: then it is ack_json)
+  int rev = 0;                 // the revision now in the outbox (0: the keyframe as first sent)
+  size_t first_bytes = 0;      // of revision 0 (0 while rev == 0: then it is `bytes`)
+  double first_budget_kb = 0;  // of revision 0 (0 while rev == 0: then it is `budget_kb`)
+  std::string first_ack;       // the server's answer to revision 0 (empty while rev == 0: then it is ack_json)
   bool attempted = false;
   bool acked = false;
-  std::string rejected;           // non-empty: the server refused it for good (the reason)
-  std::string ack_json;           // the server's answer (acked)
+  std::string rejected;  // non-empty: the server refused it for good (the reason)
+  std::string ack_json;  // the server's answer (acked)
   bool pending() const { return !acked && rejected.empty(); }
 };
 
 // A deferred keyframe's record: what reducing it later needs besides its frame (re-read from the source) and the
 // coverage views (the entries before it).
 struct DeferredKeyframe {
-  int frame_index = -1;           // in the input source
-  double timestamp = 0;           // the frame's own timestamp (s; 0 when the source has none)
-  std::array<double, 7> pose{};   // camera to world in the mission's world, TUM order tx ty tz qx qy qz qw
-  double captured = 0;            // Unix s
-  double tracked = 0;             // Unix s
+  int frame_index = -1;          // in the input source
+  double timestamp = 0;          // the frame's own timestamp (s; 0 when the source has none)
+  std::array<double, 7> pose{};  // camera to world in the mission's world, TUM order tx ty tz qx qy qz qw
+  double captured = 0;           // Unix s
+  double tracked = 0;            // Unix s
 };
 
 class Outbox {
@@ -83,7 +83,7 @@ class Outbox {
   static Result<std::unique_ptr<Outbox>> open(const std::string& dir, const std::string& mission);
 
   const std::string& dir() const { return dir_; }
-  std::vector<OutboxEntry> entries() const;   // by seq
+  std::vector<OutboxEntry> entries() const;  // by seq
   std::optional<OutboxEntry> entry(int seq) const;
   int next_seq() const;
   // Writes a new entry (seq assigned: next_seq()) and returns it.

@@ -6,9 +6,7 @@
 namespace rgbdcast::stream {
 
 namespace {
-double unix_now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
+double unix_now() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
 }  // namespace
 
 Sender::Sender(Outbox& outbox, Uplink& uplink, const SenderParams& params)
@@ -194,8 +192,10 @@ SenderStats Sender::stats() const {
   SenderStats s = stats_;
   s.acked = s.rejected = s.pending = s.pending_bytes = 0;
   for (const OutboxEntry& e : outbox_.entries()) {
-    if (e.acked) ++s.acked;
-    else if (!e.rejected.empty()) ++s.rejected;
+    if (e.acked)
+      ++s.acked;
+    else if (!e.rejected.empty())
+      ++s.rejected;
     else {
       ++s.pending;
       s.pending_bytes += e.bytes;
@@ -248,8 +248,7 @@ std::optional<OutboxEntry> Sender::pick_locked() const {
   for (const auto& [seq, rev] : in_flight_)
     if (rev == 0) ++first_in_flight;
   const bool first_ok = params_.max_first_in_flight == 0 || first_in_flight < params_.max_first_in_flight;
-  const bool refinement_ok =
-      !refinement_writing && (uplinks_.size() < 2 || in_flight_.size() + 1 < uplinks_.size());
+  const bool refinement_ok = !refinement_writing && (uplinks_.size() < 2 || in_flight_.size() + 1 < uplinks_.size());
   auto before = [](const OutboxEntry& a, const OutboxEntry& b) {  // a goes before b
     if ((a.rev == 0) != (b.rev == 0)) return a.rev == 0;
     if (a.captured != b.captured) return a.captured > b.captured;
@@ -395,8 +394,7 @@ void Sender::run(Uplink& uplink) {
       refinement_bytes_total_ = glb->size();
       own_line_end_ = line_free_;
     }
-    PostResult r = uplink.post_keyframe(params_.mission, *entry, *glb, io_timeout_s,
-                                        paced_chunks ? gate : ChunkGate{});
+    PostResult r = uplink.post_keyframe(params_.mission, *entry, *glb, io_timeout_s, paced_chunks ? gate : ChunkGate{});
     end_writing();
     if (r.outcome == PostOutcome::kConflict) resolve_conflict(uplink, *entry, glb->size(), r);
     // The link's sample goes in before the outbox says acknowledged: a thread that sees the answer must see what it
@@ -464,8 +462,8 @@ void Sender::record_post_locked(const OutboxEntry& entry, size_t bytes, double p
       stats_.link_down = true;
       stats_.last_error = r.error;
       const double delay = backoff_.next_delay_s(rng_, r.retry_after_s);
-      retry_not_before_ = std::max(retry_not_before_,
-                                   clock_.now() + std::chrono::microseconds(static_cast<long long>(delay * 1e6)));
+      retry_not_before_ =
+          std::max(retry_not_before_, clock_.now() + std::chrono::microseconds(static_cast<long long>(delay * 1e6)));
       break;
     }
     case PostOutcome::kRejected:

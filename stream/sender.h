@@ -24,8 +24,9 @@
 // lowers the link estimate (stream/link_estimator.h); the same bytes are re-posted, so a POST whose answer was lost
 // is answered 200 by the server's idempotency on (mission, seq, rev). A 409 is resolved by reading the mission back:
 // when it holds this seq at this rev with the same byte count, or at a higher rev (this revision is stale: a newer
-// one is stored), it is acknowledged; otherwise the entry is rejected (counted as lost). Another 4xx rejects the entry. A 401/403 stops the sender (fatal): the token is wrong.
-// Thread-safety: every public method may be called from any thread.
+// one is stored), it is acknowledged; otherwise the entry is rejected (counted as lost). Another 4xx rejects the entry.
+// A 401/403 stops the sender (fatal): the token is wrong. Thread-safety: every public method may be called from any
+// thread.
 #include <condition_variable>
 #include <functional>
 #include <mutex>
@@ -69,18 +70,18 @@ struct PostRecord {
 struct SenderStats {
   size_t acked = 0, rejected = 0, pending = 0;  // outbox entries
   size_t pending_bytes = 0;
-  size_t acked_bytes = 0;     // acknowledged by this run (refinements included)
+  size_t acked_bytes = 0;                              // acknowledged by this run (refinements included)
   size_t refinements_acked = 0, refinement_bytes = 0;  // of which revisions (rev > 0)
   size_t posts = 0, failures = 0;
   double estimate_kbps = 0;
   double line_kbps = 0, post_fixed_s = 0;  // the POST model (stream/link_estimator.h)
-  double cap_kbps = 0;        // the cap now (--link-kbps, or --link-kbps-file's last value); 0: none
-  double busy_s = 0;          // seconds this run had at least one POST in flight (the union over the lanes)
-  double overlap_s = 0;       // of which seconds with two or more in flight
+  double cap_kbps = 0;                     // the cap now (--link-kbps, or --link-kbps-file's last value); 0: none
+  double busy_s = 0;     // seconds this run had at least one POST in flight (the union over the lanes)
+  double overlap_s = 0;  // of which seconds with two or more in flight
   size_t lanes = 1;
-  bool link_down = false;     // the last attempt failed
-  std::string last_error;     // of the last failed attempt
-  std::string fatal;          // non-empty: the sender stopped for good
+  bool link_down = false;  // the last attempt failed
+  std::string last_error;  // of the last failed attempt
+  std::string fatal;       // non-empty: the sender stopped for good
 };
 
 // The wait for a POST's answer: 3 s plus 4 x the transfer time of `bytes` at the estimate, but not at an estimate

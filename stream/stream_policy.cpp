@@ -16,9 +16,10 @@ KeyframeBudget plan_keyframe_budget(const LinkSnapshot& link, const KeyframeBudg
                    (link.acknowledged_posts == 0 ? latency.first_post_fixed_s : 0.0);
   const double rate_fixed_s = link.lanes > 1 ? 0.0 : link.post_fixed_s;
   const double rate_kb = keyframe_budget_kb(link.line_kbps, in.interval_s, rule, rate_fixed_s);
-  out.budget_kb = in.deferred ? std::max(rule.floor_kb, coarse_factor * rate_kb)
-                              : std::min(rate_kb, latency_budget_kb(link.line_kbps, out.overhead_s, latency, rule,
-                                                                    link.post_fixed_s));
+  out.budget_kb =
+      in.deferred
+          ? std::max(rule.floor_kb, coarse_factor * rate_kb)
+          : std::min(rate_kb, latency_budget_kb(link.line_kbps, out.overhead_s, latency, rule, link.post_fixed_s));
   return out;
 }
 
@@ -80,8 +81,8 @@ std::optional<CoarsenStep> CoarsenPlan::next() {
 
 void CoarsenPlan::shrunk_by(size_t bytes) { pending_bytes_ -= static_cast<double>(bytes); }
 
-RefinementPlanner::Result RefinementPlanner::choose(const std::vector<OutboxEntry>& entries,
-                                                    const LinkSnapshot& link, const RefineQuery& query) {
+RefinementPlanner::Result RefinementPlanner::choose(const std::vector<OutboxEntry>& entries, const LinkSnapshot& link,
+                                                    const RefineQuery& query) {
   Result out;
   if (!(limits_.ceiling_kb > 0)) return out;
   const double measured_kb = carried_kb(limits_, query.window_s, link.line_kbps, link.post_fixed_s);

@@ -22,9 +22,9 @@ struct LinkSnapshot {
   double line_kbps = 0, post_fixed_s = 0;  // the POST model
   double cap_kbps = 0;                     // 0: no cap
   size_t lanes = 1;
-  size_t acknowledged_posts = 0;           // 0: the estimate is still the initial guess
-  double queue_wait_s = 0;                 // smoothed wait of a keyframe in the outbox
-  bool refinements_yield = false;          // refinements yield to keyframes on the line (a cap, 2 lanes or more)
+  size_t acknowledged_posts = 0;   // 0: the estimate is still the initial guess
+  double queue_wait_s = 0;         // smoothed wait of a keyframe in the outbox
+  bool refinements_yield = false;  // refinements yield to keyframes on the line (a cap, 2 lanes or more)
   bool link_down = false;
 };
 
@@ -175,11 +175,11 @@ struct RefineQuery {
   int only_seq = -1;      // >= 0: that keyframe or none
 };
 struct RefineChoice {
-  OutboxEntry entry;            // the keyframe's entry as the snapshot had it
+  OutboxEntry entry;  // the keyframe's entry as the snapshot had it
   double budget_kb = 0;
-  bool made_ahead = false;      // its POST is not answered yet
-  bool made_from_cap = false;   // sized to the cap before any answer measured the link
-  size_t newly_saturated = 0;   // revisions found saturated for the first time (summary.refine_saturated)
+  bool made_ahead = false;     // its POST is not answered yet
+  bool made_from_cap = false;  // sized to the cap before any answer measured the link
+  size_t newly_saturated = 0;  // revisions found saturated for the first time (summary.refine_saturated)
 };
 
 // Remembers what was tried and which revisions fit their budget, and chooses the next refinement.
@@ -211,8 +211,8 @@ class RefinementPlanner {
   };
   RefineLimits limits_;
   double fine_above_kb_;
-  std::map<int, double> tried_;                  // seq -> the largest budget a refinement of it was reduced at
-  std::map<int, Fit> fits_;                      // seq -> its revision that fit
+  std::map<int, double> tried_;                   // seq -> the largest budget a refinement of it was reduced at
+  std::map<int, Fit> fits_;                       // seq -> its revision that fit
   std::set<std::pair<int, int>> saturated_seen_;  // (seq, rev) counted once
 };
 
@@ -270,9 +270,9 @@ AheadStep refinement_ahead_step(const AheadSnapshot& s);
 
 struct ResumePlan {
   bool resumed = false;
-  int at_frame = -1;                   // tracking restarts at this frame (not tracked as a new keyframe again)
+  int at_frame = -1;  // tracking restarts at this frame (not tracked as a new keyframe again)
   std::array<double, 7> anchor{0, 0, 0, 0, 0, 0, 1};  // its camera-to-world pose, TUM order
-  std::vector<int> view_seqs;          // entries whose frames are reloaded as coverage views (not rejected ones)
+  std::vector<int> view_seqs;  // entries whose frames are reloaded as coverage views (not rejected ones)
 };
 // From the outbox's entries (seq order) and deferred records (frame order): the latest keyframe's frame over both
 // (a deferred keyframe reduced already may have a higher seq but an older frame, and a deferred record's frame may

@@ -68,15 +68,15 @@ std::string error_line(int status, const std::string& body) {
   auto j = nlohmann::json::parse(body, nullptr, false);
   std::string what = "HTTP " + std::to_string(status);
   if (j.is_object() && j.contains("error") && j["error"].is_string()) what += " " + j["error"].get<std::string>();
-  if (j.is_object() && j.contains("message") && j["message"].is_string()) what += ": " + j["message"].get<std::string>();
+  if (j.is_object() && j.contains("message") && j["message"].is_string())
+    what += ": " + j["message"].get<std::string>();
   return what;
 }
 
 }  // namespace
 
-PostResult Uplink::post_keyframe(const std::string& mission, const OutboxEntry& e,
-                                 const std::vector<std::uint8_t>& glb, double io_timeout_s,
-                                 const ChunkGate& gate) {
+PostResult Uplink::post_keyframe(const std::string& mission, const OutboxEntry& e, const std::vector<std::uint8_t>& glb,
+                                 double io_timeout_s, const ChunkGate& gate) {
   impl_->set_io_timeout(io_timeout_s);
   char captured[32];
   std::snprintf(captured, sizeof captured, "%.6f", e.captured);
@@ -85,12 +85,13 @@ PostResult Uplink::post_keyframe(const std::string& mission, const OutboxEntry& 
                              (e.rev > 0 ? "&rev=" + std::to_string(e.rev) : std::string());
   const auto t0 = std::chrono::steady_clock::now();
   const char* body = reinterpret_cast<const char*>(glb.data());
-  auto res = gate ? impl_->client.Post(target.c_str(), httplib::Headers{}, glb.size(),
-                                       [&](size_t offset, size_t length, httplib::DataSink& sink) {
-                                         const size_t n = std::min(length, kBodyChunkBytes);
-                                         return gate(offset, n) && sink.write(body + offset, n);
-                                       },
-                                       "model/gltf-binary")
+  auto res = gate ? impl_->client.Post(
+                        target.c_str(), httplib::Headers{}, glb.size(),
+                        [&](size_t offset, size_t length, httplib::DataSink& sink) {
+                          const size_t n = std::min(length, kBodyChunkBytes);
+                          return gate(offset, n) && sink.write(body + offset, n);
+                        },
+                        "model/gltf-binary")
                   : impl_->client.Post(target.c_str(), body, glb.size(), "model/gltf-binary");
   PostResult out;
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -129,7 +130,8 @@ Result<std::string> Uplink::get_mission(const std::string& mission) {
   auto res = impl_->client.Get(("/v1/missions/" + mission).c_str());
   if (!res) return make_error(ErrorCode::kUnavailable, "GET mission: " + httplib::to_string(res.error()));
   if (res->status == 404) return make_error(ErrorCode::kNotFound, "mission '" + mission + "' is not on the server");
-  if (res->status != 200) return make_error(ErrorCode::kUnavailable, "GET mission: " + error_line(res->status, res->body));
+  if (res->status != 200)
+    return make_error(ErrorCode::kUnavailable, "GET mission: " + error_line(res->status, res->body));
   return res->body;
 }
 

@@ -14,26 +14,26 @@
 namespace rgbdcast::stream {
 
 struct UplinkOptions {
-  std::string server_url;      // http://host:port (or https://), no path
-  std::string token;           // bearer token; empty: none
+  std::string server_url;  // http://host:port (or https://), no path
+  std::string token;       // bearer token; empty: none
   double connect_timeout_s = 2;
 };
 
 enum class PostOutcome {
-  kStored,     // 201, or 200 (an identical re-post: the server already had it)
-  kRetry,      // no answer (connection, timeout), 5xx, 503/429 (retry_after_s may be set)
-  kConflict,   // 409: the server holds this (mission, seq, rev) with other bytes or another pose, or a newer rev
-  kRejected,   // any other 4xx: retrying the same bytes cannot succeed
-  kFatal,      // 401/403: the token is wrong; the sender stops
+  kStored,    // 201, or 200 (an identical re-post: the server already had it)
+  kRetry,     // no answer (connection, timeout), 5xx, 503/429 (retry_after_s may be set)
+  kConflict,  // 409: the server holds this (mission, seq, rev) with other bytes or another pose, or a newer rev
+  kRejected,  // any other 4xx: retrying the same bytes cannot succeed
+  kFatal,     // 401/403: the token is wrong; the sender stops
 };
 
 struct PostResult {
   PostOutcome outcome = PostOutcome::kRetry;
-  int status = 0;              // HTTP status; 0 when no answer
-  std::string body;            // the server's JSON
-  std::string error;           // one line: why (status and error field, or the connection error)
+  int status = 0;     // HTTP status; 0 when no answer
+  std::string body;   // the server's JSON
+  std::string error;  // one line: why (status and error field, or the connection error)
   double retry_after_s = -1;
-  double seconds = 0;          // from the request's start to its answer
+  double seconds = 0;  // from the request's start to its answer
 };
 
 // A body written in chunks (Uplink::post_keyframe): called before each chunk of at most kBodyChunkBytes, from the
@@ -68,8 +68,8 @@ class Uplink {
   std::unique_ptr<Impl> impl_;
 };
 
-// Reads a bearer token file as `rgbdcast serve` does: the whole file, whitespace trimmed, one token. Errors name the file: kNotFound (unreadable),
-// kInvalidInput (empty, or characters that cannot go in an HTTP header).
+// Reads a bearer token file as `rgbdcast serve` does: the whole file, whitespace trimmed, one token. Errors name the
+// file: kNotFound (unreadable), kInvalidInput (empty, or characters that cannot go in an HTTP header).
 Result<std::string> read_token_file(const std::string& path);
 
 }  // namespace rgbdcast::stream

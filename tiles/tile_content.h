@@ -67,9 +67,9 @@ struct InnerBakeOptions {
   // a voxel are one surface. Its texels take the mean colour of every layer along their line. Off by default: on 12
   // TUM keyframes at 0.05 the tiles take 2.09x the posted bytes instead of 2.70x, but the level-1 tiles score
   // 16.7-19.6 dB against their leaves (each leaf compared at its own centroids) instead of 19.6-20.2: the keyframes'
-  // surfaces disagree by their pose and depth errors, which one layer cannot follow. In images (4 keyframes, a 64 px view of
-  // level-1 tiles against full detail) it loses from the robot's pose (18.1 dB against 19.5) and wins from above
-  // (22.3 against 21.9).
+  // surfaces disagree by their pose and depth errors, which one layer cannot follow. In images (4 keyframes, a 64 px
+  // view of level-1 tiles against full detail) it loses from the robot's pose (18.1 dB against 19.5) and wins from
+  // above (22.3 against 21.9).
   double min_layer_voxel_m = 0.0;
 };
 
@@ -84,7 +84,7 @@ std::optional<TileKey> keyframe_leaf(const Scene& placed, std::int64_t seq, doub
 Result<SceneNode> build_leaf(const Scene& placed, const std::string& name, const LeafBakeOptions& options);
 
 struct InnerTile {
-  Mesh mesh;               // textured (tiles/tile_bake.h), world coordinates
+  Mesh mesh;                      // textured (tiles/tile_bake.h), world coordinates
   double simplify_error_m = 0.0;  // the simplifier's error on the merged children, metres
   double layer_error_m = 0.0;     // what keeping one layer where children overlap moved the surface, metres
   size_t merged_triangles = 0;    // the children's

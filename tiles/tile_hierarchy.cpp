@@ -20,12 +20,18 @@ constexpr int kFormat = 6;  // 2: inner tiles are textured; 3: their texels at l
                             // 6: inner tiles keep one layer where children overlap
 
 nlohmann::json options_json(const TilingOptions& o) {
-  return {{"leaf_size_m", o.leaf_size_m},     {"top_level", o.top_level},
-          {"inner_triangles", o.inner_triangles}, {"leaf_max_atlas_side_px", o.leaf.max_atlas_side_px},
-          {"leaf_gutter_px", o.leaf.gutter_px}, {"leaf_jpeg_quality", o.leaf.jpeg_quality},
-          {"inner_max_atlas_side_px", o.inner.atlas.max_atlas_side_px}, {"inner_gutter_px", o.inner.atlas.gutter_px},
-          {"inner_jpeg_quality", o.inner.atlas.jpeg_quality}, {"inner_texels_per_error", o.inner.texels_per_error},
-          {"inner_min_leg_texels", o.inner.min_leg_texels}, {"inner_min_layer_voxel_m", o.inner.min_layer_voxel_m},
+  return {{"leaf_size_m", o.leaf_size_m},
+          {"top_level", o.top_level},
+          {"inner_triangles", o.inner_triangles},
+          {"leaf_max_atlas_side_px", o.leaf.max_atlas_side_px},
+          {"leaf_gutter_px", o.leaf.gutter_px},
+          {"leaf_jpeg_quality", o.leaf.jpeg_quality},
+          {"inner_max_atlas_side_px", o.inner.atlas.max_atlas_side_px},
+          {"inner_gutter_px", o.inner.atlas.gutter_px},
+          {"inner_jpeg_quality", o.inner.atlas.jpeg_quality},
+          {"inner_texels_per_error", o.inner.texels_per_error},
+          {"inner_min_leg_texels", o.inner.min_leg_texels},
+          {"inner_min_layer_voxel_m", o.inner.min_layer_voxel_m},
           {"geometry", to_string(o.geometry)}};
 }
 
@@ -83,9 +89,15 @@ std::vector<const TileRecord*> children_of(const std::map<TileKey, TileRecord>& 
 struct TileHierarchy::Build {
   explicit Build(TileStorage* s) : storage(s) {}
   Build(Build&& o) noexcept  // begin_build() returns one; o then owns no file
-      : storage(o.storage), written(std::exchange(o.written, {})), version(o.version), tiles(std::move(o.tiles)),
-        keyframes(std::move(o.keyframes)), leaves(std::move(o.leaves)), restaled(std::move(o.restaled)),
-        built(std::move(o.built)), stats(o.stats) {}
+      : storage(o.storage),
+        written(std::exchange(o.written, {})),
+        version(o.version),
+        tiles(std::move(o.tiles)),
+        keyframes(std::move(o.keyframes)),
+        leaves(std::move(o.leaves)),
+        restaled(std::move(o.restaled)),
+        built(std::move(o.built)),
+        stats(o.stats) {}
   Build& operator=(const Build&) = delete;
   ~Build() {
     if (!written.empty()) (void)storage->delete_tiles(written);
@@ -154,7 +166,8 @@ Status TileHierarchy::load_committed(const std::vector<std::uint8_t>& record) {
       TileRecord r;
       r.key = *key;
       r.version = t.at(1).get<std::uint64_t>();
-      r.box = Eigen::AlignedBox3d(Eigen::Vector3d(t.at(2), t.at(3), t.at(4)), Eigen::Vector3d(t.at(5), t.at(6), t.at(7)));
+      r.box =
+          Eigen::AlignedBox3d(Eigen::Vector3d(t.at(2), t.at(3), t.at(4)), Eigen::Vector3d(t.at(5), t.at(6), t.at(7)));
       r.geometric_error_m = t.at(8).get<double>();
       r.triangles = t.at(9).get<std::uint64_t>();
       r.bytes = t.at(10).get<std::uint64_t>();
@@ -264,9 +277,8 @@ Result<UpdateStats> TileHierarchy::add_leaves(const std::vector<KeyframeId>& wan
   return b.stats;
 }
 
-Result<UpdateStats> TileHierarchy::step(const std::vector<KeyframeId>& wanted, const KeyframeLoader& load,
-                                        double now_s, const std::atomic<bool>* stop,
-                                        const std::function<bool()>& yield) {
+Result<UpdateStats> TileHierarchy::step(const std::vector<KeyframeId>& wanted, const KeyframeLoader& load, double now_s,
+                                        const std::atomic<bool>* stop, const std::function<bool()>& yield) {
   auto leaves = add_leaves(wanted, load, now_s, stop);
   if (!leaves || leaves->keyframes_changed > 0) return leaves;
   Build b = begin_build();
@@ -305,7 +317,8 @@ Status write_tile(TileStorage& storage, SceneNode node, GeometryCodec codec, Til
   const Eigen::AlignedBox3d local = mesh_box(n.mesh, 0.0);
   const Eigen::AlignedBox3d padded = mesh_box(n.mesh, position_pad_m(local));
   for (int c = 0; c < 8; ++c)  // the world box of the node's (padded) box
-    r->box.extend((n.to_world * padded.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c)).homogeneous()).head<3>());
+    r->box.extend(
+        (n.to_world * padded.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c)).homogeneous()).head<3>());
   return ok_status();
 }
 
@@ -334,8 +347,8 @@ Status TileHierarchy::build_leaves(Build& b, SceneCache& scenes, const std::atom
   for (const TileKey& leaf : b.leaves) {
     if (auto st = stopped(stop); !st) return st;
     auto holder = b.keyframes.find(leaf.keyframe);
-    const bool held = holder != b.keyframes.end() && !holder->second.leaves.empty() &&
-                      holder->second.leaves.front() == leaf;
+    const bool held =
+        holder != b.keyframes.end() && !holder->second.leaves.empty() && holder->second.leaves.front() == leaf;
     Result<SceneNode> content = make_error(ErrorCode::kEmpty, "no keyframe");
     if (held) {
       auto scene = scenes.get({leaf.keyframe, holder->second.rev});
@@ -514,8 +527,11 @@ Status TileHierarchy::commit(Build& b) {
     tiles.push_back({key.name(), r.version, r.box.min().x(), r.box.min().y(), r.box.min().z(), r.box.max().x(),
                      r.box.max().y(), r.box.max().z(), r.geometric_error_m, r.triangles, r.bytes, r.render_bytes,
                      r.stale});
-  const nlohmann::json manifest = {{"format", kFormat},      {"version", b.version}, {"options", options_json(options_)},
-                                   {"keyframes", keyframes}, {"tiles", tiles}};
+  const nlohmann::json manifest = {{"format", kFormat},
+                                   {"version", b.version},
+                                   {"options", options_json(options_)},
+                                   {"keyframes", keyframes},
+                                   {"tiles", tiles}};
   const std::string text = manifest.dump();
   // The previous version's files stay for clients that read its tileset; the ones before it go.
   TileCommit c;

@@ -69,8 +69,8 @@ struct KeyframeId {
 
 struct TileRecord {
   TileKey key;
-  std::uint64_t version = 0;      // the hierarchy version that wrote its GLB
-  Eigen::AlignedBox3d box;        // world frame (OpenCV axes): holds its content and its children's boxes
+  std::uint64_t version = 0;  // the hierarchy version that wrote its GLB
+  Eigen::AlignedBox3d box;    // world frame (OpenCV axes): holds its content and its children's boxes
   double geometric_error_m = 0.0;
   std::uint64_t triangles = 0, bytes = 0;
   std::uint64_t render_bytes = 0;  // what a renderer holds for it (scene/render_bytes.h)
@@ -78,7 +78,7 @@ struct TileRecord {
   // is not drawn, and its box and error are only bounds.
   bool stale = false;
   bool has_content() const { return version > 0; }
-  std::string file() const;       // "<name>.v<version>.glb"
+  std::string file() const;  // "<name>.v<version>.glb"
 };
 
 // The records of `key`'s children in `tiles`, in key order: for a level-1 tile the leaves in its four cells, above it
@@ -88,11 +88,11 @@ std::vector<const TileRecord*> children_of(const std::map<TileKey, TileRecord>& 
 // What clients read, made at each commit.
 struct TilesetSnapshot {
   std::uint64_t version = 0;
-  std::string tileset_json;                      // 3D Tiles 1.1, tile URIs relative to it ("tiles/<file>")
-  std::map<std::string, std::uint64_t> files;    // tile file name -> bytes, this version's and the previous one's
+  std::string tileset_json;                           // 3D Tiles 1.1, tile URIs relative to it ("tiles/<file>")
+  std::map<std::string, std::uint64_t> files;         // tile file name -> bytes, this version's and the previous one's
   std::uint64_t tiles = 0, triangles = 0, bytes = 0;  // this version's
   std::uint64_t stale = 0;  // this version's inner tiles still to be rebuilt (drawn from their descendants meanwhile)
-  std::map<TileKey, TileRecord> records;         // this version's tiles (what a view selects from)
+  std::map<TileKey, TileRecord> records;           // this version's tiles (what a view selects from)
   std::map<std::int64_t, std::int64_t> keyframes;  // seq -> rev of the keyframes this version holds
   int top_level = 0;
 };
@@ -102,7 +102,7 @@ using KeyframeLoader = std::function<Result<Scene>(const KeyframeId&)>;
 
 struct UpdateStats {
   std::uint64_t version = 0;
-  size_t keyframes_changed = 0;   // added, replaced or removed
+  size_t keyframes_changed = 0;  // added, replaced or removed
   size_t leaves_built = 0, inner_built = 0, tiles_removed = 0;
   std::uint64_t bytes_written = 0;
   size_t stale = 0;  // inner tiles still stale when the call returned
@@ -153,7 +153,7 @@ class TileHierarchy {
   // exclusion as step().
   struct PendingBuild {
     TileKey key;
-    std::uint64_t file_version = 0;   // the version in its file name
+    std::uint64_t file_version = 0;    // the version in its file name
     std::vector<TileRecord> children;  // as they were when it was picked
   };
   std::optional<PendingBuild> next_build(double now_s) const;
@@ -206,7 +206,7 @@ class TileHierarchy {
   std::map<TileKey, TileRecord> tiles_;
   std::map<std::int64_t, KeyframeEntry> keyframes_;
   std::map<std::string, std::uint64_t> retired_;  // files (-> bytes) of the previous version the current one lacks
-  int sweep_level_ = 1;            // where step()'s next sweep starts
+  int sweep_level_ = 1;                           // where step()'s next sweep starts
   struct StaleSince {
     double first_s = 0.0, last_s = 0.0;  // when the tile became stale, and when something under it last changed
   };

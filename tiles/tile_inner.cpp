@@ -110,8 +110,8 @@ class SurfaceTree {
   }
 
   // The welded triangle nearest to p (closest point on a triangle: Ericson, Real-Time Collision Detection, 5.1.5),
-  // and its barycentric weights; of equally near ones, the same one for the same inputs. `hint`, when given, is a triangle likely to
-  // be near (the previous texel's answer): its distance bounds the search from the start.
+  // and its barycentric weights; of equally near ones, the same one for the same inputs. `hint`, when given, is a
+  // triangle likely to be near (the previous texel's answer): its distance bounds the search from the start.
   std::uint32_t nearest(const Eigen::Vector3d& p, const std::uint32_t* hint, Eigen::Vector3d* weights) const {
     Search s{this, p};
     if (hint) s.minimumOnObject(*hint);
@@ -310,9 +310,8 @@ std::vector<Eigen::Vector3d> keep_one_layer(Welded* w, const std::vector<double>
   std::vector<std::uint32_t> order(n_children);
   for (size_t c = 0; c < n_children; ++c) order[c] = static_cast<std::uint32_t>(c);
   const auto rank = [&](std::uint32_t c) { return child_texel_m[c] > 0.0 ? child_texel_m[c] : INFINITY; };
-  std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-    return rank(a) != rank(b) ? rank(a) < rank(b) : a > b;
-  });
+  std::sort(order.begin(), order.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return rank(a) != rank(b) ? rank(a) < rank(b) : a > b; });
   std::vector<std::vector<std::uint32_t>> by_child(n_children);
   for (size_t t = 0; t < w->sources.size(); ++t) by_child[w->sources[t].child].push_back(static_cast<std::uint32_t>(t));
   const auto voxel = [&](const Eigen::Vector3d& p, int facing) {
@@ -378,7 +377,8 @@ double largest_distance(const SurfaceTree& surface, const Welded& w, const std::
   for (size_t i = 0; i < points.size(); ++i) {
     Eigen::Vector3d bary;
     hint = surface.nearest(points[i], i ? &hint : nullptr, &bary);
-    const Eigen::Vector3d q = bary.x() * w.corner(hint, 0) + bary.y() * w.corner(hint, 1) + bary.z() * w.corner(hint, 2);
+    const Eigen::Vector3d q =
+        bary.x() * w.corner(hint, 0) + bary.y() * w.corner(hint, 1) + bary.z() * w.corner(hint, 2);
     out = std::max(out, (q - points[i]).norm());
   }
   return out;
@@ -537,9 +537,9 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double c
   const size_t target = std::max<size_t>(1, std::min(target_triangles, (out.kept_triangles + 3) / 4));
   std::vector<std::uint32_t> simplified(3 * out.kept_triangles);
   float relative_error = 0.0f;
-  const size_t kept = meshopt_simplify(simplified.data(), w.indices.data(), 3 * out.kept_triangles,
-                                       &w.positions[0].x(), w.positions.size(), sizeof(Eigen::Vector3f), 3 * target,
-                                       1.0f, lock_border ? unsigned(meshopt_SimplifyLockBorder) : 0u, &relative_error);
+  const size_t kept = meshopt_simplify(simplified.data(), w.indices.data(), 3 * out.kept_triangles, &w.positions[0].x(),
+                                       w.positions.size(), sizeof(Eigen::Vector3f), 3 * target, 1.0f,
+                                       lock_border ? unsigned(meshopt_SimplifyLockBorder) : 0u, &relative_error);
   simplified.resize(kept);
   const float scale = meshopt_simplifyScale(&w.positions[0].x(), w.positions.size(), sizeof(Eigen::Vector3f));
   out.simplify_error_m = static_cast<double>(relative_error) * scale;
@@ -556,8 +556,7 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double c
   // finely as all the layers would have been (4 TUM keyframes at 0.05 m, a 64 px view of level-1 tiles against full
   // detail: 18.1 dB from the robot's pose and 22.3 dB from above, against 16.1 and 20.8 with the layer error in).
   const double detail_error_m = children_error_m + out.simplify_error_m;
-  const double texel_m =
-      std::max({detail_error_m / options.texels_per_error, 2.0 * texel_side.back(), kWeldStepM});
+  const double texel_m = std::max({detail_error_m / options.texels_per_error, 2.0 * texel_side.back(), kWeldStepM});
   std::vector<CellSource> textures(children.size());
   for (size_t c = 0; c < children.size(); ++c)
     if (has_texture(*children[c])) textures[c] = cell_source(children[c]->texture);
@@ -573,35 +572,36 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double c
   }
   std::vector<BakeTriangle> tris(simplified.size() / 3);
   for (size_t i = 0; i < tris.size(); ++i)
-    tris[i] = bake_triangle({w.positions[simplified[3 * i]].cast<double>(),
-                             w.positions[simplified[3 * i + 1]].cast<double>(),
-                             w.positions[simplified[3 * i + 2]].cast<double>()},
-                            texel_m);
-  auto mesh = bake_atlas_mesh(tris, options.atlas, [&](size_t i, const FootprintSlot& slot,
-                                                       const std::array<Eigen::Vector2d, 3>& corners, Image* atlas,
-                                                       std::uint8_t* sampled) {
-    const BakeTriangle& t = tris[i];
-    Eigen::Matrix3d A, W;
-    for (int k = 0; k < 3; ++k) {
-      A.col(k) << corners[k], 1.0;
-      W.col(k) = t.world[k];
-    }
-    const Eigen::Matrix3d world_from_atlas = W * A.inverse();  // barycentric weights of the texel, then the point
-    const Eigen::Vector3d normal = (t.world[1] - t.world[0]).cross(t.world[2] - t.world[0]).normalized();
-    const bool flat = normal.allFinite();
-    bool have_hint = false;
-    std::uint32_t hint = 0;
-    std::vector<SurfaceTree::Hit> hits;
-    fill_cell_texels(slot, atlas, sampled, [&](double x, double y, std::uint8_t* rgb) {
-      const Eigen::Vector3d p = world_from_atlas * Eigen::Vector3d(x, y, 1.0);
-      if (!flat || !colour_along(w, children, textures, colours, p, normal, reach_m, layer_m, &hits, &hint, rgb)) {
-        Eigen::Vector3d bary;
-        hint = colours.nearest(p, have_hint ? &hint : nullptr, &bary);
-        source_colour(w, children, textures, hint, bary, rgb);
-      }
-      have_hint = true;
-    });
-  });
+    tris[i] =
+        bake_triangle({w.positions[simplified[3 * i]].cast<double>(), w.positions[simplified[3 * i + 1]].cast<double>(),
+                       w.positions[simplified[3 * i + 2]].cast<double>()},
+                      texel_m);
+  auto mesh = bake_atlas_mesh(
+      tris, options.atlas,
+      [&](size_t i, const FootprintSlot& slot, const std::array<Eigen::Vector2d, 3>& corners, Image* atlas,
+          std::uint8_t* sampled) {
+        const BakeTriangle& t = tris[i];
+        Eigen::Matrix3d A, W;
+        for (int k = 0; k < 3; ++k) {
+          A.col(k) << corners[k], 1.0;
+          W.col(k) = t.world[k];
+        }
+        const Eigen::Matrix3d world_from_atlas = W * A.inverse();  // barycentric weights of the texel, then the point
+        const Eigen::Vector3d normal = (t.world[1] - t.world[0]).cross(t.world[2] - t.world[0]).normalized();
+        const bool flat = normal.allFinite();
+        bool have_hint = false;
+        std::uint32_t hint = 0;
+        std::vector<SurfaceTree::Hit> hits;
+        fill_cell_texels(slot, atlas, sampled, [&](double x, double y, std::uint8_t* rgb) {
+          const Eigen::Vector3d p = world_from_atlas * Eigen::Vector3d(x, y, 1.0);
+          if (!flat || !colour_along(w, children, textures, colours, p, normal, reach_m, layer_m, &hits, &hint, rgb)) {
+            Eigen::Vector3d bary;
+            hint = colours.nearest(p, have_hint ? &hint : nullptr, &bary);
+            source_colour(w, children, textures, hint, bary, rgb);
+          }
+          have_hint = true;
+        });
+      });
   if (!mesh) return make_error(mesh.error().code, "inner tile: " + mesh.error().message);
   out.mesh = std::move(*mesh);
   return out;

@@ -15,7 +15,7 @@ namespace rgbdcast::tiles {
 
 struct TileKey {
   int level = 0;
-  std::int64_t x = 0, z = 0;  // cell index along world x and world z at this level
+  std::int64_t x = 0, z = 0;   // cell index along world x and world z at this level
   std::int64_t keyframe = -1;  // a leaf's keyframe seq (>= 0); -1 for a cell or an inner tile
 
   auto operator<=>(const TileKey&) const = default;

@@ -21,7 +21,6 @@ std::array<Eigen::Vector3d, 3> world_triangle(const SceneNode& node, size_t t) {
   return v;
 }
 
-
 bool mesh_consistent(const Mesh& m) {
   if (m.indices.size() % 3 != 0) return false;
   if (!m.uvs.empty() && m.uvs.size() != m.positions.size()) return false;
@@ -118,23 +117,23 @@ Result<Mesh> bake_nodes(const Scene& placed, const std::string& name, const Leaf
   if (tris.empty()) return make_error(ErrorCode::kEmpty, "leaf " + name + ": no triangle");
   std::vector<BakeTriangle> cells(tris.size());
   for (size_t i = 0; i < tris.size(); ++i) cells[i] = {tris[i].world, tris[i].leg};
-  auto mesh = bake_atlas_mesh(cells, options, [&](size_t i, const FootprintSlot& slot,
-                                                  const std::array<Eigen::Vector2d, 3>& corners, Image* atlas,
-                                                  std::uint8_t* sampled) {
-    const LeafTriangle& t = tris[i];
-    const Mesh& m = t.node->mesh;
-    if (m.textured() && !m.texture.empty() && m.texture.channels == 3) {
-      const auto px = source_pixels(t);
-      const Eigen::Vector2d centre = (px[0] + px[1] + px[2]) / 3.0;  // an affine map never needs the fallback
-      fill_cell_triangle(slot, affine_from_corners(corners, px), Eigen::Vector3d(centre.x(), centre.y(), 1),
-                         cell_source(m.texture), atlas, sampled);
-    } else {  // a vertex-coloured triangle: one colour, the mean of its corners'
-      const Rgb8 rgb = mean_color(t);
-      fill_cell_texels(slot, atlas, sampled, [&](double, double, std::uint8_t* px) {
-        std::copy(rgb.begin(), rgb.end(), px);
+  auto mesh = bake_atlas_mesh(
+      cells, options,
+      [&](size_t i, const FootprintSlot& slot, const std::array<Eigen::Vector2d, 3>& corners, Image* atlas,
+          std::uint8_t* sampled) {
+        const LeafTriangle& t = tris[i];
+        const Mesh& m = t.node->mesh;
+        if (m.textured() && !m.texture.empty() && m.texture.channels == 3) {
+          const auto px = source_pixels(t);
+          const Eigen::Vector2d centre = (px[0] + px[1] + px[2]) / 3.0;  // an affine map never needs the fallback
+          fill_cell_triangle(slot, affine_from_corners(corners, px), Eigen::Vector3d(centre.x(), centre.y(), 1),
+                             cell_source(m.texture), atlas, sampled);
+        } else {  // a vertex-coloured triangle: one colour, the mean of its corners'
+          const Rgb8 rgb = mean_color(t);
+          fill_cell_texels(slot, atlas, sampled,
+                           [&](double, double, std::uint8_t* px) { std::copy(rgb.begin(), rgb.end(), px); });
+        }
       });
-    }
-  });
   if (!mesh && mesh.error().code != ErrorCode::kEmpty)
     return make_error(mesh.error().code, "leaf " + name + ": " + mesh.error().message);
   return mesh;

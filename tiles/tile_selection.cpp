@@ -12,9 +12,9 @@ bool box_in_frustum(const Eigen::AlignedBox3d& box, const ViewCamera& camera) {
   // sides through the camera centre (u >= 0, u <= width, v >= 0, v <= height, multiplied through by z).
   const double w = camera.width, h = camera.height;
   const std::array<Eigen::Vector4d, 6> planes = {
-      Eigen::Vector4d(0, 0, 1, -camera.near_m),          Eigen::Vector4d(0, 0, -1, camera.far_m),
-      Eigen::Vector4d(camera.fx, 0, camera.cx, 0),       Eigen::Vector4d(-camera.fx, 0, w - camera.cx, 0),
-      Eigen::Vector4d(0, camera.fy, camera.cy, 0),       Eigen::Vector4d(0, -camera.fy, h - camera.cy, 0)};
+      Eigen::Vector4d(0, 0, 1, -camera.near_m),    Eigen::Vector4d(0, 0, -1, camera.far_m),
+      Eigen::Vector4d(camera.fx, 0, camera.cx, 0), Eigen::Vector4d(-camera.fx, 0, w - camera.cx, 0),
+      Eigen::Vector4d(0, camera.fy, camera.cy, 0), Eigen::Vector4d(0, -camera.fy, h - camera.cy, 0)};
   std::array<Eigen::Vector4d, 8> corners;
   for (int i = 0; i < 8; ++i) {
     const Eigen::Vector3d c = box.corner(static_cast<Eigen::AlignedBox3d::CornerType>(i));
@@ -81,9 +81,8 @@ TileSelection select_tiles(const std::map<TileKey, TileRecord>& records, int top
   return std::move(t.out);
 }
 
-TileSelection select_tiles_to_fit(const std::map<TileKey, TileRecord>& records, int top_level,
-                                  const ViewCamera& camera, double max_error_px, size_t fit_bytes, double limit_px,
-                                  double* used_px) {
+TileSelection select_tiles_to_fit(const std::map<TileKey, TileRecord>& records, int top_level, const ViewCamera& camera,
+                                  double max_error_px, size_t fit_bytes, double limit_px, double* used_px) {
   *used_px = max_error_px;
   TileSelection s = select_tiles(records, top_level, camera, *used_px);
   while (fit_bytes > 0 && s.render_bytes > fit_bytes && *used_px < limit_px) {

@@ -33,9 +33,8 @@ TileSelection select_tiles(const std::map<TileKey, TileRecord>& records, int top
 // The tiles `camera` draws at max_error_px, or coarser when they would take more than fit_bytes on a renderer (their
 // records' render_bytes): the error is doubled (from at least 1 px, up to limit_px) and the tiles selected again
 // until they fit or the limit is reached. *used_px gets the error of the selection returned. fit_bytes 0: no bound.
-TileSelection select_tiles_to_fit(const std::map<TileKey, TileRecord>& records, int top_level,
-                                  const ViewCamera& camera, double max_error_px, size_t fit_bytes, double limit_px,
-                                  double* used_px);
+TileSelection select_tiles_to_fit(const std::map<TileKey, TileRecord>& records, int top_level, const ViewCamera& camera,
+                                  double max_error_px, size_t fit_bytes, double limit_px, double* used_px);
 
 // Whether an axis-aligned world box can be seen by `camera` (some part of it inside the frustum, near to far), by the
 // plane test: false only when all eight corners lie outside one plane. Conservative: may say true for a box beside

@@ -125,7 +125,7 @@ class DirectoryTileStorage final : public TileStorage {
   std::string dir_;
   std::mutex mutex_;
   std::optional<std::uint64_t> known_version_;  // the committed record's, once read or written
-  std::set<std::string> kept_;  // what the committed record names or retains, as this storage learnt it
+  std::set<std::string> kept_;                  // what the committed record names or retains, as this storage learnt it
 };
 
 }  // namespace

@@ -35,11 +35,11 @@ struct TileRecordBytes {
 };
 
 struct TileCommit {
-  std::uint64_t version = 0;          // > the committed one's
-  std::vector<std::uint8_t> record;   // a JSON object whose "version" is `version`
+  std::uint64_t version = 0;                   // > the committed one's
+  std::vector<std::uint8_t> record;            // a JSON object whose "version" is `version`
   std::map<std::string, std::uint64_t> named;  // the files the record names (-> bytes): each stored already
-  std::set<std::string> retained;     // files kept while this record is committed (the previous version's)
-  std::set<std::string> garbage;      // files to delete now
+  std::set<std::string> retained;              // files kept while this record is committed (the previous version's)
+  std::set<std::string> garbage;               // files to delete now
 };
 
 class TileStorage {

@@ -15,9 +15,8 @@ double rounded_error(double m) { return std::ceil(m * 1e4) / 1e4; }
 nlohmann::json tile_json(const std::map<TileKey, TileRecord>& tiles, const TileRecord& r,
                          const std::string& content_prefix, double parent_error) {
   const double error = r.stale ? parent_error : rounded_error(r.geometric_error_m);
-  nlohmann::json t = {{"boundingVolume", {{"box", tileset_box(r.box)}}},
-                      {"geometricError", error},
-                      {"refine", "REPLACE"}};
+  nlohmann::json t = {
+      {"boundingVolume", {{"box", tileset_box(r.box)}}}, {"geometricError", error}, {"refine", "REPLACE"}};
   if (!r.stale) t["content"] = {{"uri", content_prefix + r.file()}};
   nlohmann::json children = nlohmann::json::array();
   for (const TileRecord* c : children_of(tiles, r.key)) children.push_back(tile_json(tiles, *c, content_prefix, error));
@@ -50,12 +49,10 @@ nlohmann::json make_tileset(const std::map<TileKey, TileRecord>& tiles, int top_
   }
   // The root has no content: its error only has to make every client refine it, at any distance that shows the
   // mission (its diagonal does).
-  const double root_error =
-      rounded_error(std::max(top_error, all.isEmpty() ? 1.0 : (all.max() - all.min()).norm()));
+  const double root_error = rounded_error(std::max(top_error, all.isEmpty() ? 1.0 : (all.max() - all.min()).norm()));
   for (const TileRecord* t : top) children.push_back(tile_json(tiles, *t, content_prefix, root_error));
-  nlohmann::json root = {{"boundingVolume", {{"box", tileset_box(all)}}},
-                         {"geometricError", root_error},
-                         {"refine", "REPLACE"}};
+  nlohmann::json root = {
+      {"boundingVolume", {{"box", tileset_box(all)}}}, {"geometricError", root_error}, {"refine", "REPLACE"}};
   if (!children.empty()) root["children"] = std::move(children);
   return {{"asset", {{"version", "1.1"}, {"tilesetVersion", std::to_string(version)}, {"generator", "rgbdcast"}}},
           {"geometricError", root_error},

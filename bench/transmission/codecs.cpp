@@ -61,8 +61,8 @@ Result<DecodedImages> decode_images(const Bytes& bytes, const Intrinsics& k) {
   if (!bgr.empty() && out.depth_raw.type() == CV_16UC1 && out.depth_raw.size() != bgr.size() &&
       out.depth_raw.cols > 0 && bgr.cols % out.depth_raw.cols == 0)
     cv::resize(out.depth_raw, out.depth_raw, bgr.size(), 0, 0, cv::INTER_NEAREST);
-  if (bgr.empty() || out.depth_raw.type() != CV_16UC1 || bgr.size() != out.depth_raw.size() ||
-      bgr.cols != k.width || bgr.rows != k.height)
+  if (bgr.empty() || out.depth_raw.type() != CV_16UC1 || bgr.size() != out.depth_raw.size() || bgr.cols != k.width ||
+      bgr.rows != k.height)
     return make_error(ErrorCode::kInvalidInput, "jpeg+png payload: images do not decode to the camera's size");
   cv::cvtColor(bgr, out.color_rgb, cv::COLOR_BGR2RGB);
   return out;

@@ -117,9 +117,9 @@ Result<TestCase> load_tum_case(const std::string& data_dir) {
     }
     k_in_sent = k_in_sent * est->cur_to_prev;
     tc.views.push_back(view_of((*frames)[k], k_in_sent, "frame " + std::to_string(k)));
-    tc.notes.push_back("frame " + std::to_string(k) + ": ESTIMATED pose (frame odometry " + std::to_string(k - 1) + "->" +
-                       std::to_string(k) + ", chained; no ground truth at this timestamp), " + motion_text(k_in_sent) +
-                       " from frame 0; this step " + motion_text(est->cur_to_prev) + ", " +
+    tc.notes.push_back("frame " + std::to_string(k) + ": ESTIMATED pose (frame odometry " + std::to_string(k - 1) +
+                       "->" + std::to_string(k) + ", chained; no ground truth at this timestamp), " +
+                       motion_text(k_in_sent) + " from frame 0; this step " + motion_text(est->cur_to_prev) + ", " +
                        std::to_string(est->inliers) + " RANSAC inliers, ICP " +
                        (est->icp_used ? "used" : "not used (" + est->note + ")"));
   }

@@ -16,9 +16,9 @@ namespace rgbdcast::bench {
 struct TestCase {
   std::string name;
   std::string folder;
-  RgbdFrame sent;                     // frame 0
-  std::vector<ReferenceView> views;   // [0] capture pose, then novel views
-  std::vector<std::string> notes;     // where the poses came from, their size, odometry checks
+  RgbdFrame sent;                    // frame 0
+  std::vector<ReferenceView> views;  // [0] capture pose, then novel views
+  std::vector<std::string> notes;    // where the poses came from, their size, odometry checks
 };
 
 Result<TestCase> load_icl_case(const std::string& data_dir);

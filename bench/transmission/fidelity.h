@@ -15,17 +15,17 @@ namespace rgbdcast::bench {
 
 // One view to judge at: where the camera is (in the sent frame's camera frame) and what it really saw.
 struct ReferenceView {
-  std::string name;   // "capture", "frame 1", ...
+  std::string name;  // "capture", "frame 1", ...
   ViewCamera camera;
   cv::Mat color_rgb;  // CV_8UC3
   cv::Mat valid;      // CV_8U, non-zero where that frame had depth
 };
 
 struct ViewSetFidelity {
-  ViewFidelity capture;               // views[0]
-  std::vector<ViewFidelity> novel;    // views[1..]
+  ViewFidelity capture;                                          // views[0]
+  std::vector<ViewFidelity> novel;                               // views[1..]
   double novel_psnr_db = 0, novel_ssim = 0, novel_coverage = 0;  // means over novel views (0 when none)
-  double novel_psnr_valid_db = 0, novel_ssim_valid = 0;            // the same over every valid pixel, holes black
+  double novel_psnr_valid_db = 0, novel_ssim_valid = 0;          // the same over every valid pixel, holes black
 };
 
 // Renders `id` at every view (views[0] is the capture pose) and compares. The renders are kept in `renders` (one per

@@ -22,8 +22,8 @@ Result<GLuint> compile(GLenum type, const char* source, const char* what) {
     char log[2048] = {0};
     glGetShaderInfoLog(s, sizeof(log), nullptr, log);
     glDeleteShader(s);
-    return make_error(ErrorCode::kInternal, std::string("OpenGL: ") + what + " shader does not compile: " +
-                                                first_line(log));
+    return make_error(ErrorCode::kInternal,
+                      std::string("OpenGL: ") + what + " shader does not compile: " + first_line(log));
   }
   return s;
 }

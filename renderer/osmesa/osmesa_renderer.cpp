@@ -72,9 +72,21 @@ OsmesaRenderer::~OsmesaRenderer() {
 }
 
 Status OsmesaRenderer::init() {
-  const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 0, OSMESA_STENCIL_BITS, 0,
-                         OSMESA_ACCUM_BITS, 0, OSMESA_PROFILE, OSMESA_CORE_PROFILE, OSMESA_CONTEXT_MAJOR_VERSION, 4,
-                         OSMESA_CONTEXT_MINOR_VERSION, 5, 0};
+  const int attribs[] = {OSMESA_FORMAT,
+                         OSMESA_RGBA,
+                         OSMESA_DEPTH_BITS,
+                         0,
+                         OSMESA_STENCIL_BITS,
+                         0,
+                         OSMESA_ACCUM_BITS,
+                         0,
+                         OSMESA_PROFILE,
+                         OSMESA_CORE_PROFILE,
+                         OSMESA_CONTEXT_MAJOR_VERSION,
+                         4,
+                         OSMESA_CONTEXT_MINOR_VERSION,
+                         5,
+                         0};
   ctx_ = OSMesaCreateContextAttribs(attribs, nullptr);
   if (!ctx_) return make_error(ErrorCode::kUnavailable, "OSMesa: cannot create an OpenGL 4.5 core context");
   if (!make_current()) return make_error(ErrorCode::kUnavailable, "OSMesa: cannot make the context current");
@@ -259,8 +271,7 @@ Result<RenderResult> OsmesaRenderer::render_scenes(std::span<const ResidentScene
   std::vector<const std::vector<GlNode>*> scenes;
   for (ResidentSceneId id : ids) {
     auto it = scenes_.find(id);
-    if (it == scenes_.end())
-      return make_error(ErrorCode::kNotFound, "no resident scene with id " + std::to_string(id));
+    if (it == scenes_.end()) return make_error(ErrorCode::kNotFound, "no resident scene with id " + std::to_string(id));
     scenes.push_back(&it->second);
   }
   if (Status s = check_camera(camera); !s) return s.error();

@@ -57,11 +57,16 @@ bool has_instance_extension(const char* name) {
 
 int device_rank(VkPhysicalDeviceType t) {
   switch (t) {
-    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 0;
-    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 1;
-    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
-    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 3;
-    default: return 4;
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
+      return 0;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
+      return 1;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
+      return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU:
+      return 3;
+    default:
+      return 4;
   }
 }
 
@@ -109,8 +114,9 @@ Result<std::unique_ptr<Context>> Context::create(bool validation) {
   const char* kValidation = "VK_LAYER_KHRONOS_validation";
   if (validation) {
     if (!has_layer(kValidation))
-      return make_error(ErrorCode::kUnavailable,
-                        "Vulkan: VK_LAYER_KHRONOS_validation is not installed (Debian package vulkan-validationlayers)");
+      return make_error(
+          ErrorCode::kUnavailable,
+          "Vulkan: VK_LAYER_KHRONOS_validation is not installed (Debian package vulkan-validationlayers)");
     layers.push_back(kValidation);
   }
   const bool debug_utils = has_instance_extension(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
@@ -262,8 +268,7 @@ Status Context::end_submit_wait(VkCommandBuffer cmd, double* submit_ms) {
       if (VkResult w = vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX); w != VK_SUCCESS)
         status = vk_error(w, "vkWaitForFences");
       vkResetFences(device_, 1, &fence_);
-      if (submit_ms)
-        *submit_ms = ms_since(t0);
+      if (submit_ms) *submit_ms = ms_since(t0);
     }
   }
   vkFreeCommandBuffers(device_, command_pool_, 1, &cmd);

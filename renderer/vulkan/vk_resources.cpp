@@ -68,8 +68,8 @@ Result<Buffer> create_buffer(const Context& ctx, VkDeviceSize size, VkBufferUsag
     return vk_error(r, "vkCreateBuffer");
   VkMemoryRequirements req;
   vkGetBufferMemoryRequirements(b.device, b.buffer, &req);
-  const int type =
-      ctx.find_memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+  const int type = ctx.find_memory_type(req.memoryTypeBits,
+                                        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
   if (type < 0) return make_error(ErrorCode::kUnavailable, "Vulkan: no host-visible coherent memory type");
   VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
   mai.allocationSize = req.size;
@@ -84,8 +84,8 @@ Result<Buffer> create_buffer(const Context& ctx, VkDeviceSize size, VkBufferUsag
   return b;
 }
 
-static Result<Image2D> create_image(const Context& ctx, int width, int height, VkFormat format,
-                                    VkImageUsageFlags usage, VkImageAspectFlags aspect) {
+static Result<Image2D> create_image(const Context& ctx, int width, int height, VkFormat format, VkImageUsageFlags usage,
+                                    VkImageAspectFlags aspect) {
   Image2D im;
   im.device = ctx.device();
   im.format = format;
@@ -147,10 +147,10 @@ Result<Image2D> create_texture(Context& ctx, const Image& rgba) {
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageExtent = {w, h, 1};
     vkCmdCopyBufferToImage(cmd, src, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
-    image_barrier(cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                  VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                  VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
-                  VK_ACCESS_SHADER_READ_BIT);
+    image_barrier(
+        cmd, image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+        VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+        VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
   });
   if (!s) return s.error();
   VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
@@ -164,9 +164,9 @@ Result<Image2D> create_texture(Context& ctx, const Image& rgba) {
   return im;
 }
 
-void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkImageLayout from,
-                   VkImageLayout to, VkPipelineStageFlags src_stage, VkAccessFlags src_access,
-                   VkPipelineStageFlags dst_stage, VkAccessFlags dst_access) {
+void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkImageLayout from, VkImageLayout to,
+                   VkPipelineStageFlags src_stage, VkAccessFlags src_access, VkPipelineStageFlags dst_stage,
+                   VkAccessFlags dst_access) {
   VkImageMemoryBarrier b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
   b.srcAccessMask = src_access;
   b.dstAccessMask = dst_access;

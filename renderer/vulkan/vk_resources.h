@@ -52,8 +52,8 @@ Result<Image2D> create_attachment(const Context& ctx, int width, int height, VkF
 // SHADER_READ_ONLY_OPTIMAL.
 Result<Image2D> create_texture(Context& ctx, const Image& rgba);
 
-void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkImageLayout from,
-                   VkImageLayout to, VkPipelineStageFlags src_stage, VkAccessFlags src_access,
-                   VkPipelineStageFlags dst_stage, VkAccessFlags dst_access);
+void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkImageLayout from, VkImageLayout to,
+                   VkPipelineStageFlags src_stage, VkAccessFlags src_access, VkPipelineStageFlags dst_stage,
+                   VkAccessFlags dst_access);
 
 }  // namespace rgbdcast::vk

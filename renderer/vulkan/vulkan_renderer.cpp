@@ -147,15 +147,24 @@ Status VulkanRenderer::init() {
 
 Result<VkPipeline> VulkanRenderer::make_pipeline(VkPrimitiveTopology topology) {
   VkPipelineShaderStageCreateInfo stages[2]{};
-  stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_VERTEX_BIT, vert_,
-               "main", nullptr};
-  stages[1] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_FRAGMENT_BIT, frag_,
-               "main", nullptr};
+  stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+               nullptr,
+               0,
+               VK_SHADER_STAGE_VERTEX_BIT,
+               vert_,
+               "main",
+               nullptr};
+  stages[1] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+               nullptr,
+               0,
+               VK_SHADER_STAGE_FRAGMENT_BIT,
+               frag_,
+               "main",
+               nullptr};
   VkVertexInputBindingDescription vb{0, sizeof(GpuVertex), VK_VERTEX_INPUT_RATE_VERTEX};
-  VkVertexInputAttributeDescription attrs[3] = {
-      {0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(GpuVertex, position)},
-      {1, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(GpuVertex, uv)},
-      {2, 0, VK_FORMAT_R8G8B8A8_UNORM, offsetof(GpuVertex, color)}};
+  VkVertexInputAttributeDescription attrs[3] = {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(GpuVertex, position)},
+                                                {1, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(GpuVertex, uv)},
+                                                {2, 0, VK_FORMAT_R8G8B8A8_UNORM, offsetof(GpuVertex, color)}};
   VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
   vi.vertexBindingDescriptionCount = 1;
   vi.pVertexBindingDescriptions = &vb;
@@ -178,8 +187,8 @@ Result<VkPipeline> VulkanRenderer::make_pipeline(VkPrimitiveTopology topology) {
   ds.depthWriteEnable = VK_TRUE;
   ds.depthCompareOp = VK_COMPARE_OP_LESS;
   VkPipelineColorBlendAttachmentState cba{};
-  cba.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
-                       VK_COLOR_COMPONENT_A_BIT;
+  cba.colorWriteMask =
+      VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
   VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
   cb.attachmentCount = 1;
   cb.pAttachments = &cba;
@@ -352,8 +361,7 @@ void VulkanRenderer::record_draws(VkCommandBuffer cmd, const std::vector<const R
       const bool own_points = node.point_count > 0;
       if (!own_points && node.mesh_vertex_count == 0) continue;
       draw_params(node, own_points ? ColorSource::kVertex : node.point_colors);
-      vkCmdBindVertexBuffers(cmd, 0, 1, own_points ? &node.point_vertices.buffer : &node.mesh_vertices.buffer,
-                             &zero);
+      vkCmdBindVertexBuffers(cmd, 0, 1, own_points ? &node.point_vertices.buffer : &node.mesh_vertices.buffer, &zero);
       vkCmdDraw(cmd, own_points ? node.point_count : node.mesh_vertex_count, 1, 0, 0);
     }
 }
@@ -363,8 +371,7 @@ Result<RenderResult> VulkanRenderer::render_scenes(std::span<const ResidentScene
   std::vector<const ResidentScene*> scenes;
   for (ResidentSceneId id : ids) {
     auto it = scenes_.find(id);
-    if (it == scenes_.end())
-      return make_error(ErrorCode::kNotFound, "no resident scene with id " + std::to_string(id));
+    if (it == scenes_.end()) return make_error(ErrorCode::kNotFound, "no resident scene with id " + std::to_string(id));
     scenes.push_back(it->second.get());
   }
   if (Status s = check_camera(camera); !s) return s.error();
@@ -388,8 +395,8 @@ Result<RenderResult> VulkanRenderer::render_scenes(std::span<const ResidentScene
         ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
         ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
         ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-        ca.clearValue.color = {{options.background[0] / 255.0f, options.background[1] / 255.0f,
-                                options.background[2] / 255.0f, 0.0f}};
+        ca.clearValue.color = {
+            {options.background[0] / 255.0f, options.background[1] / 255.0f, options.background[2] / 255.0f, 0.0f}};
         VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
         da.imageView = target_.depth.view;
         da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;

@@ -23,8 +23,9 @@ const char* kFr1 = "tum/rgbd_dataset_freiburg1_xyz";
 std::string write_camera(const std::string& path, const ViewCamera& c) {
   nlohmann::json pose = nlohmann::json::array();
   for (int r = 0; r < 4; ++r)
-    pose.push_back({c.camera_to_world(r, 0), c.camera_to_world(r, 1), c.camera_to_world(r, 2), c.camera_to_world(r, 3)});
-  std::ofstream(path) << nlohmann::json{{"fx", c.fx},       {"fy", c.fy},         {"cx", c.cx},    {"cy", c.cy},
+    pose.push_back(
+        {c.camera_to_world(r, 0), c.camera_to_world(r, 1), c.camera_to_world(r, 2), c.camera_to_world(r, 3)});
+  std::ofstream(path) << nlohmann::json{{"fx", c.fx},       {"fy", c.fy},         {"cx", c.cx},  {"cy", c.cy},
                                         {"width", c.width}, {"height", c.height}, {"pose", pose}}
                              .dump(1);
   return path;
@@ -41,7 +42,8 @@ class CameraCli : public ::testing::Test {
   }
   static cv::Mat render(const std::string& args, const std::string& name) {
     const std::string png = dir_ + "/" + name + ".png";
-    auto r = test::run_command(test::rgbdcast_binary() + " render --scene " + dir_ + "/f0.glb " + args + " --out " + png);
+    auto r =
+        test::run_command(test::rgbdcast_binary() + " render --scene " + dir_ + "/f0.glb " + args + " --out " + png);
     EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.err;
     return cv::imread(png, cv::IMREAD_UNCHANGED);
   }
@@ -110,8 +112,8 @@ TEST_F(CameraCli, BadCameraFilesGiveOneLineAndExit2) {
   std::ofstream(dir_ + "/nofocal.json") << R"({"fx": 0, "fy": 500, "cx": 320, "cy": 240, "width": 640, "height": 480,
     "pose": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})";
   auto check = [&](const std::string& file, const std::string& msg, const std::string& extra = "") {
-    auto r = test::run_command(test::rgbdcast_binary() + " render --scene " + dir_ + "/f0.glb --camera " + file + extra +
-                               " --out " + dir_ + "/bad.png");
+    auto r = test::run_command(test::rgbdcast_binary() + " render --scene " + dir_ + "/f0.glb --camera " + file +
+                               extra + " --out " + dir_ + "/bad.png");
     EXPECT_EQ(r.exit_code, 2) << file;
     EXPECT_NE(r.err.find(msg), std::string::npos) << "expected \"" << msg << "\" in: " << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;

@@ -97,8 +97,10 @@ TEST(CliReference, DocsCliMdNamesExactlyTheOptionsOfEachSubcommand) {
       if (!in_doc.count(o)) missing.insert(o);
     for (const auto& o : in_doc)
       if (!in_binary.count(o)) stale.insert(o);
-    EXPECT_TRUE(missing.empty()) << "options of `rgbdcast " << name << " --help` not in docs/cli.md: " << joined(missing);
-    EXPECT_TRUE(stale.empty()) << "options in docs/cli.md that `rgbdcast " << name << "` does not have: " << joined(stale);
+    EXPECT_TRUE(missing.empty()) << "options of `rgbdcast " << name
+                                 << " --help` not in docs/cli.md: " << joined(missing);
+    EXPECT_TRUE(stale.empty()) << "options in docs/cli.md that `rgbdcast " << name
+                               << "` does not have: " << joined(stale);
   }
 }
 

@@ -51,9 +51,10 @@ TEST(EvalCli, FullCloudAtANovelViewIsTheSceneFramesCloud) {
     const nlohmann::json broken = run_eval("--scene " + wrong_glb + frames);
     ASSERT_TRUE(fixed.contains("psnr_db") && broken.contains("psnr_db"));
     const double good = fixed["psnr_db"].get<double>(), bad = broken["psnr_db"].get<double>();
-    std::printf("frame 0's cloud seen from frame %d's true pose: %.2f dB (coverage %.3f); frame %d's own cloud at the "
-                "relative pose (the old bug): %.2f dB\n",
-                n, good, fixed["coverage"].get<double>(), n, bad);
+    std::printf(
+        "frame 0's cloud seen from frame %d's true pose: %.2f dB (coverage %.3f); frame %d's own cloud at the "
+        "relative pose (the old bug): %.2f dB\n",
+        n, good, fixed["coverage"].get<double>(), n, bad);
     EXPECT_EQ(fixed["scene_frame"].get<int>(), 0);
     EXPECT_EQ(fixed["frame"].get<int>(), n);
     EXPECT_GT(good, bad + 6.0) << "frame " << n;

@@ -129,20 +129,39 @@ class ReduceCliBadInput : public ::testing::Test {
   std::string dir_;
 };
 
-TEST_F(ReduceCliBadInput, MissingFile) { expect_fails("--input " + dir_ + "/nope.png --depth " + dir_ + "/d.png", "no such file"); }
-TEST_F(ReduceCliBadInput, CorruptPng) { expect_fails("--input " + dir_ + "/corrupt.png --depth " + dir_ + "/d.png", "not a readable image"); }
+TEST_F(ReduceCliBadInput, MissingFile) {
+  expect_fails("--input " + dir_ + "/nope.png --depth " + dir_ + "/d.png", "no such file");
+}
+TEST_F(ReduceCliBadInput, CorruptPng) {
+  expect_fails("--input " + dir_ + "/corrupt.png --depth " + dir_ + "/d.png", "not a readable image");
+}
 TEST_F(ReduceCliBadInput, CorruptPcd) { expect_fails("--input " + dir_ + "/corrupt.pcd", "PCD"); }
-TEST_F(ReduceCliBadInput, DepthNot16Bit) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d8.png", "16-bit"); }
-TEST_F(ReduceCliBadInput, DifferentSizes) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/small.png", "different sizes"); }
-TEST_F(ReduceCliBadInput, AllZeroDepth) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/zero.png", "no valid depth"); }
-TEST_F(ReduceCliBadInput, NegativeVoxelSize) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d.png --voxel-size -0.01", "voxel size"); }
-TEST_F(ReduceCliBadInput, ZeroVoxelSize) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d.png --voxel-size 0", "voxel size"); }
+TEST_F(ReduceCliBadInput, DepthNot16Bit) {
+  expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d8.png", "16-bit");
+}
+TEST_F(ReduceCliBadInput, DifferentSizes) {
+  expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/small.png", "different sizes");
+}
+TEST_F(ReduceCliBadInput, AllZeroDepth) {
+  expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/zero.png", "no valid depth");
+}
+TEST_F(ReduceCliBadInput, NegativeVoxelSize) {
+  expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d.png --voxel-size -0.01", "voxel size");
+}
+TEST_F(ReduceCliBadInput, ZeroVoxelSize) {
+  expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d.png --voxel-size 0", "voxel size");
+}
 TEST_F(ReduceCliBadInput, FramePastTheEnd) {
   REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
   expect_fails("--input " + q(test::data_path("tum/rgbd_dataset_freiburg1_xyz")) + " --frame 7", "past the end");
 }
-TEST_F(ReduceCliBadInput, UnknownIntrinsics) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d.png --intrinsics fr9", "unknown intrinsics"); }
-TEST_F(ReduceCliBadInput, UnknownDepthEncoding) { expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d.png --depth-encoding png8", "--depth-encoding must be"); }
+TEST_F(ReduceCliBadInput, UnknownIntrinsics) {
+  expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d.png --intrinsics fr9", "unknown intrinsics");
+}
+TEST_F(ReduceCliBadInput, UnknownDepthEncoding) {
+  expect_fails("--input " + dir_ + "/c.png --depth " + dir_ + "/d.png --depth-encoding png8",
+               "--depth-encoding must be");
+}
 // SUN's bit-rotated millimetres (3 m stored as 24000) read as plain millimetres: 24 m, refused with a hint.
 TEST_F(ReduceCliBadInput, SunDepthReadAsPlainMillimetres) {
   cv::imwrite(dir_ + "/sun.png", cv::Mat(480, 640, CV_16UC1, cv::Scalar((3000 << 3) | (3000 >> 13))));

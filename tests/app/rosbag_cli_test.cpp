@@ -31,8 +31,8 @@ class RosbagCli : public ::testing::Test {
   // Runs reduce and returns its report.
   static nlohmann::json reduce(const std::string& input, const std::string& args, const std::string& name) {
     const std::string out = dir_ + "/" + name + ".glb", report = dir_ + "/" + name + ".json";
-    auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --input '" + input + "' " + args + " --out " + out +
-                               " --report " + report);
+    auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --input '" + input + "' " + args +
+                               " --out " + out + " --report " + report);
     EXPECT_EQ(r.exit_code, 0) << r.err;
     if (r.exit_code != 0) return nlohmann::json::object();
     std::ifstream in(report);
@@ -48,8 +48,8 @@ TEST_F(RosbagCli, Frame0ReducesToTheFolderTriangleCount) {
   const nlohmann::json folder = reduce(test::data_path(kFr1), "--frame 0", "folder0");
   ASSERT_TRUE(folder.contains("triangles"));
   const nlohmann::json metres = reduce(bag("f32", {test::BagDepth::kMetres32F, "rgb8"}), "--frame 0", "bag32f");
-  const nlohmann::json raw = reduce(bag("raw16", {test::BagDepth::kTumRaw16U, "bgr8"}), "--frame 0 --depth-scale 5000",
-                                    "bag16raw");
+  const nlohmann::json raw =
+      reduce(bag("raw16", {test::BagDepth::kTumRaw16U, "bgr8"}), "--frame 0 --depth-scale 5000", "bag16raw");
   const nlohmann::json mm = reduce(bag("mm16", {test::BagDepth::kMillimetres16U, "rgb8"}), "--frame 0", "bag16mm");
   for (const auto* j : {&metres, &raw}) {
     ASSERT_TRUE(j->contains("triangles"));

@@ -18,8 +18,9 @@ TEST(SequenceCli, AugmentedIclBecomesOneValidMultiViewGlb) {
   REQUIRE_DATA("augmented_icl_livingroom");
   const std::string dir = test::temp_dir("seq-cli");
   const std::string input = test::data_path("augmented_icl_livingroom");
-  auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --sequence --input " + input + " --out " + dir +
-                             "/scene.glb --report " + dir + "/r.json --trajectory " + dir + "/est.log");
+  auto r =
+      test::run_command(test::rgbdcast_binary() + " reduce --preset paper --sequence --input " + input + " --out " +
+                        dir + "/scene.glb --report " + dir + "/r.json --trajectory " + dir + "/est.log");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   std::ifstream in(dir + "/r.json");
   const nlohmann::json j = nlohmann::json::parse(in);
@@ -27,7 +28,8 @@ TEST(SequenceCli, AugmentedIclBecomesOneValidMultiViewGlb) {
   ASSERT_EQ(frames.size(), 5u);
   int keyframes = 0;
   for (const auto& f : frames) {
-    for (const char* k : {"index", "timestamp", "matches", "inliers", "keyframe", "pose", "ms", "method", "track_ms"}) EXPECT_TRUE(f.contains(k)) << k;
+    for (const char* k : {"index", "timestamp", "matches", "inliers", "keyframe", "pose", "ms", "method", "track_ms"})
+      EXPECT_TRUE(f.contains(k)) << k;
     keyframes += f.at("keyframe").get<bool>();
     ASSERT_EQ(f.at("pose").size(), 4u);  // row-major 4x4
   }
@@ -37,8 +39,8 @@ TEST(SequenceCli, AugmentedIclBecomesOneValidMultiViewGlb) {
   EXPECT_GLTF_VALID(dir + "/scene.glb");
 
   // The estimated trajectory against the dataset's ground truth: consecutive frames within 1 cm and 0.5 degrees.
-  auto e = test::run_command(test::rgbdcast_binary() + " eval-trajectory --estimated " + dir + "/est.log --groundtruth " +
-                             input + "/trajectory.log");
+  auto e = test::run_command(test::rgbdcast_binary() + " eval-trajectory --estimated " + dir +
+                             "/est.log --groundtruth " + input + "/trajectory.log");
   ASSERT_EQ(e.exit_code, 0) << e.err;
   const nlohmann::json rpe = nlohmann::json::parse(e.out);
   EXPECT_EQ(rpe.at("pairs").size(), 4u);
@@ -51,9 +53,9 @@ TEST(SequenceCli, AugmentedIclBecomesOneValidMultiViewGlb) {
 TEST(SequenceCli, TheDefaultReducesEachKeyframeWithTheRealtimePreset) {
   REQUIRE_DATA("augmented_icl_livingroom");
   const std::string dir = test::temp_dir("seq-default");
-  auto r = test::run_command(test::rgbdcast_binary() + " reduce --sequence --keyframe-gap 1 --to 2 --no-progress --input " +
-                             test::data_path("augmented_icl_livingroom") + " --out " + dir + "/scene.glb --report " +
-                             dir + "/r.json");
+  auto r = test::run_command(
+      test::rgbdcast_binary() + " reduce --sequence --keyframe-gap 1 --to 2 --no-progress --input " +
+      test::data_path("augmented_icl_livingroom") + " --out " + dir + "/scene.glb --report " + dir + "/r.json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   std::ifstream in(dir + "/r.json");
   const nlohmann::json j = nlohmann::json::parse(in);
@@ -73,7 +75,8 @@ TEST(SequenceCli, DroppingCoveredTrianglesSavesBytes) {
   const std::string dir = test::temp_dir("seq-covered");
   const std::string input = test::data_path("augmented_icl_livingroom");
   // Every frame a keyframe (--keyframe-gap 1) so that later keyframes overlap earlier ones.
-  const std::string base = test::rgbdcast_binary() + " reduce --preset paper --sequence --input " + input + " --texture frame --keyframe-gap 1 ";
+  const std::string base = test::rgbdcast_binary() + " reduce --preset paper --sequence --input " + input +
+                           " --texture frame --keyframe-gap 1 ";
   auto keep = test::run_command(base + "--keep-covered --out " + dir + "/keep.glb --report " + dir + "/keep.json");
   auto drop = test::run_command(base + "--out " + dir + "/drop.glb --report " + dir + "/drop.json");
   ASSERT_EQ(keep.exit_code, 0) << keep.err;
@@ -89,8 +92,9 @@ TEST(SequenceCli, DroppingCoveredTrianglesSavesBytes) {
 TEST(SequenceCli, WidelySpacedFramesAreSkippedWithAClearMessage) {
   REQUIRE_DATA("icl_nuim_livingroom");
   const std::string dir = test::temp_dir("seq-icl");
-  auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --sequence --input " + test::data_path("icl_nuim_livingroom") +
-                             " --out " + dir + "/scene.glb --report " + dir + "/r.json");
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --sequence --input " +
+                             test::data_path("icl_nuim_livingroom") + " --out " + dir + "/scene.glb --report " + dir +
+                             "/r.json");
   // The first frame is a keyframe on its own; the others (0.3-1 m apart, no timestamps: 33 ms apart at 30 Hz) fail
   // the 20x20 window, and whatever the wider tries find is faster than a hand-held camera: skipped, with a reason.
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -119,8 +123,8 @@ TEST(SequenceCli, UnknownTrackingModeIsAClearError) {
 TEST(SequenceCli, MissingGroundTruthIsAClearError) {
   const std::string dir = test::temp_dir("seq-gt");
   std::ofstream(dir + "/est.txt") << "1.0 0 0 0 0 0 0 1\n2.0 0 0 0.1 0 0 0 1\n";
-  auto r = test::run_command(test::rgbdcast_binary() + " eval-trajectory --estimated " + dir + "/est.txt --groundtruth " +
-                             dir + "/missing.txt");
+  auto r = test::run_command(test::rgbdcast_binary() + " eval-trajectory --estimated " + dir +
+                             "/est.txt --groundtruth " + dir + "/missing.txt");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("not found"), std::string::npos) << r.err;
 }
@@ -136,7 +140,8 @@ TEST(NovelViewCli, FrameZeroMeshPredictsTheLaterFrames) {
   REQUIRE_DATA("augmented_icl_livingroom");
   const std::string dir = test::temp_dir("novel");
   const std::string input = test::data_path("augmented_icl_livingroom");
-  auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --input " + input + " --frame 0 --out " + dir + "/f0.glb");
+  auto r = test::run_command(test::rgbdcast_binary() + " reduce --preset paper --input " + input + " --frame 0 --out " +
+                             dir + "/f0.glb");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   auto eval = [&](int k, bool true_pose) {
     auto e = test::run_command(test::rgbdcast_binary() + " eval --input " + input + " --frame " + std::to_string(k) +

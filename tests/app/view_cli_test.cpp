@@ -28,7 +28,8 @@ class ViewCli : public ::testing::Test {
     }
   }
   static nlohmann::json eval(const std::string& args) {
-    auto r = test::run_command(test::rgbdcast_binary() + " eval --input " + test::data_path(kFr1) + " --frame 0 " + args);
+    auto r =
+        test::run_command(test::rgbdcast_binary() + " eval --input " + test::data_path(kFr1) + " --frame 0 " + args);
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return r.exit_code == 0 ? nlohmann::json::parse(r.out) : nlohmann::json::object();
   }
@@ -40,8 +41,9 @@ TEST_F(ViewCli, RenderAtTheCapturePoseWritesTheCapturedView) {
   REQUIRE_DATA(kFr1);
   for (const char* backend : {"vulkan", "osmesa"}) {
     const std::string png = dir_ + "/capture_" + backend + ".png", report = dir_ + "/r_" + backend + ".json";
-    auto r = test::run_command(test::rgbdcast_binary() + " render --scene " + dir_ + "/atlas.glb --pose capture --backend " +
-                               backend + " --out " + png + " --report " + report);
+    auto r =
+        test::run_command(test::rgbdcast_binary() + " render --scene " + dir_ + "/atlas.glb --pose capture --backend " +
+                          backend + " --out " + png + " --report " + report);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     cv::Mat img = cv::imread(png, cv::IMREAD_UNCHANGED);
     ASSERT_EQ(img.cols, 640);
@@ -68,20 +70,23 @@ TEST_F(ViewCli, LookAtViewAndBadCameraArguments) {
   cv::Scalar mean, stddev;
   cv::meanStdDev(img, mean, stddev);
   EXPECT_GT(stddev[0], 10.0) << "not a blank image";
-  const std::string base = test::rgbdcast_binary() + " render --scene " + dir_ + "/atlas.glb --out " + dir_ + "/bad.png ";
-  for (const std::string& args : {std::string("--eye nan,0,0 --target 0,0,1"), std::string("--eye 0,0,0 --target 0,0,0"),
-                                  std::string("--pose capture --width 0 --height 10"),
-                                  std::string("--pose capture --width 9000 --height 10"), std::string("--eye 1,2 --target 0,0,1"),
-                                  std::string("--pose capture --mode wireframe")}) {
+  const std::string base =
+      test::rgbdcast_binary() + " render --scene " + dir_ + "/atlas.glb --out " + dir_ + "/bad.png ";
+  for (const std::string& args :
+       {std::string("--eye nan,0,0 --target 0,0,1"), std::string("--eye 0,0,0 --target 0,0,0"),
+        std::string("--pose capture --width 0 --height 10"), std::string("--pose capture --width 9000 --height 10"),
+        std::string("--eye 1,2 --target 0,0,1"), std::string("--pose capture --mode wireframe")}) {
     auto r = test::run_command(base + args);
     EXPECT_EQ(r.exit_code, 2) << args << ": " << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(fs::exists(dir_ + "/bad.png"));
   }
-  auto missing = test::run_command(test::rgbdcast_binary() + " render --scene " + dir_ + "/nope.glb --out " + dir_ + "/x.png");
+  auto missing =
+      test::run_command(test::rgbdcast_binary() + " render --scene " + dir_ + "/nope.glb --out " + dir_ + "/x.png");
   EXPECT_EQ(missing.exit_code, 2);
   std::ofstream(dir_ + "/truncated.glb", std::ios::binary) << "glTF\x02\0\0\0";
-  auto truncated = test::run_command(test::rgbdcast_binary() + " render --scene " + dir_ + "/truncated.glb --out " + dir_ + "/x.png");
+  auto truncated = test::run_command(test::rgbdcast_binary() + " render --scene " + dir_ + "/truncated.glb --out " +
+                                     dir_ + "/x.png");
   EXPECT_EQ(truncated.exit_code, 2) << truncated.err;
   EXPECT_NE(truncated.err.find("error:"), std::string::npos);
 }
@@ -93,7 +98,8 @@ TEST_F(ViewCli, EvalMeasuresFidelityAtTheCapturePose) {
   const nlohmann::json frame = eval("--scene " + dir_ + "/frame.glb");
   const nlohmann::json full = eval("--full-cloud --mode points");
   const nlohmann::json sparse = eval("--scene " + dir_ + "/atlas.glb --mode points --point-size 1");
-  ASSERT_TRUE(atlas.contains("psnr_db") && frame.contains("psnr_db") && full.contains("psnr_db") && sparse.contains("psnr_db"));
+  ASSERT_TRUE(atlas.contains("psnr_db") && frame.contains("psnr_db") && full.contains("psnr_db") &&
+              sparse.contains("psnr_db"));
   // The full cloud at its own pose is the frame itself: exact.
   EXPECT_GT(full["psnr_db"].get<double>(), 60.0);
   EXPECT_NEAR(full["coverage"].get<double>(), 1.0, 1e-9);

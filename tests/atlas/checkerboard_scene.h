@@ -10,12 +10,12 @@
 namespace rgbdcast::test {
 
 struct CheckerScene {
-  Intrinsics k;               // 640x480 pinhole
+  Intrinsics k;                  // 640x480 pinhole
   Eigen::Vector3d origin, U, V;  // plane point (s, t) = origin + s U + t V (camera frame, metres)
   double square_m = 0.1;
   double half_s = 0.6, half_t = 0.3;  // extent of the board
-  cv::Mat image;              // CV_8UC3 RGB
-  Mesh mesh;                  // vertex grid on the board, large triangles
+  cv::Mat image;                      // CV_8UC3 RGB
+  Mesh mesh;                          // vertex grid on the board, large triangles
 
   // 1 for a light square, 0 for a dark one.
   int checker(double s, double t) const;

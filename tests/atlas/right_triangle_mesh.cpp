@@ -47,7 +47,8 @@ struct Builder {
       return;
     }
     if (!inside) return;
-    if (s >= options.min_diagonal_side_px && ((x / s + y / s) & 1) == 1) {  // four triangles around the centre: diagonal legs
+    if (s >= options.min_diagonal_side_px &&
+        ((x / s + y / s) & 1) == 1) {  // four triangles around the centre: diagonal legs
       const int cx = x + s / 2, cy = y + s / 2;
       triangle(cx, cy, x, y, x + s, y);
       triangle(cx, cy, x + s, y, x + s, y + s);

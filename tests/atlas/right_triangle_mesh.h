@@ -18,9 +18,9 @@ using PointAt = std::function<bool(int x, int y, Eigen::Vector3f* point)>;
 using SplitBlock = std::function<bool(int x, int y, int side)>;
 
 struct RightTriangleMeshOptions {
-  int max_side_px = 64;   // root blocks (a power of two)
-  int min_side_px = 2;    // no block smaller than this (>= 2, so a centre vertex sits on a pixel centre)
-  int min_diagonal_side_px = 2;  // leaves smaller than this are always split along a diagonal (two triangles)
+  int max_side_px = 64;           // root blocks (a power of two)
+  int min_side_px = 2;            // no block smaller than this (>= 2, so a centre vertex sits on a pixel centre)
+  int min_diagonal_side_px = 2;   // leaves smaller than this are always split along a diagonal (two triangles)
   double max_depth_ratio = 1.05;  // a triangle whose vertices' depths differ by more is dropped (a depth jump)
 };
 

@@ -53,7 +53,8 @@ TextureErrors measure(const test::CheckerScene& sc, const AtlasResult& r) {
     Eigen::Vector2d patch_shift;  // footprint triangles textured from a frame patch: atlas = image + shift
     std::array<Eigen::Vector2d, 3> q_texels;
     for (int i = 0; i < 3; ++i) q_texels[i] = uv[i].cwiseProduct(size);
-    const bool patch = r.mode == TextureMode::kFootprint && test::is_patch_triangle(q_texels, v, sc.k.K(), &patch_shift);
+    const bool patch =
+        r.mode == TextureMode::kFootprint && test::is_patch_triangle(q_texels, v, sc.k.K(), &patch_shift);
     e.patch_triangles += patch;
     if (r.mode != TextureMode::kFrame && !patch) {
       std::array<Eigen::Vector2d, 3> corners;
@@ -114,13 +115,14 @@ TEST(AtlasCheckerboard, AtlasKeepsCheckerEdgesStraightWhereFrameTextureBendsThem
   ASSERT_GT(atlas.triangles, 0u);
   ASSERT_GT(frame.triangles, 0u);
   const TextureErrors ea = measure(sc, atlas), ef = measure(sc, frame);
-  std::printf("60 deg checkerboard, %zu triangles: atlas %dx%d max shift %.3f mm, wrong squares %.4f; "
-              "frame max shift %.1f mm, wrong squares %.4f\n",
-              sc.mesh.triangle_count(), atlas.width, atlas.height, ea.max_shift_mm, ea.wrong_square_fraction,
-              ef.max_shift_mm, ef.wrong_square_fraction);
-  EXPECT_LT(ea.max_shift_mm, 0.01);           // exact map (floating point)
-  EXPECT_LT(ea.wrong_square_fraction, 0.002); // resampling only, away from edges
-  EXPECT_GT(ef.max_shift_mm, 10.0);           // the affine baseline is off by centimetres inside big triangles
+  std::printf(
+      "60 deg checkerboard, %zu triangles: atlas %dx%d max shift %.3f mm, wrong squares %.4f; "
+      "frame max shift %.1f mm, wrong squares %.4f\n",
+      sc.mesh.triangle_count(), atlas.width, atlas.height, ea.max_shift_mm, ea.wrong_square_fraction, ef.max_shift_mm,
+      ef.wrong_square_fraction);
+  EXPECT_LT(ea.max_shift_mm, 0.01);            // exact map (floating point)
+  EXPECT_LT(ea.wrong_square_fraction, 0.002);  // resampling only, away from edges
+  EXPECT_GT(ef.max_shift_mm, 10.0);            // the affine baseline is off by centimetres inside big triangles
   EXPECT_GT(ef.wrong_square_fraction, 0.02);
   EXPECT_GT(ef.wrong_square_fraction, 10 * ea.wrong_square_fraction);
 }
@@ -160,13 +162,13 @@ TEST(AtlasCheckerboard, FootprintAtlasOnLargeRightTrianglesIsUndistorted) {
   ASSERT_GT(frame.triangles, 0u);
   ASSERT_GT(patched.triangles, 0u);
   const TextureErrors ea = measure(sc, fp), ef = measure(sc, frame), ep = measure(sc, patched);
-  std::printf("60 deg checkerboard, %zu right triangles (legs %.1f-%.1f px): footprint %dx%d (packing %.3f) max shift "
-              "%.4f mm / %.2g px, wrong squares %.4f; frame max shift %.2f mm / %.2f px, wrong squares %.4f; "
-              "footprint with frame patches (%zu triangles) %dx%d max shift %.2f mm / %.3f px, wrong squares %.4f\n",
-              sc.mesh.triangle_count(), min_leg, max_leg, fp.width, fp.height, fp.packing_efficiency,
-              ea.max_shift_mm, ea.max_shift_px, ea.wrong_square_fraction, ef.max_shift_mm, ef.max_shift_px,
-              ef.wrong_square_fraction, ep.patch_triangles, patched.width, patched.height, ep.max_shift_mm,
-              ep.max_shift_px, ep.wrong_square_fraction);
+  std::printf(
+      "60 deg checkerboard, %zu right triangles (legs %.1f-%.1f px): footprint %dx%d (packing %.3f) max shift "
+      "%.4f mm / %.2g px, wrong squares %.4f; frame max shift %.2f mm / %.2f px, wrong squares %.4f; "
+      "footprint with frame patches (%zu triangles) %dx%d max shift %.2f mm / %.3f px, wrong squares %.4f\n",
+      sc.mesh.triangle_count(), min_leg, max_leg, fp.width, fp.height, fp.packing_efficiency, ea.max_shift_mm,
+      ea.max_shift_px, ea.wrong_square_fraction, ef.max_shift_mm, ef.max_shift_px, ef.wrong_square_fraction,
+      ep.patch_triangles, patched.width, patched.height, ep.max_shift_mm, ep.max_shift_px, ep.wrong_square_fraction);
   EXPECT_EQ(fp.triangles, sc.mesh.triangle_count());
   EXPECT_EQ(ea.patch_triangles, 0u);
   EXPECT_LT(ea.max_shift_px, 0.5);

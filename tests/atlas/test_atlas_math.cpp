@@ -129,8 +129,8 @@ TEST(AtlasLayout, TwoTrianglesPerCellHalveTheAtlas) {
   const double ratio = double(two.width) * two.height / (double(one.width) * one.height);
   EXPECT_NEAR(ratio, 0.5, 0.02);
   CellLayout bad;
-  EXPECT_FALSE(make_cell_layout(10, 4, 1, true, 8192, &bad));       // no room for a triangle
-  EXPECT_FALSE(make_cell_layout(10000000, 64, 1, true, 8192, &bad)); // too large
+  EXPECT_FALSE(make_cell_layout(10, 4, 1, true, 8192, &bad));         // no room for a triangle
+  EXPECT_FALSE(make_cell_layout(10000000, 64, 1, true, 8192, &bad));  // too large
 }
 
 TEST(Atlas, BadInputIsAnErrorNotACrash) {

@@ -97,10 +97,11 @@ TEST(AtlasTum, Frame0AtlasGlbIsValidAndSmall) {
   // (measured 33.9 vs 34.0 dB at quality 85 on this frame; bench/atlas_bench).
   const auto fa = measure_texture_fidelity(atlas->mesh, decode_texture(atlas->mesh), f->frame.color_rgb, k);
   const auto ff = measure_texture_fidelity(frame_tex->mesh, decode_texture(frame_tex->mesh), f->frame.color_rgb, k);
-  std::printf("frame 0: %zu triangles, atlas %dx%d (%zu cells), atlas %.1f ms + JPEG %.1f ms, %zu B JPEG, PSNR %.2f dB;"
-              " frame texture %zu B JPEG, PSNR %.2f dB\n",
-              atlas->triangles, atlas->width, atlas->height, atlas->cells, atlas->ms, atlas->encode_ms,
-              atlas->mesh.texture_encoded.size(), fa.psnr_db, frame_tex->mesh.texture_encoded.size(), ff.psnr_db);
+  std::printf(
+      "frame 0: %zu triangles, atlas %dx%d (%zu cells), atlas %.1f ms + JPEG %.1f ms, %zu B JPEG, PSNR %.2f dB;"
+      " frame texture %zu B JPEG, PSNR %.2f dB\n",
+      atlas->triangles, atlas->width, atlas->height, atlas->cells, atlas->ms, atlas->encode_ms,
+      atlas->mesh.texture_encoded.size(), fa.psnr_db, frame_tex->mesh.texture_encoded.size(), ff.psnr_db);
   EXPECT_GT(fa.psnr_db, 30.0);
   EXPECT_GT(ff.psnr_db, 30.0);
   EXPECT_GT(fa.psnr_db, ff.psnr_db - 1.5);
@@ -120,8 +121,8 @@ TEST(AtlasTum, Frame0AtlasGlbIsValidAndSmall) {
       w.quantize = v.quantize;
       w.meshopt = v.meshopt;
       GlbStats st;
-      const std::string path = f->dir + "/frame0_" + to_string(mode) + "_" + (v.quantize ? "q" : "f") +
-                               (v.meshopt ? "m" : "") + ".glb";
+      const std::string path =
+          f->dir + "/frame0_" + to_string(mode) + "_" + (v.quantize ? "q" : "f") + (v.meshopt ? "m" : "") + ".glb";
       ASSERT_TRUE(write_glb_file(scene_of(m, f->frame), path, w, &st).ok());
       std::printf("%s texture, %s: geometry %zu B, texture %zu B, GLB %zu B (raw cloud %zu B, %.1fx), export %.1f ms\n",
                   to_string(mode), v.name, st.geometry_bytes, st.texture_bytes, st.total_bytes, raw_cloud_bytes,
@@ -147,7 +148,8 @@ static void render_in_chromium(const Mesh& mesh, const RgbdFrame& frame, bool me
   const std::string chromium = test::find_chromium();
   const std::string three = test::source_path("tools/node_modules/three/build/three.module.js");
   if (chromium.empty() || !fs::exists(three)) {
-    const std::string why = chromium.empty() ? "chromium not installed" : "tools/node_modules/three missing (scripts/setup.sh)";
+    const std::string why =
+        chromium.empty() ? "chromium not installed" : "tools/node_modules/three missing (scripts/setup.sh)";
     if (in_ci()) FAIL() << why;
     GTEST_SKIP() << why;
   }
@@ -159,9 +161,9 @@ static void render_in_chromium(const Mesh& mesh, const RgbdFrame& frame, bool me
 
   const int W = frame.intrinsics.width, H = frame.intrinsics.height;
   const std::string shot = f->dir + "/" + tag + ".png";
-  const auto post = test::run_tools_page(chromium, "threejs_view.html?glb=/scene.glb&w=" + std::to_string(W) + "&h=" +
-                                                       std::to_string(H) + "&bg=ff00ff",
-                                         {{"/scene.glb", glb}}, f->dir, tag, W, H);
+  const auto post = test::run_tools_page(
+      chromium, "threejs_view.html?glb=/scene.glb&w=" + std::to_string(W) + "&h=" + std::to_string(H) + "&bg=ff00ff",
+      {{"/scene.glb", glb}}, f->dir, tag, W, H);
   const double ms = post.ms;
   ASSERT_TRUE(post.reported) << "the page did not report within 90 s; see " << post.log;
   ASSERT_TRUE(post.ok) << post.body;
@@ -203,11 +205,12 @@ static void render_in_chromium(const Mesh& mesh, const RgbdFrame& frame, bool me
     corr = cov / std::sqrt(std::max(vx * vy, 1e-12));
     stddev = std::sqrt(std::max(vx, 0.0));
   }
-  std::printf("%s: three.js screenshot in %.0f ms: coverage %.3f, grey std %.1f, correlation with the frame %.3f, "
-              "mean |diff| %.1f grey levels (%s)\n",
-              tag.c_str(), ms, coverage, stddev, corr, covered ? abs_diff / n : 0.0, shot.c_str());
-  EXPECT_GT(coverage, 0.4);   // the reduced mesh covers ~60 % of the frame
-  EXPECT_GT(stddev, 20.0);    // not a flat colour
+  std::printf(
+      "%s: three.js screenshot in %.0f ms: coverage %.3f, grey std %.1f, correlation with the frame %.3f, "
+      "mean |diff| %.1f grey levels (%s)\n",
+      tag.c_str(), ms, coverage, stddev, corr, covered ? abs_diff / n : 0.0, shot.c_str());
+  EXPECT_GT(coverage, 0.4);  // the reduced mesh covers ~60 % of the frame
+  EXPECT_GT(stddev, 20.0);   // not a flat colour
   EXPECT_GT(corr, 0.97);
   EXPECT_LT(abs_diff / std::max(n, 1.0), 6.0);
 }

@@ -65,7 +65,8 @@ TEST(FootprintLayout, SizeClassesFollowTheLegsOfARightTriangulation) {
   // RTIN legs 2^k (axis-aligned) and 2^k sqrt 2 (diagonal) get the next whole texel.
   for (int k = 0; k <= 6; ++k) {
     EXPECT_EQ(footprint_leg_class(std::pow(2.0, k)), 1 << k) << k;
-    EXPECT_EQ(footprint_leg_class(std::pow(2.0, k) * std::sqrt(2.0)), int(std::ceil(std::pow(2.0, k) * std::sqrt(2.0))));
+    EXPECT_EQ(footprint_leg_class(std::pow(2.0, k) * std::sqrt(2.0)),
+              int(std::ceil(std::pow(2.0, k) * std::sqrt(2.0))));
   }
   EXPECT_EQ(footprint_leg_class(0.3), 1);
   EXPECT_EQ(footprint_leg_class(16.0005), 16);  // rounding slack
@@ -73,14 +74,16 @@ TEST(FootprintLayout, SizeClassesFollowTheLegsOfARightTriangulation) {
   EXPECT_EQ(footprint_leg_class(1e6), 256);
   // The footprint of a right isosceles image triangle is its leg, whichever vertex is listed first.
   int right = -1;
-  const std::array<Eigen::Vector2d, 3> tri = {Eigen::Vector2d(40, 10), Eigen::Vector2d(10, 10), Eigen::Vector2d(10, 40)};
+  const std::array<Eigen::Vector2d, 3> tri = {Eigen::Vector2d(40, 10), Eigen::Vector2d(10, 10),
+                                              Eigen::Vector2d(10, 40)};
   EXPECT_NEAR(footprint_leg_px(tri, &right), 30.0, 1e-9);
   EXPECT_EQ(right, 1);
   const std::array<Eigen::Vector2d, 3> diag = {Eigen::Vector2d(0, 0), Eigen::Vector2d(8, 8), Eigen::Vector2d(16, 0)};
   EXPECT_NEAR(footprint_leg_px(diag, &right), 8 * std::sqrt(2.0), 1e-9);
   EXPECT_EQ(right, 1);
   // An obtuse triangle needs more than its longest adjacent edge, so that no direction gets under a texel per pixel.
-  const std::array<Eigen::Vector2d, 3> obtuse = {Eigen::Vector2d(0, 0), Eigen::Vector2d(-10, 3), Eigen::Vector2d(10, 3)};
+  const std::array<Eigen::Vector2d, 3> obtuse = {Eigen::Vector2d(0, 0), Eigen::Vector2d(-10, 3),
+                                                 Eigen::Vector2d(10, 3)};
   EXPECT_GT(footprint_leg_px(obtuse, &right), std::hypot(10.0, 3.0));
   EXPECT_EQ(right, 0);
 }
@@ -197,7 +200,8 @@ TEST(FootprintAtlas, EveryTexelMapsBackToItsProjectionAndLookupsStayInTheirTrian
   std::map<std::pair<std::pair<long, long>, std::pair<long, long>>, std::vector<size_t>> by_hypotenuse;
   for (size_t t = 0; t < r->triangles; ++t) {
     const auto c = corners_of(*r, t);
-    std::pair<long, long> a(std::lround(c[1].x()), std::lround(c[1].y())), b(std::lround(c[2].x()), std::lround(c[2].y()));
+    std::pair<long, long> a(std::lround(c[1].x()), std::lround(c[1].y())),
+        b(std::lround(c[2].x()), std::lround(c[2].y()));
     if (b < a) std::swap(a, b);
     by_hypotenuse[{a, b}].push_back(t);
   }
@@ -248,16 +252,17 @@ TEST(FootprintAtlas, EveryTexelMapsBackToItsProjectionAndLookupsStayInTheirTrian
       if (image_leg >= 8.0) max_density = std::max(max_density, density);
     }
   }
-  std::printf("%zu triangles (%zu diamonds), %zu texels inside them: worst texel -> image error %.2g px; texels per "
-              "source pixel along the legs %.3f-%.3f (legs >= 8 px); atlas %dx%d, packing %.3f\n",
-              r->triangles, diamonds, texels_checked, worst_px, min_density, max_density, r->width, r->height,
-              r->packing_efficiency);
+  std::printf(
+      "%zu triangles (%zu diamonds), %zu texels inside them: worst texel -> image error %.2g px; texels per "
+      "source pixel along the legs %.3f-%.3f (legs >= 8 px); atlas %dx%d, packing %.3f\n",
+      r->triangles, diamonds, texels_checked, worst_px, min_density, max_density, r->width, r->height,
+      r->packing_efficiency);
   EXPECT_GT(2 * diamonds, r->triangles / 4);  // a third of the triangles, on this mesh
   EXPECT_GT(texels_checked, 100000u);
   EXPECT_LT(worst_px, 0.5);
   EXPECT_LT(worst_px, 1e-6) << "exact up to rounding";
   EXPECT_GE(min_density, 1.0 - 1e-4);  // float vertices sit on pixel centres to ~1e-5 px
-  EXPECT_LE(max_density, 1.2);  // RTIN legs hit a class; the lower triangle's leg is one texel more
+  EXPECT_LE(max_density, 1.2);         // RTIN legs hit a class; the lower triangle's leg is one texel more
 
   // Bilinear lookups at points inside each triangle read only that triangle's texels (or its diamond partner's, which
   // continue the same surface across their shared edge).
@@ -276,7 +281,8 @@ TEST(FootprintAtlas, EveryTexelMapsBackToItsProjectionAndLookupsStayInTheirTrian
       const double w[4] = {(1 - wx) * (1 - wy), wx * (1 - wy), (1 - wx) * wy, wx * wy};
       for (int n = 0; n < 4; ++n) {
         const int x = xa + (n & 1), y = ya + (n >> 1);
-        const int o = x >= 0 && y >= 0 && x < r->width && y < r->height ? owner[static_cast<size_t>(y) * r->width + x] : -1;
+        const int o =
+            x >= 0 && y >= 0 && x < r->width && y < r->height ? owner[static_cast<size_t>(y) * r->width + x] : -1;
         const bool own = o == static_cast<int>(t) || (o >= 0 && o == partner[t]);
         if (!own) foreign = std::max(foreign, w[n]);
       }
@@ -393,11 +399,11 @@ TEST(FootprintAtlas, FramePatchesKeepTheHalfPixelContractInFewerTexels) {
         }
       }
   }
-  std::printf("%zu triangles: %zu in %zu frame patches (worst %.3f px), the rest in cells (worst %.2g px); atlas "
-              "%dx%d (packing %.3f) vs %dx%d (%.3f) with cells only; JPEG q85 %zu vs %zu B\n",
-              b->triangles, b->patch_triangles, b->patches, worst_patch, worst_cell, b->width, b->height,
-              b->packing_efficiency, a->width, a->height, a->packing_efficiency, b->mesh.texture_encoded.size(),
-              a->mesh.texture_encoded.size());
+  std::printf(
+      "%zu triangles: %zu in %zu frame patches (worst %.3f px), the rest in cells (worst %.2g px); atlas "
+      "%dx%d (packing %.3f) vs %dx%d (%.3f) with cells only; JPEG q85 %zu vs %zu B\n",
+      b->triangles, b->patch_triangles, b->patches, worst_patch, worst_cell, b->width, b->height, b->packing_efficiency,
+      a->width, a->height, a->packing_efficiency, b->mesh.texture_encoded.size(), a->mesh.texture_encoded.size());
   EXPECT_LT(worst_patch, 0.5);
   EXPECT_LT(worst_cell, 1e-6);
   EXPECT_LT(b->texels, a->texels);

@@ -96,7 +96,8 @@ TEST(UnsampledFill, KeepsSampledTexelsAndContinuesThemSmoothly) {
       changed += a[0] != b[0] || a[1] != b[1] || a[2] != b[2];
       // The ramp continued: near the true ramp (push-pull is smooth, not linear, and whole 8x8 blocks without a sampled
       // texel are flat, i.e. up to ~4 texels x 3 levels off on this ramp).
-      worst = std::max({worst, std::abs(b[0] - (40.0 + 2 * x)), std::abs(b[1] - (30.0 + 3 * y)), std::abs(b[2] - 100.0)});
+      worst =
+          std::max({worst, std::abs(b[0] - (40.0 + 2 * x)), std::abs(b[1] - (30.0 + 3 * y)), std::abs(b[2] - 100.0)});
     }
   std::printf("%d unsampled texels, %d changed, worst distance from the ramp %.1f levels\n", holes, changed, worst);
   EXPECT_EQ(changed, holes);
@@ -139,10 +140,11 @@ TEST(UnsampledFill, FootprintAndFrameTexturesChangeOnlyWhatNoTriangleSamples) {
           unsampled_changed += !same;
         }
       }
-    std::printf("%s: %zu triangles, %dx%d, %zu texels sampled, %zu unsampled filled (%zu changed), fill %.2f ms; "
-                "JPEG q85 %zu B filled vs %zu B not\n",
-                to_string(mode), a->triangles, a->width, a->height, sampled, a->unsampled_texels, unsampled_changed,
-                a->fill_ms, a->mesh.texture_encoded.size(), b->mesh.texture_encoded.size());
+    std::printf(
+        "%s: %zu triangles, %dx%d, %zu texels sampled, %zu unsampled filled (%zu changed), fill %.2f ms; "
+        "JPEG q85 %zu B filled vs %zu B not\n",
+        to_string(mode), a->triangles, a->width, a->height, sampled, a->unsampled_texels, unsampled_changed, a->fill_ms,
+        a->mesh.texture_encoded.size(), b->mesh.texture_encoded.size());
     EXPECT_EQ(sampled_same, sampled) << to_string(mode);
     EXPECT_GT(a->unsampled_texels, 0u);
     EXPECT_GT(unsampled_changed, 0u);
@@ -188,12 +190,12 @@ TEST(UnsampledFill, RealFrameJpegIsSmallerWithTheFill) {
         if ((*mask)[i])
           differ += !std::equal(a->mesh.texture.data.begin() + 3 * i, a->mesh.texture.data.begin() + 3 * i + 3,
                                 b->mesh.texture.data.begin() + 3 * i);
-      std::printf("TUM fr1/xyz 0, %zu triangles, %s %dx%d, q%d: JPEG %zu B with the fill, %zu B without (%.1f%%); "
-                  "%zu texels unsampled\n",
-                  a->triangles, to_string(mode), a->width, a->height, q, a->mesh.texture_encoded.size(),
-                  b->mesh.texture_encoded.size(),
-                  100.0 * (double(a->mesh.texture_encoded.size()) / b->mesh.texture_encoded.size() - 1),
-                  a->unsampled_texels);
+      std::printf(
+          "TUM fr1/xyz 0, %zu triangles, %s %dx%d, q%d: JPEG %zu B with the fill, %zu B without (%.1f%%); "
+          "%zu texels unsampled\n",
+          a->triangles, to_string(mode), a->width, a->height, q, a->mesh.texture_encoded.size(),
+          b->mesh.texture_encoded.size(),
+          100.0 * (double(a->mesh.texture_encoded.size()) / b->mesh.texture_encoded.size() - 1), a->unsampled_texels);
       EXPECT_EQ(differ, 0u);
       EXPECT_LT(a->mesh.texture_encoded.size(), b->mesh.texture_encoded.size());
     }

@@ -16,8 +16,8 @@ namespace fs = std::filesystem;
 class AtomicFile : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = (fs::temp_directory_path() / ("rgbdcast-atomic-" + std::to_string(::getpid()) + "-" +
-                                         std::to_string(std::random_device{}())))
+    dir_ = (fs::temp_directory_path() /
+            ("rgbdcast-atomic-" + std::to_string(::getpid()) + "-" + std::to_string(std::random_device{}())))
                .string();
     fs::create_directories(dir_);
   }

@@ -19,16 +19,16 @@ ValidatorReport validate_gltf_file(const std::string& path);
 
 }  // namespace rgbdcast::test
 
-#define EXPECT_GLTF_VALID(path)                                                                             \
-  do {                                                                                                      \
-    const auto rgbdcast_rep_ = ::rgbdcast::test::validate_gltf_file(path);                                  \
-    if (!rgbdcast_rep_.ran) {                                                                               \
-      if (std::getenv("CI") && std::string(std::getenv("CI")) == "true")                                    \
-        ADD_FAILURE() << "glTF validator unavailable: " << rgbdcast_rep_.why_not;                           \
-      else                                                                                                  \
-        std::printf("[ SKIPPED validator ] %s\n", rgbdcast_rep_.why_not.c_str());                          \
-    } else {                                                                                                \
-      EXPECT_EQ(rgbdcast_rep_.errors, 0) << path << "\n" << rgbdcast_rep_.messages;                         \
-      EXPECT_EQ(rgbdcast_rep_.warnings, 0) << path << "\n" << rgbdcast_rep_.messages;                       \
-    }                                                                                                       \
+#define EXPECT_GLTF_VALID(path)                                                       \
+  do {                                                                                \
+    const auto rgbdcast_rep_ = ::rgbdcast::test::validate_gltf_file(path);            \
+    if (!rgbdcast_rep_.ran) {                                                         \
+      if (std::getenv("CI") && std::string(std::getenv("CI")) == "true")              \
+        ADD_FAILURE() << "glTF validator unavailable: " << rgbdcast_rep_.why_not;     \
+      else                                                                            \
+        std::printf("[ SKIPPED validator ] %s\n", rgbdcast_rep_.why_not.c_str());     \
+    } else {                                                                          \
+      EXPECT_EQ(rgbdcast_rep_.errors, 0) << path << "\n" << rgbdcast_rep_.messages;   \
+      EXPECT_EQ(rgbdcast_rep_.warnings, 0) << path << "\n" << rgbdcast_rep_.messages; \
+    }                                                                                 \
   } while (0)

@@ -96,8 +96,8 @@ Result<std::unique_ptr<PostgresServer>> PostgresServer::start() {
 }
 
 Status PostgresServer::launch() {
-  pid_ = spawn({postgres_bin_dir() + "/postgres", "-D", dir_ + "/data", "-k", dir_, "-c", "listen_addresses=",
-                "-c", "fsync=off", "-c", "full_page_writes=off"},
+  pid_ = spawn({postgres_bin_dir() + "/postgres", "-D", dir_ + "/data", "-k", dir_, "-c", "listen_addresses=", "-c",
+                "fsync=off", "-c", "full_page_writes=off"},
                dir_ + "/postgres.log");
   if (pid_ < 0) return make_error(ErrorCode::kUnavailable, "cannot start postgres");
   const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(30);

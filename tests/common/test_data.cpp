@@ -14,12 +14,8 @@ namespace fs = std::filesystem;
 namespace rgbdcast::test {
 
 std::string data_path(const std::string& relative) { return (fs::path(RGBDCAST_DATA_DIR) / relative).string(); }
-std::string source_path(const std::string& relative) {
-  return (fs::path(RGBDCAST_SOURCE_DIR) / relative).string();
-}
-std::string binary_path(const std::string& relative) {
-  return (fs::path(RGBDCAST_BINARY_DIR) / relative).string();
-}
+std::string source_path(const std::string& relative) { return (fs::path(RGBDCAST_SOURCE_DIR) / relative).string(); }
+std::string binary_path(const std::string& relative) { return (fs::path(RGBDCAST_BINARY_DIR) / relative).string(); }
 
 bool have_data(const std::string& relative, std::string* message) {
   const std::string p = data_path(relative);

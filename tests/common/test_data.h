@@ -24,17 +24,16 @@ std::string binary_path(const std::string& relative);
 
 // A test whose prerequisite (data, a tool) is missing: skipped with the message on a developer's machine, failed
 // under CI=true.
-#define RGBDCAST_MISSING_PREREQUISITE(message)                          \
-  do {                                                                \
+#define RGBDCAST_MISSING_PREREQUISITE(message)                         \
+  do {                                                                 \
     if (std::getenv("CI") && std::string(std::getenv("CI")) == "true") \
-      FAIL() << (message);                                            \
-    else                                                              \
-      GTEST_SKIP() << (message);                                      \
+      FAIL() << (message);                                             \
+    else                                                               \
+      GTEST_SKIP() << (message);                                       \
   } while (0)
 
-#define REQUIRE_DATA(relative)                                        \
-  do {                                                                \
-    std::string rgbdcast_msg_;                                        \
-    if (!::rgbdcast::test::have_data(relative, &rgbdcast_msg_))       \
-      RGBDCAST_MISSING_PREREQUISITE(rgbdcast_msg_);                   \
+#define REQUIRE_DATA(relative)                                                                                \
+  do {                                                                                                        \
+    std::string rgbdcast_msg_;                                                                                \
+    if (!::rgbdcast::test::have_data(relative, &rgbdcast_msg_)) RGBDCAST_MISSING_PREREQUISITE(rgbdcast_msg_); \
   } while (0)

@@ -17,13 +17,16 @@ namespace {
 using Target = std::function<void(const std::uint8_t*, size_t)>;
 
 const std::map<std::string, Target>& targets() {
-  static const std::map<std::string, Target> t = {
-      {"glb", rgbdcast::fuzz::glb},           {"draco", rgbdcast::fuzz::draco},
-      {"intrinsics", rgbdcast::fuzz::intrinsics},
-      {"frame_decode", rgbdcast::fuzz::frame_decode}, {"frame_upload", rgbdcast::fuzz::frame_upload},
-      {"multipart", rgbdcast::fuzz::multipart},
-      {"pcd", rgbdcast::fuzz::pcd},           {"trajectory", rgbdcast::fuzz::trajectory},
-      {"view_query", rgbdcast::fuzz::view_query},     {"rosbag", rgbdcast::fuzz::rosbag}};
+  static const std::map<std::string, Target> t = {{"glb", rgbdcast::fuzz::glb},
+                                                  {"draco", rgbdcast::fuzz::draco},
+                                                  {"intrinsics", rgbdcast::fuzz::intrinsics},
+                                                  {"frame_decode", rgbdcast::fuzz::frame_decode},
+                                                  {"frame_upload", rgbdcast::fuzz::frame_upload},
+                                                  {"multipart", rgbdcast::fuzz::multipart},
+                                                  {"pcd", rgbdcast::fuzz::pcd},
+                                                  {"trajectory", rgbdcast::fuzz::trajectory},
+                                                  {"view_query", rgbdcast::fuzz::view_query},
+                                                  {"rosbag", rgbdcast::fuzz::rosbag}};
   return t;
 }
 

@@ -59,11 +59,20 @@ PagePost run_tools_page(const std::string& chromium, const std::string& page_and
   const std::string url = "http://127.0.0.1:" + std::to_string(server.port()) + "/" + page_and_query;
   const std::string profile = work_dir + "/chromium-profile-" + tag;
   r.log = work_dir + "/" + tag + "-chromium.log";
-  std::vector<std::string> args = {chromium, "--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
-                                   "--use-angle=swiftshader", "--no-first-run", "--disable-background-networking",
-                                   "--disable-component-update", "--disable-sync", "--hide-scrollbars",
+  std::vector<std::string> args = {chromium,
+                                   "--headless",
+                                   "--no-sandbox",
+                                   "--disable-gpu",
+                                   "--enable-unsafe-swiftshader",
+                                   "--use-angle=swiftshader",
+                                   "--no-first-run",
+                                   "--disable-background-networking",
+                                   "--disable-component-update",
+                                   "--disable-sync",
+                                   "--hide-scrollbars",
                                    "--user-data-dir=" + profile,
-                                   "--window-size=" + std::to_string(width) + "," + std::to_string(height), url};
+                                   "--window-size=" + std::to_string(width) + "," + std::to_string(height),
+                                   url};
   const auto t0 = std::chrono::steady_clock::now();
   const pid_t pid = spawn_chromium(args, r.log, work_dir);
   if (pid < 0) {

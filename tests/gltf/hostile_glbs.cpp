@@ -58,7 +58,8 @@ Bytes glb_with_nested_extras(int depth) {
 }
 
 Bytes glb_with_position_count(std::uint64_t count) {
-  return edit_glb(plain_sample_glb(), [&](nlohmann::json& d) { d["accessors"][first_position_accessor(d)]["count"] = count; });
+  return edit_glb(plain_sample_glb(),
+                  [&](nlohmann::json& d) { d["accessors"][first_position_accessor(d)]["count"] = count; });
 }
 
 Bytes glb_without_bufferview(std::uint64_t count) {

@@ -58,7 +58,8 @@ Scene sample_scene() {
   b.mesh = coloured_grid(4, 2.0f);
   b.points.positions = b.mesh.positions;
   b.points.colors = b.mesh.colors;
-  Eigen::Affine3d t = Eigen::Translation3d(0.2, -0.1, 0.3) * Eigen::AngleAxisd(0.3, Eigen::Vector3d(0, 1, 0.2).normalized());
+  Eigen::Affine3d t =
+      Eigen::Translation3d(0.2, -0.1, 0.3) * Eigen::AngleAxisd(0.3, Eigen::Vector3d(0, 1, 0.2).normalized());
   b.to_world = t.matrix();
   s.nodes.push_back(b);
   // Atlas-like: every triangle has its own vertices (indices 0, 1, 2, ...) and UVs on texel corners.
@@ -69,8 +70,8 @@ Scene sample_scene() {
     const float x = 0.1f * t;
     c.mesh.positions.insert(c.mesh.positions.end(), {{x, 0, 1}, {x + 0.1f, 0, 1}, {x, 0.1f, 1.05f}});
     const float u0 = (t % 4) * 8.0f, v0 = (t / 4) * 8.0f;
-    c.mesh.uvs.insert(c.mesh.uvs.end(), {{(u0 + 1) / 32, (v0 + 1) / 16}, {(u0 + 4) / 32, (v0 + 1) / 16},
-                                         {(u0 + 1) / 32, (v0 + 4) / 16}});
+    c.mesh.uvs.insert(c.mesh.uvs.end(),
+                      {{(u0 + 1) / 32, (v0 + 1) / 16}, {(u0 + 4) / 32, (v0 + 1) / 16}, {(u0 + 1) / 32, (v0 + 4) / 16}});
     for (int k = 0; k < 3; ++k) c.mesh.indices.push_back(static_cast<std::uint32_t>(3 * t + k));
   }
   s.nodes.push_back(c);
@@ -87,7 +88,8 @@ Scene sample_scene() {
   cam2.camera_to_world = b.to_world;
   cam2.frame_index = 1;
   s.cameras.push_back(cam2);
-  s.extras_json = R"({"intrinsics":{"fx":517.3},"timestamp":1305031102.175304,"source_frame":"rgb/1305031102.175304.png","stages":{"points":22474,"triangles":40168}})";
+  s.extras_json =
+      R"({"intrinsics":{"fx":517.3},"timestamp":1305031102.175304,"source_frame":"rgb/1305031102.175304.png","stages":{"points":22474,"triangles":40168}})";
   return s;
 }
 

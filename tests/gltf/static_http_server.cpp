@@ -41,7 +41,9 @@ bool StaticHttpServer::start() {
 }
 
 static std::string mime_of(const std::string& path) {
-  auto ends = [&](const char* s) { return path.size() >= std::strlen(s) && path.compare(path.size() - std::strlen(s), std::string::npos, s) == 0; };
+  auto ends = [&](const char* s) {
+    return path.size() >= std::strlen(s) && path.compare(path.size() - std::strlen(s), std::string::npos, s) == 0;
+  };
   if (ends(".html")) return "text/html";
   if (ends(".js") || ends(".mjs")) return "text/javascript";
   if (ends(".glb")) return "model/gltf-binary";
@@ -72,8 +74,8 @@ static void relay_get(int c, int port, const std::string& target) {
     send_all(c, "HTTP/1.0 502 Bad Gateway\r\nContent-Length: 0\r\nConnection: close\r\n\r\n");
     return;
   }
-  send_all(u, "GET " + target + " HTTP/1.0\r\nHost: 127.0.0.1:" + std::to_string(port) +
-                  "\r\nConnection: close\r\n\r\n");
+  send_all(u,
+           "GET " + target + " HTTP/1.0\r\nHost: 127.0.0.1:" + std::to_string(port) + "\r\nConnection: close\r\n\r\n");
   char buf[65536];
   for (;;) {
     pollfd q{u, POLLIN, 0};
@@ -144,8 +146,8 @@ void StaticHttpServer::serve() {
       cv_.notify_all();
       continue;
     }
-    const auto forwarded = std::find_if(forward_.begin(), forward_.end(),
-                                        [&](const auto& f) { return path.rfind(f.first, 0) == 0; });
+    const auto forwarded =
+        std::find_if(forward_.begin(), forward_.end(), [&](const auto& f) { return path.rfind(f.first, 0) == 0; });
     if (method == "GET" && forwarded != forward_.end()) {
       relay_get(c, forwarded->second, target);
       ::close(c);
@@ -160,8 +162,8 @@ void StaticHttpServer::serve() {
     std::string body, head;
     if (method == "GET" && f) {
       body.assign(std::istreambuf_iterator<char>(f), {});
-      head = "HTTP/1.0 200 OK\r\nContent-Type: " + mime_of(file) + "\r\nContent-Length: " + std::to_string(body.size()) +
-             "\r\nConnection: close\r\n\r\n";
+      head = "HTTP/1.0 200 OK\r\nContent-Type: " + mime_of(file) +
+             "\r\nContent-Length: " + std::to_string(body.size()) + "\r\nConnection: close\r\n\r\n";
     } else {
       body = "not found";
       head = "HTTP/1.0 404 Not Found\r\nContent-Length: 9\r\nConnection: close\r\n\r\n";

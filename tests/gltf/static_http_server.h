@@ -25,7 +25,8 @@ class StaticHttpServer {
   // Connection: close, and its answer (status, headers, body) is passed back as it came; 502 when it cannot connect.
   void forward(const std::string& prefix, int port) { forward_[prefix] = port; }
   // The body of the first POST to any of `paths` within timeout_ms, with the path it came to.
-  std::optional<std::pair<std::string, std::string>> wait_for_post(const std::vector<std::string>& paths, int timeout_ms);
+  std::optional<std::pair<std::string, std::string>> wait_for_post(const std::vector<std::string>& paths,
+                                                                   int timeout_ms);
 
  private:
   void serve();

@@ -42,7 +42,8 @@ std::vector<Eigen::Matrix4d> world_matrices(const nlohmann::json& doc) {
 TEST(GltfAxes, PointAheadOfCaptureCameraIsAlongMinusZOfTheGltfCamera) {
   Scene scene;
   CaptureCamera cam;
-  Eigen::Affine3d pose = Eigen::Translation3d(0.5, -0.2, 1.0) * Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, 1, 0.1).normalized());
+  Eigen::Affine3d pose =
+      Eigen::Translation3d(0.5, -0.2, 1.0) * Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, 1, 0.1).normalized());
   cam.camera_to_world = pose.matrix();
   scene.cameras.push_back(cam);
   // A mesh node whose vertex 0 sits 2 m straight ahead of the camera, vertex 1 above it in the image (-y camera).
@@ -76,9 +77,9 @@ TEST(GltfAxes, PointAheadOfCaptureCameraIsAlongMinusZOfTheGltfCamera) {
   EXPECT_NEAR(ahead.y(), 0, 1e-9);
   EXPECT_NEAR(ahead.z(), -2.0, 1e-9);  // glTF cameras look along -z
   const Eigen::Vector3d above = in_cam(n.mesh.positions[1]);
-  EXPECT_NEAR(above.y(), 0.5, 1e-9);   // up in the image is +y in glTF
+  EXPECT_NEAR(above.y(), 0.5, 1e-9);  // up in the image is +y in glTF
   const Eigen::Vector3d right = in_cam(n.mesh.positions[2]);
-  EXPECT_NEAR(right.x(), 0.5, 1e-9);   // x right in both
+  EXPECT_NEAR(right.x(), 0.5, 1e-9);  // x right in both
   // The root carries C = diag(1,-1,-1): scene-world up (-y) becomes glTF +y.
   EXPECT_EQ(doc["nodes"][doc["scenes"][0]["nodes"][0].get<int>()]["name"], "rgbdcast_world");
   // yfov from fy and the image height.

@@ -37,8 +37,7 @@ void count_alloc(void* p) {
   if (!p) return;
   const size_t now = g_in_use += malloc_usable_size(p);
   size_t peak = g_peak.load();
-  while (now > peak && !g_peak.compare_exchange_weak(peak, now)) {
-  }
+  while (now > peak && !g_peak.compare_exchange_weak(peak, now)) {}
 }
 }  // namespace
 void* operator new(size_t n) {
@@ -194,8 +193,9 @@ TEST(GltfDraco, RealFramesRoundTripWithinTheQuantizationStep) {
     const double tex_side = std::max(m.texture.width, m.texture.height);
     const double pos_tol = 0.0005 + 1e-6, uv_tol = 0.125 / tex_side + 1e-7;
     auto match = match_vertices(m, d, pos_tol, uv_tol);
-    EXPECT_EQ(std::count(match.begin(), match.end(), -1L), 0) << f.path << ": decoded vertices off by more than "
-                                                                  "half a step";
+    EXPECT_EQ(std::count(match.begin(), match.end(), -1L), 0) << f.path
+                                                              << ": decoded vertices off by more than "
+                                                                 "half a step";
     // Originals closer than a step (2 x the half step) are one point after quantization: compared as one.
     const std::vector<long> rep = representatives(m, 2 * pos_tol, 2 * uv_tol);
     const size_t distinct = std::set<long>(rep.begin(), rep.end()).size();
@@ -215,8 +215,11 @@ TEST(GltfDraco, RealFramesRoundTripWithinTheQuantizationStep) {
 // decode, when every point is referenced (a non-manifold vertex's extra points included), and from a decode when a
 // point is not (the edgebreaker drops it, so the decoded bounds may be tighter than the input's).
 TEST(GltfDraco, AccessorCountsAndBoundsAreTheDecodedOnes) {
-  const SharedFrame frames[] = {kFrames[0], kFrames[1], {"tum/rgbd_dataset_freiburg1_xyz_200_319", 60},
-                                {"augmented_icl_livingroom", 0}, {"tum/rgbd_dataset_freiburg3_long_office_household", 0}};
+  const SharedFrame frames[] = {kFrames[0],
+                                kFrames[1],
+                                {"tum/rgbd_dataset_freiburg1_xyz_200_319", 60},
+                                {"augmented_icl_livingroom", 0},
+                                {"tum/rgbd_dataset_freiburg3_long_office_household", 0}};
   for (const SharedFrame& f : frames) {
     REQUIRE_DATA(f.path);
     Scene scene = realtime_scene(f.path, f.index);
@@ -265,8 +268,9 @@ TEST(GltfDraco, EverySpeedDecodesBothDracoMethods) {
     ASSERT_TRUE(glb) << glb.error().message;
     auto chunks = glb::parse_glb(glb->data(), glb->size());
     const json doc = json::parse(chunks->json);
-    const json& v = doc["bufferViews"][doc["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]
-                                          ["bufferView"].get<size_t>()];
+    const json& v =
+        doc["bufferViews"]
+           [doc["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["bufferView"].get<size_t>()];
     auto header = glb::read_draco_header(chunks->bin.data() + v.value("byteOffset", size_t(0)), v["byteLength"]);
     ASSERT_TRUE(header) << header.error().message;
     EXPECT_EQ(header->edgebreaker, speed < 10) << "speed " << speed;
@@ -520,8 +524,7 @@ TEST(GltfDraco, CorruptDracoBytesNeverCrashAndAnAcceptedSceneIsConsistent) {
   EXPECT_GT(refused, 100);
   // Memory stays within a small multiple of the honest decode's (the accessors bound every count).
   EXPECT_LT(worst_peak, size_t(64) << 20);
-  std::printf("corrupt Draco data: %d refused, %d accepted, worst peak %.1f MB\n", refused, accepted,
-              worst_peak / 1e6);
+  std::printf("corrupt Draco data: %d refused, %d accepted, worst peak %.1f MB\n", refused, accepted, worst_peak / 1e6);
 }
 
 }  // namespace

@@ -29,7 +29,7 @@ void append(std::vector<std::uint8_t>& bin, const std::vector<T>& v) {
 
 TEST(GltfForeign, ReadsAnOrdinaryTexturedGlb) {
   // Quad in its own frame (y up, as glTF content usually is).
-  const std::vector<float> interleaved = {0, 0, 0, 0, 1,  1, 0, 0, 1, 1,  1, 1, 0, 1, 0,  0, 1, 0, 0, 0};
+  const std::vector<float> interleaved = {0, 0, 0, 0, 1, 1, 0, 0, 1, 1, 1, 1, 0, 1, 0, 0, 1, 0, 0, 0};
   const std::vector<std::uint8_t> indices = {0, 1, 2, 0, 2, 3};
   cv::Mat tex(4, 8, CV_8UC3);
   cv::randu(tex, 0, 255);
@@ -55,7 +55,10 @@ TEST(GltfForeign, ReadsAnOrdinaryTexturedGlb) {
       {"scenes", {{{"nodes", {0}}}}},
       {"nodes",
        {{{"name", "parent"}, {"matrix", {2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 1, 2, 3, 1}}, {"children", {1}}},
-        {{"name", "quad"}, {"mesh", 0}, {"translation", {0.5, 0, -4}}, {"rotation", {0, 0.7071067811865476, 0, 0.7071067811865476}},
+        {{"name", "quad"},
+         {"mesh", 0},
+         {"translation", {0.5, 0, -4}},
+         {"rotation", {0, 0.7071067811865476, 0, 0.7071067811865476}},
          {"scale", {1, 1, 1}}}}},
       {"meshes",
        {{{"primitives",
@@ -65,10 +68,20 @@ TEST(GltfForeign, ReadsAnOrdinaryTexturedGlb) {
       {"textures", {{{"source", 0}}}},
       {"images", {{{"bufferView", 2}, {"mimeType", "image/png"}}}},
       {"accessors",
-       {{{"bufferView", 0}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"}, {"min", {0, 0, 0}}, {"max", {1, 1, 0}}},
+       {{{"bufferView", 0},
+         {"componentType", 5126},
+         {"count", 4},
+         {"type", "VEC3"},
+         {"min", {0, 0, 0}},
+         {"max", {1, 1, 0}}},
         {{"bufferView", 0}, {"byteOffset", 12}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}},
         {{"bufferView", 1}, {"componentType", 5121}, {"count", 6}, {"type", "SCALAR"}},
-        {{"bufferView", 3}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"}, {"min", {0, 0, -1}}, {"max", {1, 1, -1}}},
+        {{"bufferView", 3},
+         {"componentType", 5126},
+         {"count", 3},
+         {"type", "VEC3"},
+         {"min", {0, 0, -1}},
+         {"max", {1, 1, -1}}},
         {{"bufferView", 4}, {"componentType", 5126}, {"count", 3}, {"type", "VEC4"}}}},
       {"bufferViews",
        {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 80}, {"byteStride", 20}, {"target", 34962}},

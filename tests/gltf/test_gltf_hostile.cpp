@@ -56,7 +56,8 @@ TEST(GltfHostile, TruncatedChunksWithConsistentLengthsAreErrors) {
       const auto bytes = glb::pack_glb(chunks->json, bin);
       auto r = decode_glb(bytes.data(), bytes.size());
       ++total;
-      if (r.ok()) std::printf("meshopt=%d: BIN cut to %zu of %zu bytes still decodes\n", meshopt, n, chunks->bin.size());
+      if (r.ok())
+        std::printf("meshopt=%d: BIN cut to %zu of %zu bytes still decodes\n", meshopt, n, chunks->bin.size());
       if (!r.ok()) {
         ++rejected;
         EXPECT_EQ(r.error().code, ErrorCode::kInvalidInput) << r.error().message;
@@ -138,7 +139,8 @@ TEST(GltfHostile, MangledDocumentsAreErrors) {
   with("indices out of range", [](auto& d) { d["meshes"][0]["primitives"][0]["indices"] = 0; });
   with("wrong type", [](auto& d) { d["accessors"][0]["type"] = "MAT4"; });
   with("string where number", [](auto& d) { d["accessors"][0]["count"] = "many"; });
-  with("required extension", [](auto& d) { d["extensionsRequired"] = nlohmann::json::array({"KHR_draco_mesh_compression"}); });
+  with("required extension",
+       [](auto& d) { d["extensionsRequired"] = nlohmann::json::array({"KHR_draco_mesh_compression"}); });
   with("not an object", [](auto& d) { d = nlohmann::json::array({1, 2}); });
   for (const auto& [name, d] : cases) {
     auto r = decode_with(d);

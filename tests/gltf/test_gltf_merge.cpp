@@ -54,8 +54,8 @@ std::vector<std::uint8_t> with_json(const std::vector<std::uint8_t>& glb, const 
 
 std::string write_file(const std::string& dir, const std::string& name, const std::vector<std::uint8_t>& bytes) {
   const std::string path = dir + "/" + name;
-  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
-                                              static_cast<std::streamsize>(bytes.size()));
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
   return path;
 }
 
@@ -64,8 +64,7 @@ std::string write_file(const std::string& dir, const std::string& name, const st
 TEST(GlbMerge, EveryFlavourMergesIntoOneValidGlbWithEveryTriangle) {
   const std::string dir = test::temp_dir("glb-merge");
   const Scene a = shifted(0.0), b = shifted(2.0), c = shifted(-2.0);
-  const std::vector<std::vector<std::uint8_t>> parts = {encoded(a, GlbFlavor::kCompact),
-                                                        encoded(b, GlbFlavor::kCompat),
+  const std::vector<std::vector<std::uint8_t>> parts = {encoded(a, GlbFlavor::kCompact), encoded(b, GlbFlavor::kCompat),
                                                         encoded(c, GlbFlavor::kCompact, GeometryCodec::kDraco),
                                                         encoded(b, GlbFlavor::kCompact)};
   auto merged = glb::merge_glbs(parts);
@@ -160,11 +159,12 @@ TEST(GlbMerge, PartsItCannotRebaseAreRefused) {
   refused("a negative child", [](json& d) { d["nodes"][0]["children"] = json::array({-1}); });
   refused("a node out of range", [](json& d) { d["scenes"][0]["nodes"] = json::array({12345}); });
   refused("a bufferView's buffer", [](json& d) { d["bufferViews"][0]["buffer"] = 7; });
-  refused("a material's texture", [](json& d) {
-    d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["index"] = 40;
-  });
+  refused("a material's texture",
+          [](json& d) { d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["index"] = 40; });
   refused("skins", [](json& d) { d["skins"] = json::array({json{{"joints", json::array({0})}}}); });
-  refused("document extensions", [](json& d) { d["extensions"] = {{"KHR_lights_punctual", {{"lights", json::array()}}}}; });
+  refused("document extensions", [](json& d) {
+    d["extensions"] = {{"KHR_lights_punctual", {{"lights", json::array()}}}};
+  });
   refused("an external image", [](json& d) { d["images"][0] = {{"uri", "file:///etc/passwd"}}; });
   auto not_json = glb::merge_glbs({glb::pack_glb("{not json", {})});
   EXPECT_FALSE(not_json);

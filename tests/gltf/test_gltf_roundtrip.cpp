@@ -27,7 +27,8 @@ Eigen::Vector3d world(const SceneNode& n, const Eigen::Vector3f& p) {
 
 std::vector<std::uint32_t> canonical_triangles(std::vector<std::uint32_t> idx) {
   for (size_t t = 0; t + 2 < idx.size(); t += 3)
-    while (idx[t] > idx[t + 1] || idx[t] > idx[t + 2]) std::rotate(idx.begin() + t, idx.begin() + t + 1, idx.begin() + t + 3);
+    while (idx[t] > idx[t + 1] || idx[t] > idx[t + 2])
+      std::rotate(idx.begin() + t, idx.begin() + t + 1, idx.begin() + t + 3);
   return idx;
 }
 
@@ -127,8 +128,9 @@ TEST_P(GltfRoundTrip, WritesValidGlbAndReadsItBack) {
   bool non_indexed = false, texture_transform = false;
   for (const auto& m : doc["meshes"]) non_indexed = non_indexed || !m["primitives"][0].contains("indices");
   for (const auto& m : doc["materials"])
-    texture_transform = texture_transform ||
-                        m["pbrMetallicRoughness"].value("baseColorTexture", nlohmann::json::object()).contains("extensions");
+    texture_transform =
+        texture_transform ||
+        m["pbrMetallicRoughness"].value("baseColorTexture", nlohmann::json::object()).contains("extensions");
   EXPECT_TRUE(non_indexed);
   EXPECT_EQ(texture_transform, v.quantize);
   bool has_points = false;

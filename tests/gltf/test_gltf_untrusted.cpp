@@ -101,8 +101,9 @@ TEST(GltfUntrusted, ImageUriIsRefused) {
 }
 
 TEST(GltfUntrusted, DataUriBuffersAndExtraBuffersAreRefused) {
-  EXPECT_NE(error_of(test::glb_with_buffer_uri("data:application/octet-stream;base64,AAAA")).find("data URI not allowed"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of(test::glb_with_buffer_uri("data:application/octet-stream;base64,AAAA")).find("data URI not allowed"),
+      std::string::npos);
   // Every uri-less buffer of a GLB is a copy of the BIN chunk in tinygltf: 1000 of them would be 1000 copies.
   const auto many = test::edit_glb(test::plain_sample_glb(), [](nlohmann::json& d) {
     for (int i = 0; i < 1000; ++i) d["buffers"].push_back(d["buffers"][0]);
@@ -224,7 +225,9 @@ TEST(GltfUntrusted, ImagesAreCappedFromTheirHeaderBeforeDecoding) {
   }
   GlbDecodeLimits lim;  // the sample holds two images: 64x48 and 32x16 (3584 px)
   lim.max_image_pixels = 64 * 48 + 32 * 16 - 1;
-  EXPECT_NE(error_of(test::plain_sample_glb(), lim).find("image 1 is 32x16: over the limit of 8192 px per side and 3583 px per file"), std::string::npos)
+  EXPECT_NE(error_of(test::plain_sample_glb(), lim)
+                .find("image 1 is 32x16: over the limit of 8192 px per side and 3583 px per file"),
+            std::string::npos)
       << error_of(test::plain_sample_glb(), lim);
   lim.max_image_pixels = 64 * 48 + 32 * 16;
   auto at_limit = decode(test::plain_sample_glb(), lim);

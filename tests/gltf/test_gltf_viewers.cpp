@@ -1,12 +1,12 @@
-// The two GLB flavours (gltf/gltf_io.h), and compact with Draco geometry, in the viewers people open them in: Blender 3.4 and Assimp 5.2.5 (Debian's
-// blender and assimp-utils), three.js 0.187 in headless Chromium, and the Khronos validator. The files come from the
-// real command line (rgbdcast reduce --flavor, rgbdcast convert) on real data: TUM fr1/xyz frame 0, and a
-// multi-keyframe scene of the augmented ICL-NUIM living room (--sequence --keyframe-gap 1). Every count a viewer
-// reports is compared with the counts of the scene that was written (read back with read_glb_file).
-// KHR_draco_mesh_compression: three.js (DRACOLoader, its own decoder from node_modules) reads it; Assimp reads the TUM
-// file but not the ICL sequence; Debian's Blender 3.4 reads neither (no libextern_draco.so).
-// A viewer that is not installed skips its test on a developer machine and fails it under CI=true. The files are
-// made once per rgbdcast binary in <build>/tests/gltf/viewer-files (see files()).
+// The two GLB flavours (gltf/gltf_io.h), and compact with Draco geometry, in the viewers people open them in:
+// Blender 3.4 and Assimp 5.2.5 (Debian's blender and assimp-utils), three.js 0.187 in headless Chromium, and the
+// Khronos validator. The files come from the real command line (rgbdcast reduce --flavor, rgbdcast convert) on real
+// data: TUM fr1/xyz frame 0, and a multi-keyframe scene of the augmented ICL-NUIM living room (--sequence
+// --keyframe-gap 1). Every count a viewer reports is compared with the counts of the scene that was written (read back
+// with read_glb_file). KHR_draco_mesh_compression: three.js (DRACOLoader, its own decoder from node_modules) reads it;
+// Assimp reads the TUM file but not the ICL sequence; Debian's Blender 3.4 reads neither (no libextern_draco.so). A
+// viewer that is not installed skips its test on a developer machine and fails it under CI=true. The files are made
+// once per rgbdcast binary in <build>/tests/gltf/viewer-files (see files()).
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
@@ -152,8 +152,9 @@ const Files& files() {
       run_ok(bin + " " + tum + " --flavor compat --out " + f.tum_compat, &f.why_not);
       run_ok(bin + " convert " + f.tum_compact + " --flavor compat -o " + f.tum_converted, &f.why_not);
       t0 = std::chrono::steady_clock::now();
-      run_ok(bin + " reduce --preset paper --input " + test::data_path(kIcl) + " --sequence --keyframe-gap 1 --no-progress --out " +
-                 f.seq_compact, &f.why_not);
+      run_ok(bin + " reduce --preset paper --input " + test::data_path(kIcl) +
+                 " --sequence --keyframe-gap 1 --no-progress --out " + f.seq_compact,
+             &f.why_not);
       f.seq_reduce_s = seconds_since(t0);
       run_ok(bin + " convert " + f.seq_compact + " -o " + f.seq_compat, &f.why_not);
       run_ok(bin + " " + tum + " --geometry-codec draco --out " + f.tum_draco, &f.why_not);
@@ -169,21 +170,21 @@ const Files& files() {
   return f;
 }
 
-#define REQUIRE_FILES()                                   \
-  do {                                                    \
-    REQUIRE_DATA(kTum);                                   \
-    REQUIRE_DATA(kIcl);                                   \
+#define REQUIRE_FILES()                                      \
+  do {                                                       \
+    REQUIRE_DATA(kTum);                                      \
+    REQUIRE_DATA(kIcl);                                      \
     ASSERT_TRUE(files().why_not.empty()) << files().why_not; \
   } while (0)
 
 // A viewer binary from Debian, or a skip (a failure under CI).
-#define REQUIRE_TOOL(path, package)                                                        \
-  do {                                                                                     \
-    if (!fs::exists(path)) {                                                               \
+#define REQUIRE_TOOL(path, package)                                                                   \
+  do {                                                                                                \
+    if (!fs::exists(path)) {                                                                          \
       const std::string why_ = std::string(path) + " missing (Debian " package ", scripts/setup.sh)"; \
-      if (in_ci()) FAIL() << why_;                                                         \
-      GTEST_SKIP() << why_;                                                                \
-    }                                                                                      \
+      if (in_ci()) FAIL() << why_;                                                                    \
+      GTEST_SKIP() << why_;                                                                           \
+    }                                                                                                 \
   } while (0)
 
 // --- Blender -------------------------------------------------------------------------------------------------------
@@ -196,7 +197,8 @@ json blender_counts(const std::string& glb, double* seconds) {
                                    test::source_path("tools/blender_gltf_counts.py") + " -- " + glb + " " + out);
   *seconds = seconds_since(t0);
   std::ifstream in(out);
-  if (r.exit_code != 0 || !in) return {{"ok", false}, {"error", "blender exit " + std::to_string(r.exit_code) + ": " + r.err}};
+  if (r.exit_code != 0 || !in)
+    return {{"ok", false}, {"error", "blender exit " + std::to_string(r.exit_code) + ": " + r.err}};
   return json::parse(in, nullptr, false);
 }
 
@@ -350,14 +352,15 @@ void expect_threejs_opens(const std::string& glb, bool meshopt_decoder, const st
                           bool draco_decoder = false) {
   const std::string chromium = test::find_chromium();
   if (chromium.empty() || !fs::exists(test::source_path("tools/node_modules/three/build/three.module.js"))) {
-    const std::string why = chromium.empty() ? "chromium not installed" : "tools/node_modules/three missing (scripts/setup.sh)";
+    const std::string why =
+        chromium.empty() ? "chromium not installed" : "tools/node_modules/three missing (scripts/setup.sh)";
     if (in_ci()) FAIL() << why;
     GTEST_SKIP() << why;
   }
   const Counts want = counts_of_file(glb);
-  const auto post = test::run_tools_page(chromium, std::string("threejs_view.html?report=counts&glb=/scene.glb&meshopt=") +
-                                                       (meshopt_decoder ? "1" : "0") + "&draco=" +
-                                                       (draco_decoder ? "1" : "0"),
+  const auto post = test::run_tools_page(chromium,
+                                         std::string("threejs_view.html?report=counts&glb=/scene.glb&meshopt=") +
+                                             (meshopt_decoder ? "1" : "0") + "&draco=" + (draco_decoder ? "1" : "0"),
                                          {{"/scene.glb", glb}}, files().dir, tag, 320, 240);
   ASSERT_TRUE(post.reported) << tag << ": the page did not report; see " << post.log;
   ASSERT_TRUE(post.ok) << tag << ": " << post.body;
@@ -412,7 +415,8 @@ TEST(GltfViewers, CompatUsesFloatsAJpegAndNoExtensionAViewerMustDecode) {
       for (const auto& prim : mesh["primitives"])
         for (const char* attr : {"POSITION", "TEXCOORD_0", "COLOR_0"}) {
           if (!prim["attributes"].contains(attr)) continue;
-          EXPECT_EQ(doc["accessors"][prim["attributes"][attr].get<size_t>()]["componentType"], 5126) << f << " " << attr;
+          EXPECT_EQ(doc["accessors"][prim["attributes"][attr].get<size_t>()]["componentType"], 5126)
+              << f << " " << attr;
         }
     for (const auto& img : doc["images"]) EXPECT_EQ(img["mimeType"], "image/jpeg") << f;
     EXPECT_EQ(doc["buffers"].size(), 1u) << f;

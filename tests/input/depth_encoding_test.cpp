@@ -98,11 +98,11 @@ TEST_F(DatasetFrame, NyuDisparityPgmDecodesToMetres) {
   cv::Mat raw(kH, kW, CV_16UC1);
   for (int y = 0; y < kH; ++y)
     for (int x = 0; x < kW; ++x) raw.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(600 + 7 * x);  // 600..1041
-  raw.at<std::uint16_t>(5, 5) = 2047;  // no depth
+  raw.at<std::uint16_t>(5, 5) = 2047;                                                                    // no depth
   raw.at<std::uint16_t>(6, 6) = 1100;  // past 1092.5: no finite positive depth
   auto f = load(write(raw, "depth.pgm"), DepthEncoding::kNyu, camera());
   ASSERT_TRUE(f) << f.error().message;
-  EXPECT_NEAR(f->depth_m.at<float>(0, 0), 351.3 / (1092.5 - 600), 1e-5);  // 0.713 m
+  EXPECT_NEAR(f->depth_m.at<float>(0, 0), 351.3 / (1092.5 - 600), 1e-5);    // 0.713 m
   EXPECT_NEAR(f->depth_m.at<float>(3, 63), 351.3 / (1092.5 - 1041), 1e-4);  // 6.82 m
   EXPECT_EQ(f->depth_m.at<float>(5, 5), 0.0f);
   EXPECT_EQ(f->depth_m.at<float>(6, 6), 0.0f);

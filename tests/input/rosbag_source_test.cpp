@@ -20,10 +20,10 @@ namespace {
 
 const char* kFr1 = "tum/rgbd_dataset_freiburg1_xyz";
 
-#define REQUIRE_BAG(var, name, ...)                                          \
-  REQUIRE_DATA(kFr1);                                                        \
-  REQUIRE_BAG_WRITER();                                                      \
-  const test::MadeBag var = bag(name, test::BagSpec{__VA_ARGS__});           \
+#define REQUIRE_BAG(var, name, ...)                                \
+  REQUIRE_DATA(kFr1);                                              \
+  REQUIRE_BAG_WRITER();                                            \
+  const test::MadeBag var = bag(name, test::BagSpec{__VA_ARGS__}); \
   ASSERT_TRUE(var.ok) << var.why_not
 
 // One bag per spec and test binary run: writing one takes Python a second.
@@ -132,8 +132,8 @@ TEST(RosbagSource, MissingTopicNamesTheTopicsTheBagHas) {
   o.rosbag.depth = "/camera/rgb/camera_info";
   auto w = open_frame_source(b.path, o);
   ASSERT_FALSE(w);
-  EXPECT_NE(w.error().message.find("holds 1 sensor_msgs/CameraInfo messages, not sensor_msgs/Image"),
-            std::string::npos) << w.error().message;
+  EXPECT_NE(w.error().message.find("holds 1 sensor_msgs/CameraInfo messages, not sensor_msgs/Image"), std::string::npos)
+      << w.error().message;
 }
 
 TEST(RosbagSource, WithoutCameraInfoItAsksForIntrinsicsAndTakesThem) {
@@ -141,7 +141,8 @@ TEST(RosbagSource, WithoutCameraInfoItAsksForIntrinsicsAndTakesThem) {
   auto s = open_frame_source(b.path, {});
   ASSERT_FALSE(s);
   EXPECT_NE(s.error().message.find("no topic /camera/rgb/camera_info (--camera-info-topic or --intrinsics)"),
-            std::string::npos) << s.error().message;
+            std::string::npos)
+      << s.error().message;
   SourceOptions o;
   o.intrinsics = "fr1";
   auto bagsrc = open_or_die(b.path, o);
@@ -156,7 +157,8 @@ TEST(RosbagSource, UnsupportedEncodingFailsAtOpenNamingIt) {
   ASSERT_FALSE(s);
   EXPECT_EQ(s.error().code, ErrorCode::kInvalidInput);
   EXPECT_NE(s.error().message.find("colour encoding \"yuv422\" is not supported (rgb8, bgr8 or mono8)"),
-            std::string::npos) << s.error().message;
+            std::string::npos)
+      << s.error().message;
 }
 
 TEST(RosbagSource, TruncatedOrForeignFilesGiveOneLine) {
@@ -250,10 +252,12 @@ TEST(RosbagSource, LyingLengthsAreRefusedBeforeRosbagReadsThem) {
     ASSERT_FALSE(s) << c.what;
     EXPECT_EQ(s.error().code, ErrorCode::kInvalidInput) << c.what;
     EXPECT_NE(s.error().message.find("not a readable ROS 1 bag (truncated or corrupt: record at byte"),
-              std::string::npos) << c.what << ": " << s.error().message;
+              std::string::npos)
+        << c.what << ": " << s.error().message;
     EXPECT_NE(s.error().message.find(c.expect), std::string::npos) << c.what << ": " << s.error().message;
     EXPECT_EQ(s.error().message.find('\n'), std::string::npos) << c.what;
-    std::printf("[ lie ] %s -> %s\n", c.what.c_str(), s.error().message.substr(s.error().message.find("record at")).c_str());
+    std::printf("[ lie ] %s -> %s\n", c.what.c_str(),
+                s.error().message.substr(s.error().message.find("record at")).c_str());
   }
 }
 
@@ -275,7 +279,8 @@ TEST(RosbagSource, CompressedChunksThatClaimMoreAreRefusedWithoutAllocatingTheCl
       auto s = open_frame_source(path, {});
       ASSERT_FALSE(s) << compression << " claiming " << claim;
       EXPECT_NE(s.error().message.find("chunk does not decompress to its size " + std::to_string(claim)),
-                std::string::npos) << s.error().message;
+                std::string::npos)
+          << s.error().message;
     }
   }
 }
@@ -287,7 +292,10 @@ TEST(RosbagSource, MessageLayoutsAreWalkedBeforeDeserializing) {
   auto u32 = [](std::string* s, std::uint32_t v) {
     for (int i = 0; i < 4; ++i) s->push_back(static_cast<char>((v >> (8 * i)) & 0xff));
   };
-  auto str = [&u32](std::string* s, const std::string& v) { u32(s, static_cast<std::uint32_t>(v.size())); *s += v; };
+  auto str = [&u32](std::string* s, const std::string& v) {
+    u32(s, static_cast<std::uint32_t>(v.size()));
+    *s += v;
+  };
   std::string image;
   u32(&image, 7), u32(&image, 1), u32(&image, 2), str(&image, "camera");  // header
   u32(&image, 2), u32(&image, 3), str(&image, "rgb8"), image.push_back('\0'), u32(&image, 9);

@@ -56,8 +56,10 @@ cv::Mat bag_depth(const cv::Mat& raw, BagDepth kind, const char** encoding) {
 bool have_bag_writer(std::string* why) {
   auto r = run_command("/usr/bin/python3 -c 'import rosbag, sensor_msgs.msg' 2>&1");
   if (r.exit_code == 0) return true;
-  *why = "/usr/bin/python3 cannot import rosbag and sensor_msgs (apt-get install python3-rosbag python3-sensor-msgs, "
-         "scripts/setup.sh): " + r.out;
+  *why =
+      "/usr/bin/python3 cannot import rosbag and sensor_msgs (apt-get install python3-rosbag python3-sensor-msgs, "
+      "scripts/setup.sh): " +
+      r.out;
   return false;
 }
 
@@ -82,9 +84,13 @@ MadeBag make_fr1_bag(const std::string& dir, const std::string& name, const BagS
     if (spec.color_encoding == "bgr8") cv::cvtColor(*color, pixels, cv::COLOR_RGB2BGR);
     const std::string file = dir + "/" + name + ".c" + std::to_string(n++) + ".raw";
     if (auto st = write_raw(pixels, file); !st) return {false, "", st.error().message};
-    images.push_back({{"topic", "/camera/rgb/image_color"}, {"stamp", s.timestamp}, {"width", pixels.cols},
-                      {"height", pixels.rows}, {"encoding", spec.color_encoding},
-                      {"step", pixels.cols * 3}, {"file", file}});
+    images.push_back({{"topic", "/camera/rgb/image_color"},
+                      {"stamp", s.timestamp},
+                      {"width", pixels.cols},
+                      {"height", pixels.rows},
+                      {"encoding", spec.color_encoding},
+                      {"step", pixels.cols * 3},
+                      {"file", file}});
   }
   for (const StampedPath& s : *depth) {
     auto bytes = read_bytes(root + "/" + s.path);
@@ -95,9 +101,13 @@ MadeBag make_fr1_bag(const std::string& dir, const std::string& name, const BagS
     const cv::Mat pixels = bag_depth(*raw, spec.depth, &encoding);
     const std::string file = dir + "/" + name + ".d" + std::to_string(n++) + ".raw";
     if (auto st = write_raw(pixels, file); !st) return {false, "", st.error().message};
-    images.push_back({{"topic", "/camera/depth/image"}, {"stamp", s.timestamp}, {"width", pixels.cols},
-                      {"height", pixels.rows}, {"encoding", encoding},
-                      {"step", pixels.cols * int(pixels.elemSize())}, {"file", file}});
+    images.push_back({{"topic", "/camera/depth/image"},
+                      {"stamp", s.timestamp},
+                      {"width", pixels.cols},
+                      {"height", pixels.rows},
+                      {"encoding", encoding},
+                      {"step", pixels.cols * int(pixels.elemSize())},
+                      {"file", file}});
   }
   nlohmann::json manifest = {{"images", images}, {"compression", spec.compression}};
   if (spec.camera_info)

@@ -9,9 +9,9 @@
 namespace rgbdcast::test {
 
 enum class BagDepth {
-  kMetres32F,      // 32FC1 metres, exactly what the folder's frames hold before undistortion (NaN = no reading)
-  kMillimetres16U, // 16UC1 millimetres (REP 118): the folder's 1/5000 m values rounded to the nearest mm
-  kTumRaw16U,      // 16UC1 holding the folder's raw 1/5000 m values (read with depth_scale 5000)
+  kMetres32F,       // 32FC1 metres, exactly what the folder's frames hold before undistortion (NaN = no reading)
+  kMillimetres16U,  // 16UC1 millimetres (REP 118): the folder's 1/5000 m values rounded to the nearest mm
+  kTumRaw16U,       // 16UC1 holding the folder's raw 1/5000 m values (read with depth_scale 5000)
 };
 
 struct BagSpec {
@@ -37,9 +37,8 @@ bool have_bag_writer(std::string* why);
 }  // namespace rgbdcast::test
 
 // Skips (fails under CI=true) when the bag writer's Python modules are missing.
-#define REQUIRE_BAG_WRITER()                                  \
-  do {                                                        \
-    std::string rgbdcast_why_;                                \
-    if (!::rgbdcast::test::have_bag_writer(&rgbdcast_why_))   \
-      RGBDCAST_MISSING_PREREQUISITE(rgbdcast_why_);           \
+#define REQUIRE_BAG_WRITER()                                                                              \
+  do {                                                                                                    \
+    std::string rgbdcast_why_;                                                                            \
+    if (!::rgbdcast::test::have_bag_writer(&rgbdcast_why_)) RGBDCAST_MISSING_PREREQUISITE(rgbdcast_why_); \
   } while (0)

@@ -40,7 +40,8 @@ TEST(UntrustedIntrinsics, ParsesFromMemoryWithoutPaths) {
   EXPECT_DOUBLE_EQ(k->distortion[4], 1.1633);
   EXPECT_DOUBLE_EQ(k->depth_scale, 5000);
   EXPECT_EQ(k->name, "intrinsics");
-  auto o3d = parse_intrinsics_json(R"({"width": 640, "height": 480, "intrinsic_matrix": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]})");
+  auto o3d = parse_intrinsics_json(
+      R"({"width": 640, "height": 480, "intrinsic_matrix": [525, 0, 0, 0, 525, 0, 319.5, 239.5, 1]})");
   ASSERT_TRUE(o3d);
   EXPECT_DOUBLE_EQ(o3d->cy, 239.5);
 }
@@ -75,8 +76,8 @@ TEST(UntrustedFrames, SizeIsCheckedFromTheHeaderBeforeDecoding) {
   for (auto [w, h] : {std::pair{4096, 4096}, std::pair{16384, 16384}, std::pair{1921, 1080}, std::pair{1920, 1081}}) {
     auto d = decode_depth16(png_claiming(w, h), "depth");
     ASSERT_FALSE(d) << w << "x" << h;
-    EXPECT_EQ(d.error().message, "depth: " + std::to_string(w) + "x" + std::to_string(h) +
-                                     " is over the frame limit of 1920x1080");
+    EXPECT_EQ(d.error().message,
+              "depth: " + std::to_string(w) + "x" + std::to_string(h) + " is over the frame limit of 1920x1080");
   }
   rusage before{}, after{};
   getrusage(RUSAGE_SELF, &before);
@@ -118,7 +119,8 @@ TEST(UntrustedPcd, HeaderMustMatchTheBytesPresent) {
   EXPECT_EQ(ok->point_bytes, 16u);
   const std::vector<std::pair<std::string, std::string>> cases = {
       {pcd_header("8192", "8192", "67108864", "ascii") + "0 0 0 0\n", "ascii data too short"},  // 64 M points claimed
-      {pcd_header("8192", "8192", "67108864", "binary") + body, "binary data holds 256 bytes, the header needs 1073741824"},
+      {pcd_header("8192", "8192", "67108864", "binary") + body,
+       "binary data holds 256 bytes, the header needs 1073741824"},
       {pcd_header("4", "4", "17", "binary") + body, "POINTS is not WIDTH x HEIGHT"},
       {pcd_header("9000", "2", "18000", "binary"), "2..8192"},
       {pcd_header("4", "1", "4", "binary"), "2..8192"},
@@ -134,7 +136,8 @@ TEST(UntrustedPcd, HeaderMustMatchTheBytesPresent) {
       {"# .PCD v0.7\nV\xf3RSION 0.7\nFIELDS x\n", "unknown header line 'V?RSION'"},
       // Its second: a use-after-free in PCL on fields without x and a COUNT of 2.
       {"FIELDS JJx y z rgba\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 2 1 1 1\nWIDTH 4\nHEIGHT 3\nDATA binary\n" +
-           std::string(240, '\0'), "field JJx must have COUNT 1"},
+           std::string(240, '\0'),
+       "field JJx must have COUNT 1"},
       {"FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 4\nHEIGHT 3\nDATA binary\n" + std::string(144, '\0'),
        "a field rgb or rgba is required"},
       {"FIELDS x y x rgb\nSIZE 4 4 4 4\nTYPE F F F U\nWIDTH 2\nHEIGHT 2\nDATA ascii\n", "field x appears twice"},
@@ -164,8 +167,9 @@ TEST(UntrustedPcd, FilesPclWritesPassTheCheck) {
             std::string::npos);
   EXPECT_NE(check(head + "0 0 1 4278\np 0 1 5\n0 0 1 5\n0 0 1 5\n").error().message.find("not a number"),
             std::string::npos);
-  EXPECT_NE(check(head + "0.25 0.25 1.25 4278\n0.25 0.25 1.25 5\n0.25 0.25 1.25 5\n").error().message.find("holds 3 points"),
-            std::string::npos);
+  EXPECT_NE(
+      check(head + "0.25 0.25 1.25 4278\n0.25 0.25 1.25 5\n0.25 0.25 1.25 5\n").error().message.find("holds 3 points"),
+      std::string::npos);
   EXPECT_TRUE(check(head + "0 0 1 4278\nnan nan nan 5\n0 0 1 5\n0 0 1 5\n"));
   EXPECT_NE(check("VIEWPOINT 0 0 0 1 0\xc0 0 0\n" + head).error().message.find("VIEWPOINT must be 7 numbers"),
             std::string::npos);

@@ -34,7 +34,8 @@ Synthetic make_synthetic(int n, double outlier_fraction, double noise_sigmas, ui
   for (int i = 0; i < n; ++i) {
     const Eigen::Vector3d p = random_point();
     Eigen::Vector3d q = s.truth.topLeftCorner<3, 3>() * p + s.truth.topRightCorner<3, 1>();
-    q += noise_sigmas * kinect_depth_sigma_m(q.z()) * Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng)) / std::sqrt(3.0);
+    q += noise_sigmas * kinect_depth_sigma_m(q.z()) * Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng)) /
+         std::sqrt(3.0);
     const bool out = unit(rng) < outlier_fraction;
     s.src.push_back(p);
     s.dst.push_back(out ? random_point() : q);
@@ -91,9 +92,11 @@ TEST(RigidRansac, RecoversTransformWith30PercentOutliers) {
     for (int i : est->inliers) wrong += s.outlier[static_cast<size_t>(i)] ? 1 : 0;
     EXPECT_GE(static_cast<int>(est->inliers.size()) - wrong, (300 - true_outliers) * 95 / 100);
     EXPECT_LE(wrong, 3);
-    std::printf("seed %u: %d true outliers, %zu inliers (%d wrong), rotation error %.4f deg (bound %.4f), "
-                "translation %.5f m (bound %.5f), %d iterations\n", seed, true_outliers, est->inliers.size(), wrong,
-                rotation_deg(err), bound.rotation_deg, translation_m(err), bound.translation_m, est->iterations);
+    std::printf(
+        "seed %u: %d true outliers, %zu inliers (%d wrong), rotation error %.4f deg (bound %.4f), "
+        "translation %.5f m (bound %.5f), %d iterations\n",
+        seed, true_outliers, est->inliers.size(), wrong, rotation_deg(err), bound.rotation_deg, translation_m(err),
+        bound.translation_m, est->iterations);
   }
 }
 
@@ -138,7 +141,7 @@ TEST(RigidRansac, BadInputGivesErrors) {
 TEST(RigidRansac, ThresholdGrowsWithDepth) {
   const RansacParams p;
   EXPECT_DOUBLE_EQ(inlier_threshold_m(1.0, 1.0, p), p.min_threshold_m);  // near: the floor
-  EXPECT_GT(inlier_threshold_m(4.0, 4.0, p), 0.05);                       // far: 3 x sqrt(2) x 2.6 cm
+  EXPECT_GT(inlier_threshold_m(4.0, 4.0, p), 0.05);                      // far: 3 x sqrt(2) x 2.6 cm
 }
 
 }  // namespace

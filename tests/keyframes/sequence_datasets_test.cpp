@@ -73,12 +73,12 @@ TEST(KeyframesDatasets, AugmentedIclKeyframesByMotion) {
   SequenceParams params;
   params.keyframes.max_translation_m = 0.05;
   std::vector<size_t> called;
-  Result<SequenceResult> r = track_sequence(seq.size(), seq.loader(), params,
-                                            [&](const RgbdFrame& f, const FrameRecord& rec) {
-                                              EXPECT_EQ(static_cast<size_t>(f.index), rec.index);
-                                              called.push_back(rec.index);
-                                              return ok_status();
-                                            });
+  Result<SequenceResult> r =
+      track_sequence(seq.size(), seq.loader(), params, [&](const RgbdFrame& f, const FrameRecord& rec) {
+        EXPECT_EQ(static_cast<size_t>(f.index), rec.index);
+        called.push_back(rec.index);
+        return ok_status();
+      });
   ASSERT_TRUE(r) << r.error().message;
   print_frames("aug-icl keyframes 5cm", *r);
   EXPECT_EQ(called, (std::vector<size_t>{0, 3}));
@@ -105,7 +105,8 @@ TEST(KeyframesDatasets, IclNuimWindowFails) {
     EXPECT_FALSE(r->frames[i].tracked);
     EXPECT_LE(r->frames[i].matches, 10);
     const std::string& m = r->frames[i].message;
-    EXPECT_TRUE(m.find("inside the 20x20 px window") != std::string::npos || m.find("RANSAC") != std::string::npos) << m;
+    EXPECT_TRUE(m.find("inside the 20x20 px window") != std::string::npos || m.find("RANSAC") != std::string::npos)
+        << m;
   }
   Result<Trajectory> gt = read_icl_pose_txt(test::data_path("icl_nuim_livingroom/pose.txt"));
   ASSERT_TRUE(gt);
@@ -174,7 +175,8 @@ TEST(KeyframesDatasets, TumFr1XyzSmallMotion) {
       EXPECT_GE(f.matches, 100);
       EXPECT_GE(f.inliers, f.matches / 2);
       const Eigen::Matrix4d step = r->frames[i - 1].pose.inverse() * f.pose;
-      std::printf("[tum fr1 %s] %zu->%zu: %.4f m %.3f deg\n", to_string(t), i - 1, i, translation_m(step), rotation_deg(step));
+      std::printf("[tum fr1 %s] %zu->%zu: %.4f m %.3f deg\n", to_string(t), i - 1, i, translation_m(step),
+                  rotation_deg(step));
       EXPECT_GT(translation_m(step), 0.002);
       EXPECT_LT(translation_m(step), 0.10);
       EXPECT_LT(rotation_deg(step), 5.0);

@@ -17,8 +17,10 @@ TestSequence open_test_sequence(const std::string& name, const std::string& data
   TestSequence t;
   t.name = name;
   Result<std::unique_ptr<FrameSource>> s = open_frame_source(data_path(data_relative), SourceOptions{});
-  if (s) t.source = std::shared_ptr<FrameSource>(std::move(*s));
-  else t.error = s.error().message;
+  if (s)
+    t.source = std::shared_ptr<FrameSource>(std::move(*s));
+  else
+    t.error = s.error().message;
   return t;
 }
 

@@ -33,13 +33,13 @@ Result<RpeResult> rpe_of(const SequenceResult& r) {
 void print_summary(const std::string& label, const SequenceResult& r, const RpeResult& rpe) {
   for (const FrameRecord& f : r.frames)
     if (!f.tracked || f.method != TrackMethod::kWindow)
-      std::printf("[%s] frame %zu: %s vs %d, %d matches %d inliers: %s\n", label.c_str(), f.index,
-                  to_string(f.method), f.reference, f.matches, f.inliers, f.message.c_str());
-  std::printf("[%s] %zu/%zu tracked (%zu wide, %zu relocalised), %zu keyframes; RPE RMSE %.4f m %.3f deg, worst "
-              "%.4f m %.3f deg over %zu pairs\n",
-              label.c_str(), r.tracked, r.frames.size(), r.widened, r.relocalised, r.keyframes,
-              rpe.translation_rmse_m, rpe.rotation_rmse_deg, rpe.translation_max_m, rpe.rotation_max_deg,
-              rpe.pairs.size());
+      std::printf("[%s] frame %zu: %s vs %d, %d matches %d inliers: %s\n", label.c_str(), f.index, to_string(f.method),
+                  f.reference, f.matches, f.inliers, f.message.c_str());
+  std::printf(
+      "[%s] %zu/%zu tracked (%zu wide, %zu relocalised), %zu keyframes; RPE RMSE %.4f m %.3f deg, worst "
+      "%.4f m %.3f deg over %zu pairs\n",
+      label.c_str(), r.tracked, r.frames.size(), r.widened, r.relocalised, r.keyframes, rpe.translation_rmse_m,
+      rpe.rotation_rmse_deg, rpe.translation_max_m, rpe.rotation_max_deg, rpe.pairs.size());
   for (const std::string& w : rpe.warnings) std::printf("[%s] RPE: %s\n", label.c_str(), w.c_str());
 }
 

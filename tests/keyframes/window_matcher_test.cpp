@@ -16,8 +16,10 @@ void make_pair(FeatureType type, int n, float dx, float dy, FrameFeatures* prev,
   prev->type = cur->type = type;
   const bool binary = is_binary_descriptor(type);
   prev->descriptors.create(n, binary ? 32 : 128, binary ? CV_8U : CV_32F);
-  if (binary) cv::randu(prev->descriptors, 0, 256);
-  else cv::randu(prev->descriptors, 0.f, 1.f);
+  if (binary)
+    cv::randu(prev->descriptors, 0, 256);
+  else
+    cv::randu(prev->descriptors, 0.f, 1.f);
   cur->descriptors = prev->descriptors.clone();
   if (!binary) {
     cv::Mat noise(cur->descriptors.size(), CV_32F);
@@ -45,34 +47,34 @@ TEST(WindowMatcher, InsideWindowIsPlusMinusHalfTheEdge) {
 // keypoints inside the window (exact_window, cv::BFMatcher when there is no window).
 TEST(WindowMatcher, RejectsMatchesOutside20x20) {
   for (bool exact : {false, true})
-  for (FeatureType type : {FeatureType::kSift, FeatureType::kOrb}) {
-    SCOPED_TRACE(std::string(to_string(type)) + (exact ? " exact" : " flann"));
-    MatchParams params;  // 20 x 20
-    params.exact_window = exact;
-    {
-      FrameFeatures prev, cur;
-      make_pair(type, 150, 6.f, -7.f, &prev, &cur);  // inside
-      const std::vector<FeatureMatch> m = match_in_window(prev, cur, params);
-      EXPECT_GE(m.size(), 145u);
-      for (const FeatureMatch& x : m) EXPECT_EQ(x.prev, x.cur);
+    for (FeatureType type : {FeatureType::kSift, FeatureType::kOrb}) {
+      SCOPED_TRACE(std::string(to_string(type)) + (exact ? " exact" : " flann"));
+      MatchParams params;  // 20 x 20
+      params.exact_window = exact;
+      {
+        FrameFeatures prev, cur;
+        make_pair(type, 150, 6.f, -7.f, &prev, &cur);  // inside
+        const std::vector<FeatureMatch> m = match_in_window(prev, cur, params);
+        EXPECT_GE(m.size(), 145u);
+        for (const FeatureMatch& x : m) EXPECT_EQ(x.prev, x.cur);
+      }
+      {
+        FrameFeatures prev, cur;
+        make_pair(type, 150, 14.f, 0.f, &prev, &cur);  // the true partner 14 px away: outside +-10
+        EXPECT_TRUE(match_in_window(prev, cur, params).empty());
+        MatchParams wide = params;
+        wide.window_px = 30;
+        EXPECT_GE(match_in_window(prev, cur, wide).size(), 145u);
+        MatchParams global = params;
+        global.window_px = 0;
+        EXPECT_GE(match_in_window(prev, cur, global).size(), 145u);
+      }
+      {
+        FrameFeatures prev, cur;
+        make_pair(type, 150, 0.f, -10.5f, &prev, &cur);  // just outside in v
+        EXPECT_TRUE(match_in_window(prev, cur, params).empty());
+      }
     }
-    {
-      FrameFeatures prev, cur;
-      make_pair(type, 150, 14.f, 0.f, &prev, &cur);  // the true partner 14 px away: outside +-10
-      EXPECT_TRUE(match_in_window(prev, cur, params).empty());
-      MatchParams wide = params;
-      wide.window_px = 30;
-      EXPECT_GE(match_in_window(prev, cur, wide).size(), 145u);
-      MatchParams global = params;
-      global.window_px = 0;
-      EXPECT_GE(match_in_window(prev, cur, global).size(), 145u);
-    }
-    {
-      FrameFeatures prev, cur;
-      make_pair(type, 150, 0.f, -10.5f, &prev, &cur);  // just outside in v
-      EXPECT_TRUE(match_in_window(prev, cur, params).empty());
-    }
-  }
 }
 
 // A wrong partner inside the window is taken only when the right one is outside it: the window decides which

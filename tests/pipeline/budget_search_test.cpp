@@ -38,8 +38,8 @@ TEST(BudgetSearch, GuessFindsTheQualityOfTheModel) {
   for (const Case& c : cases) {
     // Just above the true quality's bytes: the floor of the interpolated quality is the true one.
     const double target = model_bytes(c.q_true, c.exponent) * (1 + 1e-9);
-    const int q = guess_quality(c.q_lo, model_bytes(c.q_lo, c.exponent), c.q_hi, model_bytes(c.q_hi, c.exponent),
-                                target);
+    const int q =
+        guess_quality(c.q_lo, model_bytes(c.q_lo, c.exponent), c.q_hi, model_bytes(c.q_hi, c.exponent), target);
     EXPECT_EQ(q, c.q_true) << c.q_lo << ".." << c.q_hi << " exponent " << c.exponent;
   }
 }
@@ -53,8 +53,9 @@ TEST(BudgetSearch, TriedBytesAreThoseOfTheQualityAndScale) {
     int q;
     double scale, bytes;
   };
-  for (const Case& c : {Case{20, 1.0, std::floor(model_bytes(20, 0.6))}, Case{92, 1.0, std::floor(model_bytes(92, 0.6))},
-                        Case{20, 0.5, 100.0}, Case{92, 0.5, -1.0}, Case{50, 1.0, -1.0}})
+  for (const Case& c :
+       {Case{20, 1.0, std::floor(model_bytes(20, 0.6))}, Case{92, 1.0, std::floor(model_bytes(92, 0.6))},
+        Case{20, 0.5, 100.0}, Case{92, 0.5, -1.0}, Case{50, 1.0, -1.0}})
     EXPECT_EQ(tried_bytes(tried, c.q, c.scale), c.bytes) << "q" << c.q << " at " << c.scale;
 }
 
@@ -68,11 +69,11 @@ TEST(BudgetSearch, NarrowsToTheClosestQualitiesTriedAtTheScale) {
     int lo, hi;
   };
   const Case cases[] = {
-      {model_bytes(60, e), 50, 70},        // between two tried qualities
-      {model_bytes(50, e) + 1, 50, 70},    // q50 fits
-      {model_bytes(30, e), 20, 35},        // below the second
-      {model_bytes(92, e) + 1, 70, 92},    // every quality inside fits
-      {model_bytes(20, e) - 1, 20, 35},    // none inside fits
+      {model_bytes(60, e), 50, 70},      // between two tried qualities
+      {model_bytes(50, e) + 1, 50, 70},  // q50 fits
+      {model_bytes(30, e), 20, 35},      // below the second
+      {model_bytes(92, e) + 1, 70, 92},  // every quality inside fits
+      {model_bytes(20, e) - 1, 20, 35},  // none inside fits
   };
   for (const Case& c : cases) {
     int lo = 20, hi = 92;
@@ -109,8 +110,7 @@ TEST(BudgetSearch, ReportsWhatItKeptOnARealFrame) {
   REQUIRE_DATA("tum/rgbd_dataset_freiburg1_xyz");
   auto frame = test::fr1_xyz_frame(0);
   ASSERT_TRUE(frame) << frame.error().message;
-  const std::vector<std::string> rules = {"fits", "texture-fitted", "geometry-capped", "outline-capped",
-                                          "over-budget"};
+  const std::vector<std::string> rules = {"fits", "texture-fitted", "geometry-capped", "outline-capped", "over-budget"};
   for (double kb : {10.0, 25.0, 40.0, 120.0, 400.0}) {
     const FrameReductionOptions o = test::realtime(kb);
     auto t = reduce_and_texture(*frame, o);

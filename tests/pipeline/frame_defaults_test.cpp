@@ -1,6 +1,7 @@
 // pipeline/frame_defaults.h: the default budget is min(40 kB, a quarter of the frame's JPEG90+PNG16 payload), and the
 // GLB the defaults give is at most a quarter of that payload, on real frames where each side of the min
-// applies: the PCL Kinect PCDs (JPEG90+PNG16 about 130 kB: a quarter) and TUM fr1/xyz and ICL-NUIM (over 160 kB: 40 kB).
+// applies: the PCL Kinect PCDs (JPEG90+PNG16 about 130 kB: a quarter) and TUM fr1/xyz and ICL-NUIM (over 160 kB: 40
+// kB).
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -76,9 +76,12 @@ TEST(FrameScene, BudgetMetOrReportedOnEverySharedFrame) {
                               std::to_string(b.tolerance_factor) + ", collapses " + std::to_string(b.simplify_px) +
                               " px, q" + std::to_string(b.jpeg_quality) + " at " + std::to_string(b.texture_scale) +
                               ", " + std::to_string(bytes) + " bytes)";
-      if (b.rule == "fits") EXPECT_LE(bytes, 1.1 * target) << how;
-      else if (b.rule == "over-budget") EXPECT_GT(bytes, 1.1 * target - 1500) << how;
-      else EXPECT_NEAR(bytes, target, 0.1 * target) << how;
+      if (b.rule == "fits")
+        EXPECT_LE(bytes, 1.1 * target) << how;
+      else if (b.rule == "over-budget")
+        EXPECT_GT(bytes, 1.1 * target - 1500) << how;
+      else
+        EXPECT_NEAR(bytes, target, 0.1 * target) << how;
       EXPECT_NE(b.rule, "over-budget") << how;
       // The outline is straightened only past the largest tolerance, and only as far as the bytes need.
       if (b.rule != "outline-capped") {

@@ -45,8 +45,8 @@ TEST(KeyframeGlb, ExtrasHoldTheCaptureAndTheChoices) {
   ASSERT_TRUE(t) << t.error().message;
   const nlohmann::json choices = reduction_choices(*t);
   const size_t triangles = t->node.mesh.triangle_count();
-  const nlohmann::json capture = {{"source", "frame-0.png"}, {"frame", 0}, {"timestamp", 1305031102.175304},
-                                  {"reduction", "replaced"}};
+  const nlohmann::json capture = {
+      {"source", "frame-0.png"}, {"frame", 0}, {"timestamp", 1305031102.175304}, {"reduction", "replaced"}};
   // The same scene written by hand: frame_scene with the extras text, encode_glb with write_options.
   nlohmann::json expected_capture = capture;
   expected_capture["reduction"] = choices;

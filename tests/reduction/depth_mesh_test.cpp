@@ -149,9 +149,12 @@ TEST(DepthMesh, CrackFreeOnARealFrame) {
   // image's edge.
   size_t boundary = 0, interior = 0, over = 0;
   for (const auto& [edge, uses] : edge_uses(b.mesh)) {
-    if (uses == 1) ++boundary;
-    else if (uses == 2) ++interior;
-    else ++over;
+    if (uses == 1)
+      ++boundary;
+    else if (uses == 2)
+      ++interior;
+    else
+      ++over;
   }
   EXPECT_EQ(over, 0u);
   EXPECT_GT(interior, boundary);
@@ -194,8 +197,8 @@ TEST(DepthMesh, SimplificationStraightensOutlinesAndKeepsTheSurface) {
   auto a = reduce_frame(*frame, off);
   auto b = reduce_frame(*frame, p);
   ASSERT_TRUE(a && b);
-  std::cout << "fr1/xyz frame 0 at 8 sigma: " << a->mesh.triangle_count() << " triangles, "
-            << b->mesh.triangle_count() << " after collapses\n";
+  std::cout << "fr1/xyz frame 0 at 8 sigma: " << a->mesh.triangle_count() << " triangles, " << b->mesh.triangle_count()
+            << " after collapses\n";
   EXPECT_LT(b->mesh.triangle_count(), a->mesh.triangle_count() * 3 / 4);
   std::set<std::tuple<float, float, float>> hierarchy_vertices;
   for (const auto& v : a->mesh.positions) hierarchy_vertices.insert({v.x(), v.y(), v.z()});
@@ -270,8 +273,8 @@ TEST(DepthMesh, FilterAndCountsAreTheSameOnTwoThreads) {
   EXPECT_EQ(one->filled, two->filled);
   EXPECT_GT(one->filled, 0u);
   EXPECT_EQ(cv::norm(one->depth_m, two->depth_m, cv::NORM_INF), 0.0);
-  auto h = DepthMeshHierarchy::build(one->depth_m, one->vertex_depth_m, frame->intrinsics.pinhole(),
-                                     DepthMeshParams{}, 1);
+  auto h =
+      DepthMeshHierarchy::build(one->depth_m, one->vertex_depth_m, frame->intrinsics.pinhole(), DepthMeshParams{}, 1);
   ASSERT_TRUE(h) << h.error().message;
   const auto c1 = h->counts(2.0, 1), c2 = h->counts(2.0, 2);
   for (double t : {2.0, 3.0, 5.5, 8.0, 16.0, 32.0}) EXPECT_EQ(c1.at(t), c2.at(t)) << t;

@@ -81,7 +81,8 @@ INSTANTIATE_TEST_SUITE_P(AllThreeFrames, Fr1XyzFrame, ::testing::Values(0, 1, 2)
 TEST(Reduction, PerimeterFilterDropsLongTriangles) {
   // Three points of a 1 m triangle and three of a 1 cm one: with d = 5 cm only the small one survives.
   Cloud cloud;
-  for (auto [x, y] : std::vector<std::pair<float, float>>{{0, 0}, {1, 0}, {0, 1}, {0, 0.5f}, {0.01f, 0.5f}, {0, 0.51f}}) {
+  for (auto [x, y] :
+       std::vector<std::pair<float, float>>{{0, 0}, {1, 0}, {0, 1}, {0, 0.5f}, {0.01f, 0.5f}, {0, 0.51f}}) {
     CloudPoint p;
     p.x = x;
     p.y = y;

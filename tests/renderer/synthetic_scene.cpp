@@ -74,7 +74,8 @@ Scene synthetic_scene() {
       for (int i = 0; i < 20; ++i) {
         const float x = -0.6f + 0.03f * i, y = 0.15f + 0.02f * j;
         cloud.points.positions.emplace_back(x, y, 1.4f + 0.1f * std::sin(3.0f * x));
-        cloud.points.colors.push_back(Rgb8{static_cast<std::uint8_t>(50 + 10 * i), static_cast<std::uint8_t>(250 - 10 * j), 120});
+        cloud.points.colors.push_back(
+            Rgb8{static_cast<std::uint8_t>(50 + 10 * i), static_cast<std::uint8_t>(250 - 10 * j), 120});
       }
     scene.nodes.push_back(std::move(cloud));
   }

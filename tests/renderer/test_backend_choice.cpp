@@ -33,7 +33,10 @@ TEST(BackendChoice, AutoFallsBackToOsmesaWithoutVulkanDevice) {
   const std::string saved = old ? old : "";
   setenv("VK_ICD_FILENAMES", "/nonexistent/icd.json", 1);
   auto sel = create_renderer(BackendChoice::kAuto);
-  if (old) setenv("VK_ICD_FILENAMES", saved.c_str(), 1); else unsetenv("VK_ICD_FILENAMES");
+  if (old)
+    setenv("VK_ICD_FILENAMES", saved.c_str(), 1);
+  else
+    unsetenv("VK_ICD_FILENAMES");
   ASSERT_TRUE(sel) << sel.error().message;
   EXPECT_EQ(sel->renderer->backend(), "osmesa");
   EXPECT_NE(sel->reason.find("no usable Vulkan device"), std::string::npos) << sel->reason;

@@ -20,7 +20,8 @@ TEST(CrossBackend, VulkanAndOsmesaAgree) {
   auto gl_id = gl->upload(scene);
   ASSERT_TRUE(vk_id && gl_id);
   for (RenderMode mode : {RenderMode::kMesh, RenderMode::kPoints})
-    for (const auto& [name, cam] : {std::pair{"intrinsics", intrinsics_camera()}, std::pair{"lookat", look_at_camera()}}) {
+    for (const auto& [name, cam] :
+         {std::pair{"intrinsics", intrinsics_camera()}, std::pair{"lookat", look_at_camera()}}) {
       RenderOptions opt;
       opt.mode = mode;
       opt.point_size_px = 3.0f;
@@ -43,7 +44,8 @@ TEST(CrossBackend, VulkanAndOsmesaAgree) {
       // Depth agrees too where both drew (sub-millimetre at these distances).
       double worst = 0.0;
       for (size_t i = 0; i < a->depth_m.size(); ++i)
-        if (a->depth_m[i] > 0 && b->depth_m[i] > 0) worst = std::max(worst, double(std::abs(a->depth_m[i] - b->depth_m[i])));
+        if (a->depth_m[i] > 0 && b->depth_m[i] > 0)
+          worst = std::max(worst, double(std::abs(a->depth_m[i] - b->depth_m[i])));
       EXPECT_LT(worst, 0.05) << tag << " (edges may differ by a pixel, so allow a step)";
     }
   EXPECT_EQ(vk->validation_errors(), 0);

@@ -53,13 +53,16 @@ const Scene* realtime_scene(std::string* error) {
       o.budget_kb = *budget;
       auto textured = reduce_and_texture(*frame, o);
       if (!textured) return textured.error();
-      std::cout << "realtime golden scene: " << reduction_choices(*textured).dump() << "\n";  // what a mismatch came from
+      std::cout << "realtime golden scene: " << reduction_choices(*textured).dump()
+                << "\n";  // what a mismatch came from
       auto glb = encode_glb(frame_scene(std::move(*textured), "{}"), o.glb);
       if (!glb) return glb.error();
       return decode_glb(glb->data(), glb->size());
     }();
-    if (made) scene = std::move(*made);
-    else failure = made.error().message;
+    if (made)
+      scene = std::move(*made);
+    else
+      failure = made.error().message;
   }
   *error = failure;
   return failure.empty() ? &scene : nullptr;

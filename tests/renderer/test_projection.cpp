@@ -47,8 +47,8 @@ class Projection : public BackendTest {};
 TEST_P(Projection, SinglePointLandsOnItsPixel) {
   const ViewCamera cam = small_camera();
   // Integer pixel centres, and off-centre positions within the pixel (up to 0.4 px away), at several depths.
-  const double cases[][3] = {{10, 20, 0.7}, {123, 45, 2.0}, {0, 0, 1.0}, {199, 149, 3.5}, {57.4, 88.6, 1.3},
-                             {150.35, 12.6, 4.0}, {97.2, 71.25, 1.0}};
+  const double cases[][3] = {{10, 20, 0.7},     {123, 45, 2.0},      {0, 0, 1.0},       {199, 149, 3.5},
+                             {57.4, 88.6, 1.3}, {150.35, 12.6, 4.0}, {97.2, 71.25, 1.0}};
   for (const auto& c : cases) {
     Scene scene;
     SceneNode node;
@@ -89,7 +89,8 @@ TEST_P(Projection, TinyTriangleCoversExactlyOnePixelThroughPoses) {
   const Eigen::Affine3d cam_pose =
       Eigen::Translation3d(0.3, -0.2, 0.5) * Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.2, 1.0, 0.1).normalized());
   cam.camera_to_world = cam_pose.matrix();
-  const Eigen::Affine3d node_pose = Eigen::Translation3d(-1.0, 0.5, 2.0) * Eigen::AngleAxisd(-0.7, Eigen::Vector3d::UnitX());
+  const Eigen::Affine3d node_pose =
+      Eigen::Translation3d(-1.0, 0.5, 2.0) * Eigen::AngleAxisd(-0.7, Eigen::Vector3d::UnitX());
   const double z = 1.7;
   Scene scene;
   SceneNode node;
@@ -161,8 +162,7 @@ TEST(LookAt, UprightAndUnmirrored) {
   auto cam = ViewCamera::look_at({0, 0, 0}, {0, 0, 2}, {0, -1, 0}, 60.0, 320, 240);
   ASSERT_TRUE(cam);
   const Eigen::Matrix3d r0 = cam->camera_to_world.block<3, 3>(0, 0);
-  EXPECT_TRUE(r0.isApprox(Eigen::Matrix3d::Identity(), 1e-12))
-      << cam->camera_to_world;
+  EXPECT_TRUE(r0.isApprox(Eigen::Matrix3d::Identity(), 1e-12)) << cam->camera_to_world;
   auto side = ViewCamera::look_at({2, -1, 1}, {0, 0, 1}, {0, -1, 0}, 60.0, 320, 240);  // from the right, above
   ASSERT_TRUE(side);
   const Eigen::Matrix4d w2c = side->world_to_camera();

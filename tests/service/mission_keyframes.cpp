@@ -95,8 +95,8 @@ std::vector<MissionKeyframeFile> mission_keyframes(const std::vector<int>& frame
     const Eigen::Matrix4d p = world_from_first_inv * nearest(k.captured);
     const Eigen::Quaterniond q(Eigen::Matrix3d(p.topLeftCorner<3, 3>()));
     char buf[256];
-    std::snprintf(buf, sizeof buf, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g", p(0, 3), p(1, 3), p(2, 3), q.x(), q.y(),
-                  q.z(), q.w());
+    std::snprintf(buf, sizeof buf, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g", p(0, 3), p(1, 3), p(2, 3), q.x(), q.y(), q.z(),
+                  q.w());
     k.pose = buf;
     out.push_back(std::move(k));
   }

@@ -13,10 +13,10 @@ namespace rgbdcast::test {
 inline constexpr const char* kMissionExcerpt = "tum/rgbd_dataset_freiburg1_xyz_200_319";
 
 struct MissionKeyframeFile {
-  int frame = 0;             // index in the excerpt
-  std::string glb;           // the GLB's bytes
-  std::string pose;          // "tx,ty,tz,qx,qy,qz,qw"
-  double captured = 0.0;     // the frame's timestamp
+  int frame = 0;          // index in the excerpt
+  std::string glb;        // the GLB's bytes
+  std::string pose;       // "tx,ty,tz,qx,qy,qz,qw"
+  double captured = 0.0;  // the frame's timestamp
 };
 
 // The keyframes of `frames` (indices into the excerpt); empty with *error set when the data or the CLI fails.

@@ -46,7 +46,8 @@ RawResponse read_response(int fd, double timeout_s) {
   size_t header_end = std::string::npos, need = std::string::npos;
   char buf[65536];
   while (Clock::now() < deadline) {
-    const int left = static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count());
+    const int left =
+        static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count());
     pollfd p{fd, POLLIN, 0};
     if (::poll(&p, 1, std::max(1, left)) <= 0) break;
     const ssize_t n = ::recv(fd, buf, sizeof buf, 0);

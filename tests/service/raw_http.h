@@ -7,11 +7,11 @@
 namespace rgbdcast::test {
 
 struct RawResponse {
-  bool ok = false;        // a status line was received
+  bool ok = false;  // a status line was received
   int status = 0;
   std::map<std::string, std::string> headers;  // names lower case
   std::string body;
-  double ms = 0.0;        // from connect to the end of the response
+  double ms = 0.0;  // from connect to the end of the response
 };
 
 int connect_loopback(int port, const char* address = "127.0.0.1");

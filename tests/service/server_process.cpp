@@ -60,8 +60,7 @@ bool ServerProcess::start(const std::string& data_dir, const std::vector<std::st
     *error = "pipe failed";
     return false;
   }
-  std::vector<std::string> args = {rgbdcast_binary(), "serve", "--data-dir", data_dir, "--bind", bind_,
-                                   "--port", "0"};
+  std::vector<std::string> args = {rgbdcast_binary(), "serve", "--data-dir", data_dir, "--bind", bind_, "--port", "0"};
   // RGBDCAST_TEST_BACKEND=osmesa|vulkan runs the suite on one backend (default: the server's auto choice).
   if (const char* backend = std::getenv("RGBDCAST_TEST_BACKEND"); backend && *backend) {
     args.push_back("--backend");
@@ -104,8 +103,7 @@ bool ServerProcess::start(const std::string& data_dir, const std::vector<std::st
         const int fd = out_fd_;
         std::thread([fd] {
           char b[4096];
-          while (read(fd, b, sizeof b) > 0) {
-          }
+          while (read(fd, b, sizeof b) > 0) {}
           close(fd);
         }).detach();
         out_fd_ = -1;

@@ -2,7 +2,8 @@
 // real keyframes (TUM frames reduced by the CLI): /?mission=NAME draws the mission from its 3D Tiles tileset with
 // three.js and 3DTilesRendererJS served by `rgbdcast serve` itself, more of it as keyframes arrive, fetches tiles and
 // asks for no server view; resizing the view area redraws at the new size; the page's requests in Chromium's network
-// log name no host but the loopback one; /?scene=ID draws that scene's GLB. The same URL in a Chromium without WebGL falls back to server-rendered views.
+// log name no host but the loopback one; /?scene=ID draws that scene's GLB. The same URL in a Chromium without WebGL
+// falls back to server-rendered views.
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <signal.h>
@@ -44,10 +45,17 @@ PageRun run_page(const std::string& chromium, const std::string& dir, const std:
                           "&report=http://127.0.0.1:" + std::to_string(reports.port()) + "/result";
   run.log = dir + "/" + tag + "-chromium.log";
   run.net_log = dir + "/" + tag + "-netlog.json";
-  std::vector<std::string> args = {chromium, "--headless", "--no-sandbox", "--no-first-run",
-                                   "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                                   "--hide-scrollbars", "--user-data-dir=" + dir + "/profile-" + tag,
-                                   "--window-size=960,600", "--log-net-log=" + run.net_log};
+  std::vector<std::string> args = {chromium,
+                                   "--headless",
+                                   "--no-sandbox",
+                                   "--no-first-run",
+                                   "--disable-background-networking",
+                                   "--disable-component-update",
+                                   "--disable-sync",
+                                   "--hide-scrollbars",
+                                   "--user-data-dir=" + dir + "/profile-" + tag,
+                                   "--window-size=960,600",
+                                   "--log-net-log=" + run.net_log};
   args.insert(args.end(), flags.begin(), flags.end());
   args.push_back(url);
   const pid_t pid = rgbdcast::test::spawn_chromium(args, run.log, dir);
@@ -112,8 +120,8 @@ class BrowserPage : public ::testing::Test {
 };
 
 TEST_F(BrowserPage, WebGlDrawsTheMissionFromItsTilesAsKeyframesArriveAndASceneFromItsGlb) {
-  for (const char* module : {"tools/node_modules/three/build/three.module.js",
-                             "tools/node_modules/3d-tiles-renderer/build/index.three.js"})
+  for (const char* module :
+       {"tools/node_modules/three/build/three.module.js", "tools/node_modules/3d-tiles-renderer/build/index.three.js"})
     if (!fs::exists(rgbdcast::test::source_path(module)))
       RGBDCAST_MISSING_PREREQUISITE(std::string(module) + " missing (scripts/setup.sh runs npm ci in tools/)");
   post(0);
@@ -127,8 +135,8 @@ TEST_F(BrowserPage, WebGlDrawsTheMissionFromItsTilesAsKeyframesArriveAndASceneFr
                                  }
                                });
   const json& r = run.report;
-  ASSERT_TRUE(r.is_object() && !r.contains("error"))
-      << r.dump() << "\n" << rgbdcast::test::read_file(run.log).substr(0, 3000);
+  ASSERT_TRUE(r.is_object() && !r.contains("error")) << r.dump() << "\n"
+                                                     << rgbdcast::test::read_file(run.log).substr(0, 3000);
   json shown = r;
   shown["network"].erase("urls");
   std::cout << "page (WebGL): " << shown.dump() << "\n";
@@ -149,7 +157,8 @@ TEST_F(BrowserPage, WebGlDrawsTheMissionFromItsTilesAsKeyframesArriveAndASceneFr
   for (const auto& u : n["urls"]) EXPECT_EQ(u.get<std::string>().find("/view?"), std::string::npos) << u;
   // The server's origin, and the test's report server beside it (the page's progress POSTs): loopback only.
   EXPECT_NE(std::find(n["origins"].begin(), n["origins"].end(), "http://127.0.0.1:" + std::to_string(server_.port())),
-            n["origins"].end()) << n["origins"];
+            n["origins"].end())
+      << n["origins"];
   for (const auto& o : n["origins"]) EXPECT_EQ(o.get<std::string>().rfind("http://127.0.0.1:", 0), 0u) << o;
   // Resizing redraws at the new size.
   const json& before = r["resized"]["before"];
@@ -174,8 +183,8 @@ TEST_F(BrowserPage, WebGlDrawsTheMissionFromItsTilesAsKeyframesArriveAndASceneFr
                                  {"--disable-gpu", "--enable-unsafe-swiftshader", "--use-angle=swiftshader"},
                                  [](rgbdcast::test::StaticHttpServer&) {});
   const json& sr = scene.report;
-  ASSERT_TRUE(sr.is_object() && !sr.contains("error"))
-      << sr.dump() << "\n" << rgbdcast::test::read_file(scene.log).substr(0, 3000);
+  ASSERT_TRUE(sr.is_object() && !sr.contains("error")) << sr.dump() << "\n"
+                                                       << rgbdcast::test::read_file(scene.log).substr(0, 3000);
   std::cout << "page (scene, WebGL): drawn " << sr["drawn"] << " of " << sr["width"] << "x" << sr["height"]
             << ", requests " << sr["network"]["urls"].size() << "\n";
   EXPECT_EQ(sr["mode"], "local");
@@ -189,12 +198,12 @@ TEST_F(BrowserPage, WebGlDrawsTheMissionFromItsTilesAsKeyframesArriveAndASceneFr
 
 TEST_F(BrowserPage, WithoutWebGlTheSameUrlShowsServerViews) {
   for (int i = 0; i < 3; ++i) post(i);
-  const PageRun run = run_page(chromium_, dir_, "no-webgl", server_.port(), "mission=robot1&selftest=3",
-                               {"--disable-gpu", "--disable-3d-apis", "--disable-webgl"},
-                               [](rgbdcast::test::StaticHttpServer&) {});
+  const PageRun run =
+      run_page(chromium_, dir_, "no-webgl", server_.port(), "mission=robot1&selftest=3",
+               {"--disable-gpu", "--disable-3d-apis", "--disable-webgl"}, [](rgbdcast::test::StaticHttpServer&) {});
   const json& r = run.report;
-  ASSERT_TRUE(r.is_object() && !r.contains("error"))
-      << r.dump() << "\n" << rgbdcast::test::read_file(run.log).substr(0, 3000);
+  ASSERT_TRUE(r.is_object() && !r.contains("error")) << r.dump() << "\n"
+                                                     << rgbdcast::test::read_file(run.log).substr(0, 3000);
   json shown = r;
   shown["network"].erase("urls");
   std::cout << "page (no WebGL): " << shown.dump() << "\n";

@@ -73,7 +73,8 @@ TEST(CameraJson, RejectsWhatIsNotACamera) {
       {"{" + k + size + R"("pose": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,1,1]]})", "'pose' last row must be 0 0 0 1"},
       {"{" + k + size + R"("pose": [[2,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})", "'pose' rotation is not a rotation"},
       {"{" + k + size + R"("pose": [[-1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})", "'pose' rotation is not a rotation"},
-      {"{" + k + size + R"("pose": [[1,0.01,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})", "'pose' rotation is not a rotation"},
+      {"{" + k + size + R"("pose": [[1,0.01,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})",
+       "'pose' rotation is not a rotation"},
       {"{" + k + size + R"("pose": [[1,0,0,1e7],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})", "'pose' translation beyond 1e6 m"},
       {"{" + k + size + R"("pose": [[1,0,0,"x"],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})", "'pose[0][3]' must be a number"},
       {"{" + k + size + pose + ", " + std::string(20000, ' ') + "}", "JSON over 16384 bytes"},
@@ -88,12 +89,13 @@ TEST(CameraJson, RejectsWhatIsNotACamera) {
   }
   // JSON has no NaN or Infinity literals; a number too large for a double is rejected by the parser as well.
   EXPECT_FALSE(parse_camera_json(R"({"fx": NaN})", kMaxViewSize));
-  auto huge = parse_camera_json("{" + k + size + R"("pose": [[1,0,0,1e999],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})",
-                                kMaxViewSize);
+  auto huge =
+      parse_camera_json("{" + k + size + R"("pose": [[1,0,0,1e999],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})", kMaxViewSize);
   EXPECT_FALSE(huge);
   // A float-printed rotation (7 digits) is within the tolerance.
   EXPECT_TRUE(parse_camera_json("{" + k + size + R"("pose": [[0.8660254,0,0.5,0],[0,1,0,0],[-0.5,0,0.8660254,0],
-      [0,0,0,1]]})", kMaxViewSize));
+      [0,0,0,1]]})",
+                                kMaxViewSize));
 }
 
 TEST(CameraJson, IsTheViewRoutesCameraParameter) {

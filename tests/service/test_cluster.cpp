@@ -115,14 +115,14 @@ std::string view_path(const std::string& mission) {
   return "/v1/missions/" + mission + "/view?pose=capture&width=64&height=48";
 }
 
-#define REQUIRE_CLUSTER(cluster)                                                                    \
-  do {                                                                                              \
-    REQUIRE_DATA(rgbdcast::test::kMissionExcerpt);                                                  \
-    ASSERT_EQ(rgbdcast::test::four_mission_keyframes().size(), 4u);                                 \
-    std::string why_;                                                                               \
+#define REQUIRE_CLUSTER(cluster)                                                                              \
+  do {                                                                                                        \
+    REQUIRE_DATA(rgbdcast::test::kMissionExcerpt);                                                            \
+    ASSERT_EQ(rgbdcast::test::four_mission_keyframes().size(), 4u);                                           \
+    std::string why_;                                                                                         \
     if (::access("/usr/sbin/nginx", X_OK) != 0 || ::access("/usr/lib/postgresql/15/bin/postgres", X_OK) != 0) \
-      RGBDCAST_MISSING_PREREQUISITE("nginx and PostgreSQL 15 (scripts/setup.sh test)");              \
-    ASSERT_TRUE((cluster).up(&why_)) << why_;                                                       \
+      RGBDCAST_MISSING_PREREQUISITE("nginx and PostgreSQL 15 (scripts/setup.sh test)");                       \
+    ASSERT_TRUE((cluster).up(&why_)) << why_;                                                                 \
   } while (0)
 
 }  // namespace
@@ -166,8 +166,8 @@ TEST(Cluster, AffinityEventsAndFailoverBehindNginx) {
   ASSERT_TRUE(known);
   std::string seen;
   std::thread listener([&] {
-    seen = rgbdcast::test::read_event_stream_until(cluster.port(), "/v1/missions/" + mission + "/events", "id: 1\n",
-                                                   30.0);
+    seen =
+        rgbdcast::test::read_event_stream_until(cluster.port(), "/v1/missions/" + mission + "/events", "id: 1\n", 30.0);
   });
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   const auto posted = std::chrono::steady_clock::now();
@@ -208,8 +208,10 @@ TEST(Cluster, AffinityEventsAndFailoverBehindNginx) {
   std::string after;
   for (int i = 0; i < 100 && after.empty(); ++i) {
     auto r = c->Get(view_path(mission).c_str());
-    if (r && r->status == 200) after = r->get_header_value("X-Rgbdcast-Replica");
-    else std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    if (r && r->status == 200)
+      after = r->get_header_value("X-Rgbdcast-Replica");
+    else
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   EXPECT_FALSE(after.empty()) << "no view succeeded after the kill";
   EXPECT_NE(after, serving);

@@ -27,9 +27,9 @@
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+using rgbdcast::test::raw_request;
 using rgbdcast::test::RawResponse;
 using rgbdcast::test::ServerProcess;
-using rgbdcast::test::raw_request;
 
 using rgbdcast::ms_since;
 
@@ -151,9 +151,7 @@ struct Case {
 TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
   REQUIRE_DATA(kFr1);
   const std::string dir = rgbdcast::test::temp_dir("hardening-battery");
-  {
-    std::ofstream(dir + "/token") << kToken << "\n";
-  }
+  { std::ofstream(dir + "/token") << kToken << "\n"; }
   ServerProcess open_server, token_server;
   std::string error;
   ASSERT_TRUE(open_server.start(dir + "/open", {}, &error)) << error;
@@ -164,9 +162,12 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
   const auto frame = rgbdcast::test::fr1_frame0();
   const std::string boundary = "battery-boundary-7d1";
   const std::string mp_type = "Content-Type: multipart/form-data; boundary=" + boundary + "\r\n";
-  auto up = raw_request(p, request(p, "POST", "/v1/scenes", mp_type,
-                                   multipart({{"color", frame.color}, {"depth", frame.depth},
-                                              {"intrinsics", frame.intrinsics_json}}, boundary)), 120.0);
+  auto up = raw_request(
+      p,
+      request(
+          p, "POST", "/v1/scenes", mp_type,
+          multipart({{"color", frame.color}, {"depth", frame.depth}, {"intrinsics", frame.intrinsics_json}}, boundary)),
+      120.0);
   ASSERT_EQ(up.status, 201) << up.body;
   const std::string id = json::parse(up.body)["id"];
   auto glb_r = raw_request(p, request(p, "GET", "/v1/scenes/" + id + "/model.glb"), 30.0);
@@ -186,61 +187,96 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
   // Host and Origin: DNS rebinding and cross-site requests.
   add("no Host", request(p, "GET", "/healthz", "NOHOST"), 400);
   add("foreign Host", request(p, "GET", "/healthz", "Host: attacker.example\r\n"), 403);
-  add("foreign Host with our port", request(p, "GET", "/v1/scenes", "Host: attacker.example:" + std::to_string(p) + "\r\n"), 403);
+  add("foreign Host with our port",
+      request(p, "GET", "/v1/scenes", "Host: attacker.example:" + std::to_string(p) + "\r\n"), 403);
   add("wrong port in Host", request(p, "GET", "/v1/scenes", "Host: 127.0.0.1:1\r\n"), 403);
   add("two Hosts", request(p, "GET", "/healthz", "Host: " + host_of(p) + "\r\nHost: " + host_of(p) + "\r\n"), 400);
   add("empty Host", request(p, "GET", "/healthz", "Host: \r\n"), 400);  // httplib drops the empty value
-  add("rebinding view", request(p, "GET", view + "?pose=capture", "Host: rebind.attacker.example:" + std::to_string(p) + "\r\n"), 403);
+  add("rebinding view",
+      request(p, "GET", view + "?pose=capture", "Host: rebind.attacker.example:" + std::to_string(p) + "\r\n"), 403);
   add("rebinding upload", request(p, "POST", "/v1/scenes", "Host: rebind.example\r\n" + glb_type, glb), 403);
   add("cross-site GET", request(p, "GET", "/v1/scenes", "Origin: http://attacker.example\r\n"), 403);
   add("cross-site POST", request(p, "POST", "/v1/scenes", "Origin: http://attacker.example\r\n" + glb_type, glb), 403);
   add("cross-site DELETE", request(p, "DELETE", scene, "Origin: https://attacker.example\r\n"), 403);
   add("null Origin", request(p, "POST", "/v1/scenes", "Origin: null\r\n" + glb_type, glb), 403);
-  add("Origin of another port", request(p, "POST", "/v1/scenes", "Origin: http://127.0.0.1:1\r\n" + glb_type, glb), 403);
-  add("two Origins", request(p, "GET", "/healthz", "Origin: http://" + host_of(p) + "\r\nOrigin: http://" + host_of(p) + "\r\n"), 403);
+  add("Origin of another port", request(p, "POST", "/v1/scenes", "Origin: http://127.0.0.1:1\r\n" + glb_type, glb),
+      403);
+  add("two Origins",
+      request(p, "GET", "/healthz", "Origin: http://" + host_of(p) + "\r\nOrigin: http://" + host_of(p) + "\r\n"), 403);
 
   // Methods on known routes: 405 with Allow.
-  for (const auto& [method, path] : std::vector<std::pair<std::string, std::string>>{
-           {"PUT", "/v1/scenes"}, {"PATCH", "/v1/scenes"}, {"DELETE", "/v1/scenes"}, {"PUT", scene},
-           {"PATCH", scene}, {"POST", scene}, {"POST", "/healthz"}, {"DELETE", "/healthz"}, {"POST", "/metrics"},
-           {"DELETE", view}, {"DELETE", scene + "/model.glb"}, {"OPTIONS", "/v1/scenes"},
-           {"TRACE", "/"}, {"BREW", "/healthz"}, {"PROPFIND", "/v1/scenes"}, {"POST", "/"}})
+  for (const auto& [method, path] : std::vector<std::pair<std::string, std::string>>{{"PUT", "/v1/scenes"},
+                                                                                     {"PATCH", "/v1/scenes"},
+                                                                                     {"DELETE", "/v1/scenes"},
+                                                                                     {"PUT", scene},
+                                                                                     {"PATCH", scene},
+                                                                                     {"POST", scene},
+                                                                                     {"POST", "/healthz"},
+                                                                                     {"DELETE", "/healthz"},
+                                                                                     {"POST", "/metrics"},
+                                                                                     {"DELETE", view},
+                                                                                     {"DELETE", scene + "/model.glb"},
+                                                                                     {"OPTIONS", "/v1/scenes"},
+                                                                                     {"TRACE", "/"},
+                                                                                     {"BREW", "/healthz"},
+                                                                                     {"PROPFIND", "/v1/scenes"},
+                                                                                     {"POST", "/"}})
     add(method + " " + path, request(p, method, path), 405);
   // POST on the view route takes a full camera as its body (service/camera_json.h): without one it is a 400.
   // No length and no body: the server waits for one that never comes (408 after the body grace).
   add("POST view without a camera", request(p, "POST", view), 408);
 
   // Content-Length and framing: answered before any body is read.
-  add("Content-Length 10 GiB", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 10737418240\r\n", "glTF"), 413);
-  add("Content-Length 64 MiB + 1", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 67108865\r\n", "glTF"), 413);
+  add("Content-Length 10 GiB", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 10737418240\r\n", "glTF"),
+      413);
+  add("Content-Length 64 MiB + 1", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 67108865\r\n", "glTF"),
+      413);
   add("Content-Length -5", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: -5\r\n"), 400);
   add("Content-Length abc", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: abc\r\n", "glTF"), 400);
   add("Content-Length 1e3", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 1e3\r\n", "glTF"), 400);
   add("Content-Length 12 x", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 12 x\r\n", "glTF"), 400);
   add("Content-Length +4", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: +4\r\n", "glTF"), 400);
   add("Content-Length 0x10", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 0x10\r\n", "glTF"), 400);
-  add("Content-Length 30 digits", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 123456789012345678901234567890\r\n", "glTF"), 400);
-  add("two Content-Lengths", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 4\r\nContent-Length: 5\r\n", "glTF"), 400);
-  add("two equal Content-Lengths", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 4\r\nContent-Length: 4\r\n", "glTF"), 400);
-  add("Content-Length and chunked", request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 4\r\nTransfer-Encoding: chunked\r\n", "4\r\nglTF\r\n0\r\n\r\n"), 400);
+  add("Content-Length 30 digits",
+      request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 123456789012345678901234567890\r\n", "glTF"), 400);
+  add("two Content-Lengths",
+      request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 4\r\nContent-Length: 5\r\n", "glTF"), 400);
+  add("two equal Content-Lengths",
+      request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 4\r\nContent-Length: 4\r\n", "glTF"), 400);
+  add("Content-Length and chunked",
+      request(p, "POST", "/v1/scenes", glb_type + "Content-Length: 4\r\nTransfer-Encoding: chunked\r\n",
+              "4\r\nglTF\r\n0\r\n\r\n"),
+      400);
   add("Transfer-Encoding gzip", request(p, "POST", "/v1/scenes", glb_type + "Transfer-Encoding: gzip\r\n", "x"), 400);
-  add("Transfer-Encoding gzip, chunked", request(p, "POST", "/v1/scenes", glb_type + "Transfer-Encoding: gzip, chunked\r\n", "0\r\n\r\n"), 400);
+  add("Transfer-Encoding gzip, chunked",
+      request(p, "POST", "/v1/scenes", glb_type + "Transfer-Encoding: gzip, chunked\r\n", "0\r\n\r\n"), 400);
   add("GET with a body", request(p, "GET", "/v1/scenes", "Content-Length: 5\r\n", "hello"), 400);
   add("HEAD with a body", request(p, "HEAD", "/healthz", "Content-Length: 5\r\n", "hello"), 400);
   add("DELETE with a body", request(p, "DELETE", scene, "Content-Length: 5\r\n", "hello"), 400);
   add("GET chunked", request(p, "GET", "/v1/scenes", "Transfer-Encoding: chunked\r\n", "0\r\n\r\n"), 400);
   add("Content-Encoding zstd", request(p, "POST", "/v1/scenes", glb_type + "Content-Encoding: zstd\r\n", "glTF"), 415);
-  add("Content-Encoding compress", request(p, "POST", "/v1/scenes", glb_type + "Content-Encoding: compress\r\n", "glTF"), 415);
-  add("two Content-Encodings", request(p, "POST", "/v1/scenes", glb_type + "Content-Encoding: gzip\r\nContent-Encoding: gzip\r\n", "glTF"), 415);
-  add("chunked bad hex", request(p, "POST", "/v1/scenes", glb_type + "Transfer-Encoding: chunked\r\n", "zz\r\nglTF\r\n0\r\n\r\n"), 400);
+  add("Content-Encoding compress",
+      request(p, "POST", "/v1/scenes", glb_type + "Content-Encoding: compress\r\n", "glTF"), 415);
+  add("two Content-Encodings",
+      request(p, "POST", "/v1/scenes", glb_type + "Content-Encoding: gzip\r\nContent-Encoding: gzip\r\n", "glTF"), 415);
+  add("chunked bad hex",
+      request(p, "POST", "/v1/scenes", glb_type + "Transfer-Encoding: chunked\r\n", "zz\r\nglTF\r\n0\r\n\r\n"), 400);
   // The rest never comes: the body times out (408, which a client retries), not a verdict on its bytes.
-  add("chunked cut short", request(p, "POST", "/v1/scenes", glb_type + "Transfer-Encoding: chunked\r\n", "100\r\nglTF"), 408);
-  add("gzip not gzip", request(p, "POST", "/v1/scenes", glb_type + "Content-Encoding: gzip\r\n", std::string(300, 'x')), 400);
-  add("chunked 80 MiB", request(p, "POST", "/v1/scenes", glb_type + "Transfer-Encoding: chunked\r\n", chunked(std::string(80u << 20, 'g'), 1 << 20)), 413);
+  add("chunked cut short", request(p, "POST", "/v1/scenes", glb_type + "Transfer-Encoding: chunked\r\n", "100\r\nglTF"),
+      408);
+  add("gzip not gzip", request(p, "POST", "/v1/scenes", glb_type + "Content-Encoding: gzip\r\n", std::string(300, 'x')),
+      400);
+  add("chunked 80 MiB",
+      request(p, "POST", "/v1/scenes", glb_type + "Transfer-Encoding: chunked\r\n",
+              chunked(std::string(80u << 20, 'g'), 1 << 20)),
+      413);
   const std::string bomb = gzip_zeros(200u << 20);
   add("gzip 200 MiB inflated from " + std::to_string(bomb.size() / 1024) + " kB",
       request(p, "POST", "/v1/scenes", glb_type + "Content-Encoding: gzip\r\n", bomb), 413);
-  add("chunked gzip bomb", request(p, "POST", "/v1/scenes", glb_type + "Content-Encoding: gzip\r\nTransfer-Encoding: chunked\r\n", chunked(bomb, 65536)), 413);
+  add("chunked gzip bomb",
+      request(p, "POST", "/v1/scenes", glb_type + "Content-Encoding: gzip\r\nTransfer-Encoding: chunked\r\n",
+              chunked(bomb, 65536)),
+      413);
   add("request line over 8 KiB", request(p, "GET", "/v1/scenes?" + std::string(9000, 'a')), 414);
   add("header block over 16 KiB", request(p, "GET", "/healthz", "X-Pad: " + std::string(20000, 'a') + "\r\n"), 431);
   add("HTTP/2.0 version", "GET /healthz HTTP/2.0\r\nHost: " + host_of(p) + "\r\n\r\n", 400);
@@ -262,49 +298,89 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
     version[4] = 9;
     add("GLB version 9", request(p, "POST", "/v1/scenes", glb_type, version), 422);
   }
-  add("GLB chunked cut short", request(p, "POST", "/v1/scenes", glb_type + "Transfer-Encoding: chunked\r\n", "4\r\nglTF\r\n"), 408);
+  add("GLB chunked cut short",
+      request(p, "POST", "/v1/scenes", glb_type + "Transfer-Encoding: chunked\r\n", "4\r\nglTF\r\n"), 408);
 
   // Multipart frames.
   auto frame_parts = [&](std::string color, std::string depth, std::string k) {
-    return multipart({{"color", std::move(color)}, {"depth", std::move(depth)}, {"intrinsics", std::move(k)}}, boundary);
+    return multipart({{"color", std::move(color)}, {"depth", std::move(depth)}, {"intrinsics", std::move(k)}},
+                     boundary);
   };
   auto post_frame = [&](const std::string& body) { return request(p, "POST", "/v1/scenes", mp_type, body); };
-  add("multipart without boundary", request(p, "POST", "/v1/scenes", "Content-Type: multipart/form-data\r\n", "--x--\r\n"), 400);
-  add("multipart lacks color", post_frame(multipart({{"depth", frame.depth}, {"intrinsics", frame.intrinsics_json}}, boundary)), 400);
-  add("multipart lacks depth", post_frame(multipart({{"color", frame.color}, {"intrinsics", frame.intrinsics_json}}, boundary)), 400);
-  add("multipart lacks intrinsics", post_frame(multipart({{"color", frame.color}, {"depth", frame.depth}}, boundary)), 400);
-  add("multipart repeated part", post_frame(multipart({{"color", frame.color}, {"color", frame.color}, {"depth", frame.depth}, {"intrinsics", frame.intrinsics_json}}, boundary)), 400);
-  add("multipart unterminated", request(p, "POST", "/v1/scenes", mp_type, "--" + boundary + "\r\nContent-Disposition: form-data; name=\"color\"\r\n\r\nabc"), 400);
+  add("multipart without boundary",
+      request(p, "POST", "/v1/scenes", "Content-Type: multipart/form-data\r\n", "--x--\r\n"), 400);
+  add("multipart lacks color",
+      post_frame(multipart({{"depth", frame.depth}, {"intrinsics", frame.intrinsics_json}}, boundary)), 400);
+  add("multipart lacks depth",
+      post_frame(multipart({{"color", frame.color}, {"intrinsics", frame.intrinsics_json}}, boundary)), 400);
+  add("multipart lacks intrinsics", post_frame(multipart({{"color", frame.color}, {"depth", frame.depth}}, boundary)),
+      400);
+  add("multipart repeated part",
+      post_frame(multipart({{"color", frame.color},
+                            {"color", frame.color},
+                            {"depth", frame.depth},
+                            {"intrinsics", frame.intrinsics_json}},
+                           boundary)),
+      400);
+  add("multipart unterminated",
+      request(p, "POST", "/v1/scenes", mp_type,
+              "--" + boundary + "\r\nContent-Disposition: form-data; name=\"color\"\r\n\r\nabc"),
+      400);
   add("frame 4096x4096", post_frame(frame_parts(png(4096, 4096), frame.depth, frame.intrinsics_json)), 422);
   add("frame 1921x1080", post_frame(frame_parts(png(1921, 1080), frame.depth, frame.intrinsics_json)), 422);
   add("depth 16384x16", post_frame(frame_parts(frame.color, png(16384, 16, CV_16UC1), frame.intrinsics_json)), 422);
   add("colour not an image", post_frame(frame_parts("this is not a PNG", frame.depth, frame.intrinsics_json)), 422);
   add("colour BMP", post_frame(frame_parts("BM" + std::string(100, '\0'), frame.depth, frame.intrinsics_json)), 422);
-  add("colour PNG header only", post_frame(frame_parts(frame.color.substr(0, 30), frame.depth, frame.intrinsics_json)), 422);
-  add("depth truncated", post_frame(frame_parts(frame.color, frame.depth.substr(0, frame.depth.size() / 3), frame.intrinsics_json)), 422);
+  add("colour PNG header only", post_frame(frame_parts(frame.color.substr(0, 30), frame.depth, frame.intrinsics_json)),
+      422);
+  add("depth truncated",
+      post_frame(frame_parts(frame.color, frame.depth.substr(0, frame.depth.size() / 3), frame.intrinsics_json)), 422);
   add("colour as depth", post_frame(frame_parts(frame.color, frame.color, frame.intrinsics_json)), 422);
   add("depth 8-bit", post_frame(frame_parts(frame.color, png(640, 480, CV_8UC1), frame.intrinsics_json)), 422);
   add("size mismatch", post_frame(frame_parts(frame.color, png(320, 240, CV_16UC1), frame.intrinsics_json)), 422);
-  for (const std::string& k : {std::string(R"({"fx": -517.3, "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480})"),
-                              std::string(R"({"fx": 517.3, "fy": -1, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480})"),
-                              std::string(R"({"fx": 0, "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480})"),
-                              std::string(R"({"fx": "wide", "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480})"),
-                              std::string(R"({"fx": 517.3})"), std::string("{\"fx\": "), std::string("[]"), std::string(""),
-                              std::string(R"({"fx": 517.3, "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 9999, "height": 480})"),
-                              "{\"pad\": \"" + std::string(2u << 20, 'a') + "\"}"})
+  for (const std::string& k :
+       {std::string(R"({"fx": -517.3, "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480})"),
+        std::string(R"({"fx": 517.3, "fy": -1, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480})"),
+        std::string(R"({"fx": 0, "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480})"),
+        std::string(R"({"fx": "wide", "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480})"),
+        std::string(R"({"fx": 517.3})"), std::string("{\"fx\": "), std::string("[]"), std::string(""),
+        std::string(R"({"fx": 517.3, "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 9999, "height": 480})"),
+        "{\"pad\": \"" + std::string(2u << 20, 'a') + "\"}"})
     add("intrinsics " + k.substr(0, 40), post_frame(frame_parts(frame.color, frame.depth, k)), 422);
 
   // View queries.
-  for (const std::string q :
-       {"", "?width=100", "?pose=robot", "?eye=1,2&target=0,0,1", "?eye=a,b,c&target=0,0,1", "?eye=0,0,0",
-        "?target=0,0,1", "?eye=nan,0,0&target=0,0,1", "?eye=0,0,0&target=0,inf,1", "?eye=0,0,0&target=0,0,-inf",
-        "?eye=0,0,0&target=0,0,1&fov=NaN", "?eye=0,0,0&target=0,0,1&fov=179.5", "?eye=0,0,0&target=0,0,1&fov=0.5",
-        "?eye=0,0,0&target=0,0,1&fov=1e308", "?pose=capture&width=0", "?pose=capture&width=5000",
-        "?pose=capture&height=4097", "?pose=capture&height=-3", "?pose=capture&width=abc", "?pose=capture&width=1e3",
-        "?pose=capture&quality=0", "?pose=capture&quality=101", "?pose=capture&mode=wire", "?pose=capture&format=gif",
-        "?pose=capture&zoom=2", "?pose=capture&width=1&width=2", "?eye=1,1,1&target=1,1,1", "?eye=0,0,0&target=0,1,0",
-        "?pose=capture&point_size=100", "?pose=capture&eye=0,0,0", "?pose=capture&width=99999999999999999999",
-        "?eye=0,0,0&target=0,0,1&up=0,0,0"})
+  for (const std::string q : {"",
+                              "?width=100",
+                              "?pose=robot",
+                              "?eye=1,2&target=0,0,1",
+                              "?eye=a,b,c&target=0,0,1",
+                              "?eye=0,0,0",
+                              "?target=0,0,1",
+                              "?eye=nan,0,0&target=0,0,1",
+                              "?eye=0,0,0&target=0,inf,1",
+                              "?eye=0,0,0&target=0,0,-inf",
+                              "?eye=0,0,0&target=0,0,1&fov=NaN",
+                              "?eye=0,0,0&target=0,0,1&fov=179.5",
+                              "?eye=0,0,0&target=0,0,1&fov=0.5",
+                              "?eye=0,0,0&target=0,0,1&fov=1e308",
+                              "?pose=capture&width=0",
+                              "?pose=capture&width=5000",
+                              "?pose=capture&height=4097",
+                              "?pose=capture&height=-3",
+                              "?pose=capture&width=abc",
+                              "?pose=capture&width=1e3",
+                              "?pose=capture&quality=0",
+                              "?pose=capture&quality=101",
+                              "?pose=capture&mode=wire",
+                              "?pose=capture&format=gif",
+                              "?pose=capture&zoom=2",
+                              "?pose=capture&width=1&width=2",
+                              "?eye=1,1,1&target=1,1,1",
+                              "?eye=0,0,0&target=0,1,0",
+                              "?pose=capture&point_size=100",
+                              "?pose=capture&eye=0,0,0",
+                              "?pose=capture&width=99999999999999999999",
+                              "?eye=0,0,0&target=0,0,1&up=0,0,0"})
     add("view" + q, request(p, "GET", view + q), 400);
 
   // Ids and paths: never a file.
@@ -326,21 +402,32 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
 
   // Live missions: the same guard, framing limits and path rules on their routes.
   const std::string kf = "/v1/missions/m/keyframes?seq=0&pose=0,0,0,0,0,0,1";
-  add("mission: cross-site keyframe", request(p, "POST", kf, "Origin: http://attacker.example\r\n" + glb_type, glb), 403);
+  add("mission: cross-site keyframe", request(p, "POST", kf, "Origin: http://attacker.example\r\n" + glb_type, glb),
+      403);
   add("mission: rebinding keyframe", request(p, "POST", kf, "Host: rebind.example\r\n" + glb_type, glb), 403);
   add("mission: cross-site delete", request(p, "DELETE", "/v1/missions/m", "Origin: http://attacker.example\r\n"), 403);
-  add("mission: rebinding events", request(p, "GET", "/v1/missions/m/events", "Host: rebind.example:" + std::to_string(p) + "\r\n"), 403);
-  add("mission: Content-Length 10 GiB", request(p, "POST", kf, glb_type + "Content-Length: 10737418240\r\n", "glTF"), 413);
+  add("mission: rebinding events",
+      request(p, "GET", "/v1/missions/m/events", "Host: rebind.example:" + std::to_string(p) + "\r\n"), 403);
+  add("mission: Content-Length 10 GiB", request(p, "POST", kf, glb_type + "Content-Length: 10737418240\r\n", "glTF"),
+      413);
   add("mission: gzip bomb", request(p, "POST", kf, glb_type + "Content-Encoding: gzip\r\n", bomb), 413);
-  add("mission: chunked cut short", request(p, "POST", kf, glb_type + "Transfer-Encoding: chunked\r\n", "100\r\nglTF"), 408);
-  for (const auto& [method, path] : std::vector<std::pair<std::string, std::string>>{
-           {"POST", "/v1/missions"}, {"DELETE", "/v1/missions"}, {"PUT", kf}, {"GET", "/v1/missions/m/keyframes"},
-           {"POST", "/v1/missions/m"}, {"POST", "/v1/missions/m/events"}, {"DELETE", "/v1/missions/m/model.glb"}})
+  add("mission: chunked cut short", request(p, "POST", kf, glb_type + "Transfer-Encoding: chunked\r\n", "100\r\nglTF"),
+      408);
+  for (const auto& [method, path] :
+       std::vector<std::pair<std::string, std::string>>{{"POST", "/v1/missions"},
+                                                        {"DELETE", "/v1/missions"},
+                                                        {"PUT", kf},
+                                                        {"GET", "/v1/missions/m/keyframes"},
+                                                        {"POST", "/v1/missions/m"},
+                                                        {"POST", "/v1/missions/m/events"},
+                                                        {"DELETE", "/v1/missions/m/model.glb"}})
     add("mission: " + method + " " + path, request(p, method, path), 405);
   add("mission: traversal name", request(p, "GET", "/v1/missions/..%2F..%2Fetc"), 0);
   add("mission: dot-dot delete", request(p, "DELETE", "/v1/missions/.."), 0);
-  add("mission: name with a dot", request(p, "POST", "/v1/missions/a.b/keyframes?seq=0&pose=0,0,0,0,0,0,1", glb_type, glb), 400);
-  add("mission: nan pose", request(p, "POST", "/v1/missions/m/keyframes?seq=0&pose=nan,0,0,0,0,0,1", glb_type, glb), 400);
+  add("mission: name with a dot",
+      request(p, "POST", "/v1/missions/a.b/keyframes?seq=0&pose=0,0,0,0,0,0,1", glb_type, glb), 400);
+  add("mission: nan pose", request(p, "POST", "/v1/missions/m/keyframes?seq=0&pose=nan,0,0,0,0,0,1", glb_type, glb),
+      400);
   add("mission: unknown", request(p, "GET", "/v1/missions/nothing-here"), 404);
   add("mission: unknown events", request(p, "GET", "/v1/missions/nothing-here/events"), 404);
 
@@ -350,16 +437,21 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
   auto tpost = [&](const std::string& auth) { return request(tp, "POST", "/v1/scenes", th + tglb + auth, glb); };
   add("token: none", tpost(""), 401, true);
   add("token: wrong", tpost("Authorization: Bearer wrong-token-0123456789abcdef\r\n"), 401, true);
-  add("token: prefix", tpost(std::string("Authorization: Bearer ") + std::string(kToken).substr(0, 10) + "\r\n"), 401, true);
+  add("token: prefix", tpost(std::string("Authorization: Bearer ") + std::string(kToken).substr(0, 10) + "\r\n"), 401,
+      true);
   add("token: longer", tpost(std::string("Authorization: Bearer ") + kToken + "x\r\n"), 401, true);
   add("token: basic", tpost("Authorization: Basic YWRtaW46YWRtaW4=\r\n"), 401, true);
   add("token: no scheme", tpost(std::string("Authorization: ") + kToken + "\r\n"), 401, true);
-  add("token: two headers", tpost(std::string("Authorization: Bearer ") + kToken + "\r\nAuthorization: Bearer x\r\n"), 401, true);
+  add("token: two headers", tpost(std::string("Authorization: Bearer ") + kToken + "\r\nAuthorization: Bearer x\r\n"),
+      401, true);
   add("token: delete", request(tp, "DELETE", "/v1/scenes/" + unknown, th), 401, true);
   add("token: mission keyframe", request(tp, "POST", kf, th + tglb, glb), 401, true);
-  add("token: mission keyframe wrong", request(tp, "POST", kf, th + tglb + "Authorization: Bearer nope\r\n", glb), 401, true);
+  add("token: mission keyframe wrong", request(tp, "POST", kf, th + tglb + "Authorization: Bearer nope\r\n", glb), 401,
+      true);
   add("token: mission delete", request(tp, "DELETE", "/v1/missions/m", th), 401, true);
-  add("token: multipart", request(tp, "POST", "/v1/scenes", th + mp_type, frame_parts(frame.color, frame.depth, frame.intrinsics_json)), 401, true);
+  add("token: multipart",
+      request(tp, "POST", "/v1/scenes", th + mp_type, frame_parts(frame.color, frame.depth, frame.intrinsics_json)),
+      401, true);
 
   ASSERT_GE(cases.size(), 120u);
   int n = 0;
@@ -383,8 +475,8 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
     ASSERT_EQ(h.status, 200) << "server not healthy after: " << c.name;
     ++n;
   }
-  std::cout << "battery: " << n << " bad inputs, each a 4xx with a JSON body; slowest " << worst << " "
-            << worst_ms << " ms\n";
+  std::cout << "battery: " << n << " bad inputs, each a 4xx with a JSON body; slowest " << worst << " " << worst_ms
+            << " ms\n";
   EXPECT_EQ(files_in(dir + "/open/scenes"), files_before);
   EXPECT_EQ(files_in(dir + "/token-store/scenes"), 0u);
   EXPECT_FALSE(fs::exists(dir + "/open/missions/m")) << "a refused keyframe was stored";
@@ -392,14 +484,16 @@ TEST(ServiceHardening, BadInputBatteryIsAll4xxJsonAndStoresNothing) {
   auto list = raw_request(p, request(p, "GET", "/v1/scenes"));
   EXPECT_EQ(json::parse(list.body)["count"], 1);
 
-  // What the battery did not refuse still works: HEAD on a view does not render, fov 179 (the documented maximum) renders, a token writes.
+  // What the battery did not refuse still works: HEAD on a view does not render, fov 179 (the documented maximum)
+  // renders, a token writes.
   auto head = raw_request(p, request(p, "HEAD", view + "?pose=capture&width=4096&height=4096"));
   EXPECT_EQ(head.status, 200);
   EXPECT_EQ(head.headers["content-type"], "image/jpeg");
   EXPECT_EQ(head.headers.count("x-render-ms"), 0u) << "HEAD rendered";
   auto wide = raw_request(p, request(p, "GET", view + "?eye=0,0,0&target=0,0,1&fov=179&width=64&height=48"));
   EXPECT_EQ(wide.status, 200) << wide.body;
-  auto ok = raw_request(tp, request(tp, "POST", "/v1/scenes", th + tglb + "Authorization: Bearer " + kToken + "\r\n", glb));
+  auto ok =
+      raw_request(tp, request(tp, "POST", "/v1/scenes", th + tglb + "Authorization: Bearer " + kToken + "\r\n", glb));
   EXPECT_EQ(ok.status, 201) << ok.body;
   auto gz = raw_request(p, request(p, "GET", "/v1/scenes"));
   EXPECT_EQ(gz.status, 200);
@@ -427,8 +521,9 @@ TEST(ServiceHardening, IdleAndSlowClientsLeaveHealthzFast) {
   for (int i = 0; i < 32; ++i)
     slow.emplace_back([&, i] {
       const bool body = i % 2 == 1;
-      std::string req = body ? request(port, "POST", "/v1/scenes", "Content-Type: model/gltf-binary\r\nContent-Length: 100000\r\n")
-                             : "GET /healthz HTTP/1.1\r\nHost: " + host_of(port) + "\r\nX-Slow: " + std::string(200, 'a');
+      std::string req =
+          body ? request(port, "POST", "/v1/scenes", "Content-Type: model/gltf-binary\r\nContent-Length: 100000\r\n")
+               : "GET /healthz HTTP/1.1\r\nHost: " + host_of(port) + "\r\nX-Slow: " + std::string(200, 'a');
       int fd = rgbdcast::test::connect_loopback(port);
       size_t sent = 0;
       if (body && fd >= 0) {  // the header block at once, then the body byte by byte
@@ -490,12 +585,14 @@ TEST(ServiceHardening, LyingContentLengthIsAnsweredAtOnce) {
     ASSERT_GE(fd, 0);
     const auto t0 = Clock::now();
     rgbdcast::test::send_all(fd, "POST /v1/scenes HTTP/1.1\r\nHost: " + host_of(port) +
-                                     "\r\nContent-Type: model/gltf-binary\r\nContent-Length: " + value + "\r\n\r\nglTF");
+                                     "\r\nContent-Type: model/gltf-binary\r\nContent-Length: " + value +
+                                     "\r\n\r\nglTF");
     const RawResponse r = rgbdcast::test::read_response(fd, 5.0);
     const double ms = ms_since(t0);
     ::close(fd);
     expect_4xx_json(r, status, "Content-Length: " + value);
-    std::cout << "Content-Length: " << value.substr(0, value.find('\r')) << " -> " << r.status << " in " << ms << " ms\n";
+    std::cout << "Content-Length: " << value.substr(0, value.find('\r')) << " -> " << r.status << " in " << ms
+              << " ms\n";
     EXPECT_LT(ms, 1000.0);
   }
   server.stop();
@@ -513,7 +610,8 @@ TEST(ServiceHardening, StartupChecks) {
   std::string error;
   first.set_bind("127.0.0.2");
   ASSERT_TRUE(first.start(dir + "/a", {}, &error)) << error;
-  EXPECT_NE(first.output().find("listening on http://127.0.0.2:" + std::to_string(first.port()) + "/"), std::string::npos)
+  EXPECT_NE(first.output().find("listening on http://127.0.0.2:" + std::to_string(first.port()) + "/"),
+            std::string::npos)
       << first.output();
   size_t warnings = 0;
   for (size_t at = first.output().find("warning"); at != std::string::npos; at = first.output().find("warning", at + 1))
@@ -524,17 +622,19 @@ TEST(ServiceHardening, StartupChecks) {
   EXPECT_FALSE(fs::exists(dir + "/a/scenes/" + bad_id + ".json"));
 
   const std::string bin = rgbdcast::test::rgbdcast_binary();
-  auto second = rgbdcast::test::run_command("timeout 60 " + bin + " serve --data-dir " + dir + "/b --bind 127.0.0.2 --port " +
-                                            std::to_string(first.port()));
+  auto second = rgbdcast::test::run_command("timeout 60 " + bin + " serve --data-dir " + dir +
+                                            "/b --bind 127.0.0.2 --port " + std::to_string(first.port()));
   EXPECT_NE(second.exit_code, 0);
   EXPECT_NE((second.out + second.err).find("in use"), std::string::npos) << second.out << second.err;
-  auto open = rgbdcast::test::run_command("timeout 60 " + bin + " serve --data-dir " + dir + "/c --bind 0.0.0.0 --port 0");
+  auto open =
+      rgbdcast::test::run_command("timeout 60 " + bin + " serve --data-dir " + dir + "/c --bind 0.0.0.0 --port 0");
   EXPECT_NE(open.exit_code, 0);
   EXPECT_NE((open.out + open.err).find("--token-file"), std::string::npos) << open.out << open.err;
-  auto short_token = rgbdcast::test::run_command("echo short > " + dir + "/t && timeout 60 " + bin + " serve --data-dir " +
-                                                 dir + "/d --port 0 --token-file " + dir + "/t");
+  auto short_token = rgbdcast::test::run_command("echo short > " + dir + "/t && timeout 60 " + bin +
+                                                 " serve --data-dir " + dir + "/d --port 0 --token-file " + dir + "/t");
   EXPECT_NE(short_token.exit_code, 0);
-  auto threads = rgbdcast::test::run_command("timeout 60 " + bin + " serve --data-dir " + dir + "/e --port 0 --threads 8");
+  auto threads =
+      rgbdcast::test::run_command("timeout 60 " + bin + " serve --data-dir " + dir + "/e --port 0 --threads 8");
   EXPECT_NE(threads.exit_code, 0);
   EXPECT_NE((threads.out + threads.err).find("too few"), std::string::npos) << threads.out << threads.err;
   EXPECT_EQ(first.stop(), 0);
@@ -557,13 +657,16 @@ TEST(ServiceHardening, KillNineDuringUploadsLeavesWholeScenesOnly) {
     ASSERT_TRUE(server.start(dir, {}, &error)) << error;
     const int port = server.port();
     if (glb.empty()) {
-      auto up = raw_request(port, request(port, "POST", "/v1/scenes",
-                                          "Content-Type: multipart/form-data; boundary=" + boundary + "\r\n",
-                                          multipart({{"color", frame.color}, {"depth", frame.depth},
-                                                     {"intrinsics", frame.intrinsics_json}}, boundary)), 120.0);
+      auto up = raw_request(
+          port,
+          request(port, "POST", "/v1/scenes", "Content-Type: multipart/form-data; boundary=" + boundary + "\r\n",
+                  multipart({{"color", frame.color}, {"depth", frame.depth}, {"intrinsics", frame.intrinsics_json}},
+                            boundary)),
+          120.0);
       ASSERT_EQ(up.status, 201) << up.body;
-      glb = raw_request(port, request(port, "GET", "/v1/scenes/" + json::parse(up.body)["id"].get<std::string>() +
-                                                     "/model.glb")).body;
+      glb = raw_request(port, request(port, "GET",
+                                      "/v1/scenes/" + json::parse(up.body)["id"].get<std::string>() + "/model.glb"))
+                .body;
       ASSERT_GT(glb.size(), 1000u);
     }
     std::atomic<bool> stop{false};
@@ -572,8 +675,13 @@ TEST(ServiceHardening, KillNineDuringUploadsLeavesWholeScenesOnly) {
       clients.emplace_back([&, c] {
         while (!stop) {
           if (c == 3)
-            raw_request(port, request(port, "POST", "/v1/scenes", "Content-Type: multipart/form-data; boundary=" + boundary + "\r\n",
-                                      multipart({{"color", frame.color}, {"depth", frame.depth}, {"intrinsics", frame.intrinsics_json}}, boundary)), 30.0);
+            raw_request(
+                port,
+                request(
+                    port, "POST", "/v1/scenes", "Content-Type: multipart/form-data; boundary=" + boundary + "\r\n",
+                    multipart({{"color", frame.color}, {"depth", frame.depth}, {"intrinsics", frame.intrinsics_json}},
+                              boundary)),
+                30.0);
           else
             raw_request(port, request(port, "POST", "/v1/scenes", "Content-Type: model/gltf-binary\r\n", glb), 30.0);
         }

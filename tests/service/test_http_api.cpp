@@ -108,7 +108,8 @@ class ServiceHttp : public ::testing::Test {
     auto r = c->Post("/v1/scenes", frame_parts(rgbdcast::test::fr1_frame0()));
     upload_ms_ = ms_since(t0);
     if (!r || r->status != 201) {
-      start_error_ = "frame upload failed: " + (r ? std::to_string(r->status) + " " + r->body : std::string("no response"));
+      start_error_ =
+          "frame upload failed: " + (r ? std::to_string(r->status) + " " + r->body : std::string("no response"));
       return;
     }
     frame_scene_ = json::parse(r->body);
@@ -231,7 +232,8 @@ TEST_F(ServiceHttp, FrameUploadTakesAPresetAndABudget) {
   parts.push_back({"budget_kb", "40", "", ""});
   expect_json_error(c_->Post("/v1/scenes", parts), 400, "a budget with the paper preset");
   EXPECT_EQ(scene_count(), before);
-  for (const auto& id : {p["id"].get<std::string>(), b["id"].get<std::string>()}) c_->Delete(("/v1/scenes/" + id).c_str());
+  for (const auto& id : {p["id"].get<std::string>(), b["id"].get<std::string>()})
+    c_->Delete(("/v1/scenes/" + id).c_str());
 }
 
 TEST_F(ServiceHttp, CaptureViewIsAJpegThatLooksLikeTheFrame) {
@@ -243,7 +245,8 @@ TEST_F(ServiceHttp, CaptureViewIsAJpegThatLooksLikeTheFrame) {
   EXPECT_GT(render_ms, 0.0);
   const std::string backend = r->get_header_value("X-Backend");
   EXPECT_TRUE(backend == "vulkan" || backend == "osmesa") << backend;
-  const cv::Mat img = cv::imdecode(cv::Mat(1, static_cast<int>(r->body.size()), CV_8U, r->body.data()), cv::IMREAD_COLOR);
+  const cv::Mat img =
+      cv::imdecode(cv::Mat(1, static_cast<int>(r->body.size()), CV_8U, r->body.data()), cv::IMREAD_COLOR);
   ASSERT_FALSE(img.empty());
   EXPECT_EQ(img.cols, 640);
   EXPECT_EQ(img.rows, 480);
@@ -264,7 +267,12 @@ TEST_F(ServiceHttp, CaptureViewIsAJpegThatLooksLikeTheFrame) {
     for (int x = 0; x < a.cols; ++x) {
       const double va = a.at<uchar>(y, x), vb = b.at<uchar>(y, x);
       if (va <= 8) continue;
-      sa += va; sb += vb; saa += va * va; sbb += vb * vb; sab += va * vb; n += 1;
+      sa += va;
+      sb += vb;
+      saa += va * va;
+      sbb += vb * vb;
+      sab += va * vb;
+      n += 1;
     }
   const double corr = (sab - sa * sb / n) / std::sqrt((saa - sa * sa / n) * (sbb - sb * sb / n));
   std::cout << "capture view vs photo: correlation " << corr << " over " << n << " pixels\n";
@@ -283,8 +291,8 @@ TEST_F(ServiceHttp, OrbitPointsAndPngViews) {
     auto r = c_->Get(("/v1/scenes/" + frame_id() + "/view?" + q + extra).c_str());
     ASSERT_TRUE(r);
     ASSERT_EQ(r->status, 200) << extra << ": " << r->body;
-    const cv::Mat img = cv::imdecode(cv::Mat(1, static_cast<int>(r->body.size()), CV_8U, r->body.data()),
-                                     cv::IMREAD_UNCHANGED);
+    const cv::Mat img =
+        cv::imdecode(cv::Mat(1, static_cast<int>(r->body.size()), CV_8U, r->body.data()), cv::IMREAD_UNCHANGED);
     ASSERT_FALSE(img.empty()) << extra;
     EXPECT_EQ(img.cols, 320);
     EXPECT_EQ(img.rows, 240);
@@ -293,7 +301,10 @@ TEST_F(ServiceHttp, OrbitPointsAndPngViews) {
       EXPECT_EQ(img.channels(), 4);  // alpha: 0 on background
     }
     cv::Mat bgr;
-    if (img.channels() == 4) cv::cvtColor(img, bgr, cv::COLOR_BGRA2BGR); else bgr = img;
+    if (img.channels() == 4)
+      cv::cvtColor(img, bgr, cv::COLOR_BGRA2BGR);
+    else
+      bgr = img;
     const ImageStats st = stats_of(bgr);
     std::cout << "orbit view" << extra << ": covered " << st.covered << ", stddev " << st.stddev << ", render "
               << r->get_header_value("X-Render-Ms") << " ms\n";
@@ -356,14 +367,29 @@ TEST_F(ServiceHttp, GlbUploadListViewAndDelete) {
 
 TEST_F(ServiceHttp, BadViewQueriesAre400) {
   const std::string base = "/v1/scenes/" + frame_id() + "/view";
-  for (const std::string q : {"", "?width=100", "?pose=robot", "?eye=1,2&target=0,0,1", "?eye=a,b,c&target=0,0,1",
-                              "?eye=0,0,0", "?target=0,0,1", "?eye=nan,0,0&target=0,0,1",
-                              "?eye=0,0,0&target=0,inf,1", "?eye=0,0,0&target=0,0,-inf",
-                              "?eye=0,0,0&target=0,0,1&fov=NaN", "?pose=capture&width=0",
-                              "?pose=capture&width=5000", "?pose=capture&height=4097", "?pose=capture&height=-3",
-                              "?pose=capture&width=abc", "?pose=capture&quality=0", "?pose=capture&mode=wire",
-                              "?pose=capture&format=gif", "?pose=capture&zoom=2", "?pose=capture&width=1&width=2",
-                              "?eye=1,1,1&target=1,1,1", "?eye=0,0,0&target=0,1,0"})
+  for (const std::string q : {"",
+                              "?width=100",
+                              "?pose=robot",
+                              "?eye=1,2&target=0,0,1",
+                              "?eye=a,b,c&target=0,0,1",
+                              "?eye=0,0,0",
+                              "?target=0,0,1",
+                              "?eye=nan,0,0&target=0,0,1",
+                              "?eye=0,0,0&target=0,inf,1",
+                              "?eye=0,0,0&target=0,0,-inf",
+                              "?eye=0,0,0&target=0,0,1&fov=NaN",
+                              "?pose=capture&width=0",
+                              "?pose=capture&width=5000",
+                              "?pose=capture&height=4097",
+                              "?pose=capture&height=-3",
+                              "?pose=capture&width=abc",
+                              "?pose=capture&quality=0",
+                              "?pose=capture&mode=wire",
+                              "?pose=capture&format=gif",
+                              "?pose=capture&zoom=2",
+                              "?pose=capture&width=1&width=2",
+                              "?eye=1,1,1&target=1,1,1",
+                              "?eye=0,0,0&target=0,1,0"})
     expect_json_error(c_->Get((base + q).c_str()), 400, "view" + q);
 }
 
@@ -375,17 +401,19 @@ TEST_F(ServiceHttp, UnknownScenesAndPathTraversal) {
   expect_json_error(c_->Delete(("/v1/scenes/" + unknown).c_str()), 404, "unknown delete");
   expect_json_error(c_->Get("/v1/nothing"), 404, "unknown route");
   // Ids that try to leave the store: malformed ids are 400, paths that no route matches are 404; never a file.
-  for (const std::string& path : std::vector<std::string>{"/v1/scenes/..%2F..%2Fetc%2Fpasswd", "/v1/scenes/%2e%2e/model.glb", "/v1/scenes/..%2f" + frame_id(),
-        "/v1/scenes/" + frame_id() + "%00", "/v1/scenes/" + frame_id() + "x/view?pose=capture",
-        "/v1/scenes/ABCDEF0123456789ABCDEF0123456789", "/v1/scenes/../../etc/passwd",
-        "/v1/scenes/%2e%2e%2f%2e%2e%2fetc%2fpasswd/model.glb", "/v1/scenes/.%2e/.%2e/scenes/model.glb"}) {
+  for (const std::string& path : std::vector<std::string>{
+           "/v1/scenes/..%2F..%2Fetc%2Fpasswd", "/v1/scenes/%2e%2e/model.glb", "/v1/scenes/..%2f" + frame_id(),
+           "/v1/scenes/" + frame_id() + "%00", "/v1/scenes/" + frame_id() + "x/view?pose=capture",
+           "/v1/scenes/ABCDEF0123456789ABCDEF0123456789", "/v1/scenes/../../etc/passwd",
+           "/v1/scenes/%2e%2e%2f%2e%2e%2fetc%2fpasswd/model.glb", "/v1/scenes/.%2e/.%2e/scenes/model.glb"}) {
     auto r = c_->Get(path.c_str());
     ASSERT_TRUE(r) << path;
     EXPECT_TRUE(r->status == 400 || r->status == 404) << path << " -> " << r->status;
     expect_json_error(r, r->status, path);
     EXPECT_EQ(r->body.find("root:"), std::string::npos) << path;
   }
-  for (const std::string& path : std::vector<std::string>{"/v1/scenes/..%2F..%2Ftmp", "/v1/scenes/..", "/v1/scenes/.%2e"}) {
+  for (const std::string& path :
+       std::vector<std::string>{"/v1/scenes/..%2F..%2Ftmp", "/v1/scenes/..", "/v1/scenes/.%2e"}) {
     auto d = c_->Delete(path.c_str());
     ASSERT_TRUE(d) << path;
     EXPECT_TRUE(d->status == 400 || d->status == 404) << path << " -> " << d->status;
@@ -418,9 +446,9 @@ TEST_F(ServiceHttp, PageModulesAreTheFilesGzippedOnlyUnderTheirFolders) {
   if (!fs::exists(file)) RGBDCAST_MISSING_PREREQUISITE(file + " missing (scripts/setup.sh runs npm ci in tools/)");
   const std::string bytes = rgbdcast::test::read_file(file);
   auto get = [&](const std::string& path, const std::string& accept) {
-    return rgbdcast::test::raw_request(server_->port(), "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1:" +
-                                                            std::to_string(server_->port()) + "\r\n" +
-                                                            accept + "Connection: close\r\n\r\n");
+    return rgbdcast::test::raw_request(
+        server_->port(), "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(server_->port()) + "\r\n" +
+                             accept + "Connection: close\r\n\r\n");
   };
   const auto gz = get("/web/modules/three/build/three.module.js", "Accept-Encoding: gzip, deflate, br, zstd\r\n");
   ASSERT_TRUE(gz.ok);
@@ -467,8 +495,8 @@ TEST_F(ServiceHttp, BadUploadsStoreNothing) {
   expect_json_error(c_->Post("/v1/scenes", parts), 422, "colour not a PNG");
   parts = frame_parts(f);
   {
-    cv::Mat depth16 = cv::imdecode(cv::Mat(1, static_cast<int>(f.depth.size()), CV_8U, const_cast<char*>(f.depth.data())),
-                                   cv::IMREAD_UNCHANGED);
+    cv::Mat depth16 = cv::imdecode(
+        cv::Mat(1, static_cast<int>(f.depth.size()), CV_8U, const_cast<char*>(f.depth.data())), cv::IMREAD_UNCHANGED);
     ASSERT_EQ(depth16.type(), CV_16UC1);
     cv::Mat depth8;
     depth16.convertTo(depth8, CV_8U, 1.0 / 256);
@@ -525,12 +553,14 @@ TEST_F(ServiceHttp, HealthAndMetrics) {
   ASSERT_EQ(m->status, 200);
   EXPECT_NE(m->get_header_value("Content-Type").find("text/plain"), std::string::npos);
   const std::string& t = m->body;
-  for (const std::string& needle : std::vector<std::string>{"rgbdcast_http_requests_total{method=\"GET\",route=\"/v1/scenes/{id}/view\",status=\"200\"} ",
-        "rgbdcast_http_requests_total{method=\"GET\",route=\"/v1/scenes/{id}/view\",status=\"400\"} ",
-        "rgbdcast_http_requests_total{method=\"POST\",route=\"/v1/scenes\",status=\"201\"} ",
-        "rgbdcast_http_request_duration_seconds_bucket{route=\"/v1/scenes/{id}/view\",le=\"+Inf\"} ",
-        "rgbdcast_render_duration_seconds_count{mode=\"mesh\",backend=\"" + hj["backend"].get<std::string>() + "\"} ",
-        "rgbdcast_scenes_stored ", "rgbdcast_scenes_stored_bytes "})
+  for (const std::string& needle : std::vector<std::string>{
+           "rgbdcast_http_requests_total{method=\"GET\",route=\"/v1/scenes/{id}/view\",status=\"200\"} ",
+           "rgbdcast_http_requests_total{method=\"GET\",route=\"/v1/scenes/{id}/view\",status=\"400\"} ",
+           "rgbdcast_http_requests_total{method=\"POST\",route=\"/v1/scenes\",status=\"201\"} ",
+           "rgbdcast_http_request_duration_seconds_bucket{route=\"/v1/scenes/{id}/view\",le=\"+Inf\"} ",
+           "rgbdcast_render_duration_seconds_count{mode=\"mesh\",backend=\"" + hj["backend"].get<std::string>() +
+               "\"} ",
+           "rgbdcast_scenes_stored ", "rgbdcast_scenes_stored_bytes "})
     EXPECT_NE(t.find(needle), std::string::npos) << needle << "\n" << t;
   // Gauges agree with the store.
   const size_t pos = t.find("\nrgbdcast_scenes_stored ");
@@ -569,9 +599,7 @@ TEST_F(ServiceHttp, ConcurrentViewsAreSafeAndDeterministic) {
 TEST_F(ServiceHttp, ImportAtStartIsIdempotent) {
   ASSERT_FALSE(frame_glb_.empty());
   const std::string dir = rgbdcast::test::temp_dir("service-import");
-  {
-    std::ofstream(dir + "/frame0.glb", std::ios::binary) << frame_glb_;
-  }
+  { std::ofstream(dir + "/frame0.glb", std::ios::binary) << frame_glb_; }
   std::string first_id;
   for (int run = 0; run < 2; ++run) {
     ServerProcess server;
@@ -683,8 +711,10 @@ TEST(ServiceHttpRestart, KillDuringUploadLeavesNoHalfScene) {
     const int fd = connect_loopback(server.port());
     ASSERT_GE(fd, 0);
     const size_t total = 40u << 20;
-    ASSERT_TRUE(send_all(fd, "POST /v1/scenes HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: model/gltf-binary\r\n"
-                             "Content-Length: " + std::to_string(total) + "\r\n\r\n"));
+    ASSERT_TRUE(send_all(fd,
+                         "POST /v1/scenes HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: model/gltf-binary\r\n"
+                         "Content-Length: " +
+                             std::to_string(total) + "\r\n\r\n"));
     std::string chunk(1u << 20, 'g');
     memcpy(chunk.data(), "glTF", 4);
     for (int i = 0; i < 12; ++i) {  // 12 of 40 MiB, slowly

@@ -22,12 +22,15 @@ TEST(ServiceMetrics, CountersHistogramsGauges) {
   g.scenes_stored = 3;
   g.bytes_stored = 123456;
   const std::string t = m.prometheus_text(g);
-  EXPECT_TRUE(has_line(t, R"(rgbdcast_http_requests_total{method="GET",route="/v1/scenes/{id}/view",status="200"} 2)")) << t;
+  EXPECT_TRUE(has_line(t, R"(rgbdcast_http_requests_total{method="GET",route="/v1/scenes/{id}/view",status="200"} 2)"))
+      << t;
   EXPECT_TRUE(has_line(t, R"(rgbdcast_http_requests_total{method="GET",route="/v1/scenes/{id}/view",status="400"} 1)"));
   // Buckets are cumulative: 0.0001 and 0.004 are <= 0.005, all three <= 0.05.
-  EXPECT_TRUE(has_line(t, R"(rgbdcast_http_request_duration_seconds_bucket{route="/v1/scenes/{id}/view",le="0.005"} 2)"))
+  EXPECT_TRUE(
+      has_line(t, R"(rgbdcast_http_request_duration_seconds_bucket{route="/v1/scenes/{id}/view",le="0.005"} 2)"))
       << t;
-  EXPECT_TRUE(has_line(t, R"(rgbdcast_http_request_duration_seconds_bucket{route="/v1/scenes/{id}/view",le="+Inf"} 3)"));
+  EXPECT_TRUE(
+      has_line(t, R"(rgbdcast_http_request_duration_seconds_bucket{route="/v1/scenes/{id}/view",le="+Inf"} 3)"));
   EXPECT_TRUE(has_line(t, R"(rgbdcast_http_request_duration_seconds_count{route="/v1/scenes/{id}/view"} 3)"));
   EXPECT_TRUE(has_line(t, R"(rgbdcast_render_duration_seconds_bucket{mode="mesh",backend="vulkan",le="0.02"} 1)"));
   EXPECT_TRUE(has_line(t, R"(rgbdcast_render_duration_seconds_bucket{mode="mesh",backend="vulkan",le="0.2"} 2)"));

@@ -1,11 +1,11 @@
-// The operator page's mission mode with server-rendered views (?render=server) in a real browser: headless Chromium (Debian's) opens /?mission=NAME on the real
-// server while the test posts keyframes (real TUM frames reduced by the CLI) one by one, each after the page showed the
-// one before. The page follows the event
-// stream, re-renders after each keyframe and counts the drawn pixels of its fixed orbit view; the server ends every
-// event stream after 3 s, so the page must reconnect (EventSource, Last-Event-ID) to see the later keyframes. The
-// test asserts the drawn pixels grow, every keyframe arrived exactly once despite the reconnects, the trajectory
-// overlay was drawn, the robot-view and follow buttons moved the view to the newest keyframe's camera, and the
-// overlay then projects with that keyframe's own intrinsics (fr1: fx 517.3), not a fixed 525.
+// The operator page's mission mode with server-rendered views (?render=server) in a real browser: headless Chromium
+// (Debian's) opens /?mission=NAME on the real server while the test posts keyframes (real TUM frames reduced by the
+// CLI) one by one, each after the page showed the one before. The page follows the event stream, re-renders after each
+// keyframe and counts the drawn pixels of its fixed orbit view; the server ends every event stream after 3 s, so the
+// page must reconnect (EventSource, Last-Event-ID) to see the later keyframes. The test asserts the drawn pixels grow,
+// every keyframe arrived exactly once despite the reconnects, the trajectory overlay was drawn, the robot-view and
+// follow buttons moved the view to the newest keyframe's camera, and the overlay then projects with that keyframe's own
+// intrinsics (fr1: fx 517.3), not a fixed 525.
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <signal.h>
@@ -48,13 +48,22 @@ TEST(MissionPage, HeadlessChromiumFollowsAGrowingMission) {
 
   rgbdcast::test::StaticHttpServer reports(rgbdcast::test::source_path("tools"));
   ASSERT_TRUE(reports.start());
-  const std::string url = "http://127.0.0.1:" + std::to_string(server.port()) +
-                          "/?mission=robot1&render=server&selftest=4&report=http://127.0.0.1:" + std::to_string(reports.port()) +
-                          "/result";
+  const std::string url =
+      "http://127.0.0.1:" + std::to_string(server.port()) +
+      "/?mission=robot1&render=server&selftest=4&report=http://127.0.0.1:" + std::to_string(reports.port()) + "/result";
   const std::string profile = dir + "/profile", log = dir + "/chromium.log";
-  std::vector<std::string> args = {chromium, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
-                                   "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                                   "--hide-scrollbars", "--user-data-dir=" + profile, "--window-size=1000,600", url};
+  std::vector<std::string> args = {chromium,
+                                   "--headless",
+                                   "--no-sandbox",
+                                   "--disable-gpu",
+                                   "--no-first-run",
+                                   "--disable-background-networking",
+                                   "--disable-component-update",
+                                   "--disable-sync",
+                                   "--hide-scrollbars",
+                                   "--user-data-dir=" + profile,
+                                   "--window-size=1000,600",
+                                   url};
   const pid_t pid = rgbdcast::test::spawn_chromium(args, log, dir);
   ASSERT_GT(pid, 0) << "cannot start " << chromium;
 

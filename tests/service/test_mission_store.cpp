@@ -56,7 +56,8 @@ TEST(MissionStore, PutOutcomesAndNames) {
   auto moved = keyframe("m", 0);
   moved.pose[0] = 5;
   EXPECT_EQ(s.put(moved, bytes("glb-0"))->outcome, PutOutcome::kConflict);
-  for (const char* bad : {"", "a.b", "../x", "a/b", "\xc3\xa9"}) EXPECT_FALSE(s.put(keyframe(bad, 0), bytes("x"))) << bad;
+  for (const char* bad : {"", "a.b", "../x", "a/b", "\xc3\xa9"})
+    EXPECT_FALSE(s.put(keyframe(bad, 0), bytes("x"))) << bad;
   EXPECT_FALSE(s.put(keyframe(std::string(65, 'a'), 0), bytes("x")));
   EXPECT_TRUE(s.put(keyframe(std::string(64, 'a'), 0), bytes("x")));
   EXPECT_FALSE(s.put(keyframe("m", -1), bytes("x")));
@@ -172,7 +173,7 @@ TEST(MissionStore, AHigherRevisionReplacesTheKeyframeAndALowerOneIsStale) {
     EXPECT_EQ(replaced->outcome, PutOutcome::kReplaced);
     EXPECT_EQ(replaced->keyframe.rev, 1);
     EXPECT_DOUBLE_EQ(replaced->keyframe.first_available, 1000.0);  // viewable since its first revision
-    EXPECT_FALSE(fs::exists(m + "/0.glb"));  // the replaced revision's GLB is gone
+    EXPECT_FALSE(fs::exists(m + "/0.glb"));                        // the replaced revision's GLB is gone
     EXPECT_TRUE(fs::exists(m + "/0.r1.glb"));
     ASSERT_TRUE(s.mark_available("m", 0, 1002.0));
 

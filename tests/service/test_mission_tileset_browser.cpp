@@ -87,8 +87,8 @@ TEST(MissionTilesetBrowser, TilesRendererLoadsTheTilesetAndDrawsIt) {
   REQUIRE_DATA(rgbdcast::test::kMissionExcerpt);
   const std::string chromium = rgbdcast::test::find_chromium();
   if (chromium.empty()) RGBDCAST_MISSING_PREREQUISITE("no chromium (scripts/setup.sh installs it)");
-  for (const char* module : {"tools/node_modules/three/build/three.module.js",
-                             "tools/node_modules/3d-tiles-renderer/build/index.three.js"})
+  for (const char* module :
+       {"tools/node_modules/three/build/three.module.js", "tools/node_modules/3d-tiles-renderer/build/index.three.js"})
     if (!fs::exists(rgbdcast::test::source_path(module)))
       RGBDCAST_MISSING_PREREQUISITE(std::string(module) + " missing (scripts/setup.sh installs tools/package.json)");
   std::string error;

@@ -120,8 +120,8 @@ double psnr_db(const std::string& a, const std::string& b) {
 
 // Fraction of pixels of a decoded JPEG view that are not background.
 double covered(const std::string& jpeg) {
-  const cv::Mat img = cv::imdecode(cv::Mat(1, static_cast<int>(jpeg.size()), CV_8U, const_cast<char*>(jpeg.data())),
-                                   cv::IMREAD_COLOR);
+  const cv::Mat img =
+      cv::imdecode(cv::Mat(1, static_cast<int>(jpeg.size()), CV_8U, const_cast<char*>(jpeg.data())), cv::IMREAD_COLOR);
   if (img.empty()) return -1;
   size_t n = 0;
   for (int y = 0; y < img.rows; ++y)
@@ -160,8 +160,8 @@ class SseClient {
  public:
   SseClient(int port, const std::string& path, const std::string& last_event_id = "") {
     fd_ = rgbdcast::test::connect_loopback(port);
-    std::string req = "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
-                      "\r\nAccept: text/event-stream\r\n";
+    std::string req =
+        "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) + "\r\nAccept: text/event-stream\r\n";
     if (!last_event_id.empty()) req += "Last-Event-ID: " + last_event_id + "\r\n";
     req += "\r\n";
     rgbdcast::test::send_all(fd_, req);
@@ -470,9 +470,9 @@ TEST(Missions, EventsReachARealClientWithReplayAndKeepAlive) {
   // first stream ended early and the third was not refused; at 12 s the test failed once more under the sanitizers
   // beside other work. A failure of the refusal says how long the first stream had been open.
   constexpr double kStreamMaxS = 20;
-  ASSERT_TRUE(server.start(dir, {"--keep-alive-s", "0.5", "--max-event-streams", "2", "--event-stream-max-s",
-                                 std::to_string(kStreamMaxS)},
-                           &error))
+  ASSERT_TRUE(server.start(
+      dir, {"--keep-alive-s", "0.5", "--max-event-streams", "2", "--event-stream-max-s", std::to_string(kStreamMaxS)},
+      &error))
       << error;
   auto c = client(server.port());
   ASSERT_EQ(post_keyframe(*c, "live", 0, k[0])->status, 201);
@@ -480,7 +480,9 @@ TEST(Missions, EventsReachARealClientWithReplayAndKeepAlive) {
 
   SseClient all(server.port(), "/v1/missions/live/events");
   const auto all_opened = std::chrono::steady_clock::now();
-  auto all_open_s = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - all_opened).count(); };
+  auto all_open_s = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - all_opened).count();
+  };
   ASSERT_TRUE(all.read_until([](const std::string& t) { return t.find("id: 1\n") != std::string::npos; }, 10))
       << all.text();
   EXPECT_NE(all.text().find("Content-Type: text/event-stream"), std::string::npos) << all.text();
@@ -506,12 +508,12 @@ TEST(Missions, EventsReachARealClientWithReplayAndKeepAlive) {
                                            "GET /v1/missions/live/events?last_event_id=1 HTTP/1.1\r\nHost: 127.0.0.1:" +
                                                std::to_string(server.port()) + "\r\n\r\n");
   EXPECT_EQ(third.status, 503) << third.body << " (the first stream had been open " << all_open_s() << " s of "
-                                << kStreamMaxS << ")";
+                               << kStreamMaxS << ")";
   EXPECT_TRUE(third.headers.count("retry-after"));
   EXPECT_TRUE(json::parse(third.body, nullptr, false).is_object()) << third.body;
   // Streams end after --event-stream-max-s; the server stays healthy (the threads came back).
-  EXPECT_TRUE(all.read_until([](const std::string& t) { return t.find("0\r\n\r\n") != std::string::npos; },
-                             kStreamMaxS + 10))
+  EXPECT_TRUE(
+      all.read_until([](const std::string& t) { return t.find("0\r\n\r\n") != std::string::npos; }, kStreamMaxS + 10))
       << all.text();
   SseClient later(server.port(), "/v1/missions/live/events?last_event_id=1");
   ASSERT_TRUE(later.read_until([](const std::string& t) { return t.find("id: 2\n") != std::string::npos; }, 10))
@@ -597,9 +599,10 @@ TEST(Missions, WritesNeedTheTokenWhenOneIsSet) {
   expect_json_error(post_keyframe(*c, "m", 0, k[0]), 401, "post without token");
   expect_json_error(post_keyframe(*c, "m", 0, k[0], {{"Authorization", "Bearer wrong"}}), 401, "wrong token");
   // A page of another origin cannot post even with the token (CSRF, DNS rebinding).
-  expect_json_error(post_keyframe(*c, "m", 0, k[0],
-                                  {{"Authorization", "Bearer s3cret-token-for-tests"}, {"Origin", "http://evil.example"}}),
-                    403, "foreign origin");
+  expect_json_error(
+      post_keyframe(*c, "m", 0, k[0],
+                    {{"Authorization", "Bearer s3cret-token-for-tests"}, {"Origin", "http://evil.example"}}),
+      403, "foreign origin");
   EXPECT_EQ(files_under(dir + "/data/missions"), 0u);
   const httplib::Headers auth = {{"Authorization", "Bearer s3cret-token-for-tests"}};
   auto ok = post_keyframe(*c, "m", 0, k[0], auth);
@@ -698,8 +701,8 @@ TEST(Missions, ARevisionReplacesTheKeyframeIdempotentlyAndSurvivesARestart) {
   auto c = client(server.port());
   EXPECT_EQ(json::parse(c->Get("/v1/missions/m")->body), after_revision);
   EXPECT_EQ(json::parse(post_keyframe(*c, "m", 0, k[0])->body)["error"], "stale_revision");
-  auto again = c->Post((keyframe_path("m", 0, k[0].pose, k[0].captured) + "&rev=1").c_str(), k[2].glb,
-                       "model/gltf-binary");
+  auto again =
+      c->Post((keyframe_path("m", 0, k[0].pose, k[0].captured) + "&rev=1").c_str(), k[2].glb, "model/gltf-binary");
   ASSERT_TRUE(again);
   EXPECT_EQ(again->status, 200) << again->body;
   auto glb = c->Get("/v1/missions/m/model.glb");
@@ -731,7 +734,7 @@ TEST(Missions, MetricsPassPromtool) {
     ASSERT_LT(r->status, 300) << r->body;
   }
   for (const std::string& path : {"/v1/scenes/" + id + "/view?pose=capture&width=64&height=48",
-                                 std::string("/v1/missions/promtool/view?pose=capture&width=64&height=48")}) {
+                                  std::string("/v1/missions/promtool/view?pose=capture&width=64&height=48")}) {
     auto v = c->Get(path.c_str());
     ASSERT_TRUE(v);
     EXPECT_EQ(v->status, 200) << path << ": " << v->body;
@@ -741,9 +744,9 @@ TEST(Missions, MetricsPassPromtool) {
   auto m = c->Get("/metrics");
   ASSERT_TRUE(m);
   ASSERT_EQ(m->status, 200);
-  for (const char* family : {"rgbdcast_http_requests_total{", "rgbdcast_http_request_duration_seconds_bucket{",
-                             "rgbdcast_render_duration_seconds_bucket{", "rgbdcast_missions_stored 1\n",
-                             "rgbdcast_scenes_stored_bytes "})
+  for (const char* family :
+       {"rgbdcast_http_requests_total{", "rgbdcast_http_request_duration_seconds_bucket{",
+        "rgbdcast_render_duration_seconds_bucket{", "rgbdcast_missions_stored 1\n", "rgbdcast_scenes_stored_bytes "})
     EXPECT_NE(m->body.find(family), std::string::npos) << family << "\n" << m->body;
   const std::string file = test_dir.path + "/metrics.txt";
   std::ofstream(file, std::ios::binary) << m->body;
@@ -894,7 +897,8 @@ TEST(Missions, ViewsDrawTheTilesetByScreenSpaceErrorUnderTheResidentCap) {
   }
   // The cap holds after every view, and the renderer keeps something resident.
   for (const char* eye : {"0,-0.3,-1.2", "2,-1,-2", "-1,-3,0", "0.5,-12,-3", "4,-0.5,6"}) {
-    auto v = c->Get(("/v1/missions/hall/view?eye=" + std::string(eye) + "&target=0.5,0,1.5&fov=70&max-error=0").c_str());
+    auto v =
+        c->Get(("/v1/missions/hall/view?eye=" + std::string(eye) + "&target=0.5,0,1.5&fov=70&max-error=0").c_str());
     ASSERT_TRUE(v && v->status == 200) << eye;
     auto metrics = c->Get("/metrics");
     ASSERT_TRUE(metrics && metrics->status == 200);
@@ -905,8 +909,8 @@ TEST(Missions, ViewsDrawTheTilesetByScreenSpaceErrorUnderTheResidentCap) {
     EXPECT_GT(bytes, 0.0) << eye;
   }
   // Hostile max-error: each a 400 with a JSON body.
-  for (const char* bad : {"max-error=-1", "max-error=1e308", "max-error=abc", "max-error=nan", "max-error=1&max-error=2",
-                          "max-error="})
+  for (const char* bad :
+       {"max-error=-1", "max-error=1e308", "max-error=abc", "max-error=nan", "max-error=1&max-error=2", "max-error="})
     expect_json_error(c->Get(("/v1/missions/hall/view?" + std::string(bad)).c_str()), 400, bad);
   // A deleted mission's parts leave the renderer.
   ASSERT_EQ(c->Delete("/v1/missions/hall")->status, 204);
@@ -1008,8 +1012,9 @@ TEST(Missions, TheJsonPagesAndTheTileExportIsBoundedByMaxError) {
     ASSERT_TRUE(ts && ts->status == 200);
     const json tileset = json::parse(ts->body);
     if (fresh(tileset["root"], true) &&
-        (*coarse_result)->get_header_value("ETag").find("-v" + tileset["asset"]["tilesetVersion"].get<std::string>() +
-                                                         "-") != std::string::npos)
+        (*coarse_result)
+                ->get_header_value("ETag")
+                .find("-v" + tileset["asset"]["tilesetVersion"].get<std::string>() + "-") != std::string::npos)
       break;
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   } while (std::chrono::steady_clock::now() < settle_deadline);
@@ -1022,11 +1027,12 @@ TEST(Missions, TheJsonPagesAndTheTileExportIsBoundedByMaxError) {
   const std::string coarse_path = test_dir.path + "/coarse.glb";
   std::ofstream(coarse_path, std::ios::binary) << coarse->body;
   EXPECT_GLTF_VALID(coarse_path);
-  std::printf("export: %zu triangles posted; max-error=0 %zu bytes in %s tiles; max-error=10000 %zu bytes, %zu "
-              "triangles in %s tiles; mission JSON %zu bytes, a page of 2 %zu bytes\n",
-              posted, full->body.size(), full->get_header_value("X-Tiles").c_str(), coarse->body.size(),
-              coarse_scene->triangle_count(), coarse->get_header_value("X-Tiles").c_str(),
-              c->Get("/v1/missions/long")->body.size(), c->Get("/v1/missions/long?limit=2")->body.size());
+  std::printf(
+      "export: %zu triangles posted; max-error=0 %zu bytes in %s tiles; max-error=10000 %zu bytes, %zu "
+      "triangles in %s tiles; mission JSON %zu bytes, a page of 2 %zu bytes\n",
+      posted, full->body.size(), full->get_header_value("X-Tiles").c_str(), coarse->body.size(),
+      coarse_scene->triangle_count(), coarse->get_header_value("X-Tiles").c_str(),
+      c->Get("/v1/missions/long")->body.size(), c->Get("/v1/missions/long?limit=2")->body.size());
 
   // The same tileset version and bound: 304 (the version of the settled tileset: a full export of it first).
   auto settled_full = c->Get("/v1/missions/long/model.glb?max-error=0");

@@ -3,7 +3,8 @@
 // has its own ETag (304 on If-None-Match), holds the same scene in plain floats; compact is the stored file; an
 // unknown flavour is 400 with a JSON body; a deleted scene's flavours are gone. draco (KHR_draco_mesh_compression) is
 // converted once and cached like compat; a Draco GLB uploaded is decoded (untrusted) and stored; a forged one is 422.
-// Eigen (through gltf_io.h) before httplib.h: glibc's resolv.h, which httplib includes, defines _res, a name Eigen uses.
+// Eigen (through gltf_io.h) before httplib.h: glibc's resolv.h, which httplib includes, defines _res, a name Eigen
+// uses.
 #include "gltf/glb_container.h"
 #include "gltf/gltf_io.h"
 

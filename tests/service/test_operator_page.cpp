@@ -31,8 +31,8 @@ std::string run_chromium(const std::string& profile, const std::string& mode_arg
   const std::string cmd = "TMPDIR='" + profile + "' " + std::string(kChromium) +
                           " --headless --no-sandbox --disable-gpu --no-first-run --disable-background-networking"
                           " --disable-component-update --disable-sync --disable-dev-shm-usage --hide-scrollbars"
-                          " --user-data-dir=" + profile +
-                          " --window-size=1000,600 --virtual-time-budget=30000 " + mode_args + " '" + url +
+                          " --user-data-dir=" +
+                          profile + " --window-size=1000,600 --virtual-time-budget=30000 " + mode_args + " '" + url +
                           "' 2>" + profile + "/stderr.txt";
   std::string out;
   FILE* p = popen(cmd.c_str(), "r");
@@ -61,8 +61,8 @@ TEST(ServicePage, HeadlessChromiumOrbitsAndShowsARenderedView) {
   c.set_read_timeout(180, 0);
   const auto f = rgbdcast::test::fr1_frame0();
   auto up = c.Post("/v1/scenes", httplib::MultipartFormDataItems{{"color", f.color, "color.png", "image/png"},
-                                                                  {"depth", f.depth, "depth.png", "image/png"},
-                                                                  {"intrinsics", f.intrinsics_json, "k.json", ""}});
+                                                                 {"depth", f.depth, "depth.png", "image/png"},
+                                                                 {"intrinsics", f.intrinsics_json, "k.json", ""}});
   ASSERT_TRUE(up);
   ASSERT_EQ(up->status, 201) << up->body;
   const std::string id = nlohmann::json::parse(up->body)["id"];
@@ -78,7 +78,8 @@ TEST(ServicePage, HeadlessChromiumOrbitsAndShowsARenderedView) {
   const std::string dom = run_chromium(dir + "/profile-dom", "--dump-dom", url, &code);
   EXPECT_EQ(code, 0) << rgbdcast::test::read_file(dir + "/profile-dom/stderr.txt");
   std::smatch m;
-  ASSERT_TRUE(std::regex_search(dom, m, std::regex(R"re(<body[^>]*data-selftest="([a-z-]+)")re"))) << dom.substr(0, 2000);
+  ASSERT_TRUE(std::regex_search(dom, m, std::regex(R"re(<body[^>]*data-selftest="([a-z-]+)")re")))
+      << dom.substr(0, 2000);
   EXPECT_EQ(m[1].str(), "done") << dom.substr(0, 2000);
   ASSERT_TRUE(std::regex_search(dom, m, std::regex(R"re(data-last-view="([^"]+)")re")));
   const std::string last_view = m[1].str();

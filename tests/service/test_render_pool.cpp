@@ -321,7 +321,7 @@ TEST(ServiceRenderPool, PartsStayResidentUnderTheByteCap) {
   EXPECT_GT(pool->resident_parts(), 0u);
   // A part that is gone (a retired tile file) is left out; the rest is drawn.
   std::vector<ViewPart> with_gone = parts("m/w", 0, 2, &c);
-  with_gone.push_back({"m/gone", [] () -> Result<std::shared_ptr<const Scene>> {
+  with_gone.push_back({"m/gone", []() -> Result<std::shared_ptr<const Scene>> {
                          return make_error(ErrorCode::kNotFound, "no tile file");
                        }});
   auto partial = pool->render_parts(std::move(with_gone), camera, capture());

@@ -134,8 +134,8 @@ TEST(Replicas, ABadOrUnreachableStoreIsAOneLineErrorAtStart) {
   ServerProcess unreachable;
   error.clear();
   EXPECT_FALSE(unreachable.start(
-      dir.path + "/b", {"--store", "postgresql:///none?host=" + dir.path + "/no-socket-here&connect_timeout=2"},
-      &error, 30.0));
+      dir.path + "/b", {"--store", "postgresql:///none?host=" + dir.path + "/no-socket-here&connect_timeout=2"}, &error,
+      30.0));
   EXPECT_NE(error.find("postgresql: cannot connect"), std::string::npos) << error;
 }
 

@@ -68,10 +68,13 @@ TEST(RequestGuard, HostAndOrigin) {
   EXPECT_EQ(status_of(head("GET", "/healthz", {{"Host", "127.0.0.1:8080"}, {"Host", "127.0.0.1:8080"}}), g), 400);
   EXPECT_EQ(status_of(head("GET", "/healthz", {{"Host", "evil.example:8080"}}), g), 403);
   EXPECT_EQ(status_of(head("GET", "/healthz", {{"Host", "127.0.0.1:8081"}}), g), 403);
-  EXPECT_EQ(status_of(head("GET", "/healthz", {{"Host", "127.0.0.1:8080"}, {"Origin", "http://evil.example"}}), g), 403);
+  EXPECT_EQ(status_of(head("GET", "/healthz", {{"Host", "127.0.0.1:8080"}, {"Origin", "http://evil.example"}}), g),
+            403);
   EXPECT_EQ(status_of(head("GET", "/healthz", {{"Host", "127.0.0.1:8080"}, {"Origin", "null"}}), g), 403);
-  EXPECT_EQ(status_of(head("GET", "/healthz", {{"Host", "127.0.0.1:8080"}, {"Origin", "http://127.0.0.1:8080"}}), g), 0);
-  EXPECT_EQ(status_of(head("GET", "/healthz", {{"Host", "127.0.0.1:8080"}, {"Origin", "http://robot.lan:9000"}}), g), 0);
+  EXPECT_EQ(status_of(head("GET", "/healthz", {{"Host", "127.0.0.1:8080"}, {"Origin", "http://127.0.0.1:8080"}}), g),
+            0);
+  EXPECT_EQ(status_of(head("GET", "/healthz", {{"Host", "127.0.0.1:8080"}, {"Origin", "http://robot.lan:9000"}}), g),
+            0);
 }
 
 TEST(RequestGuard, MethodsTokenAndBodies) {
@@ -90,7 +93,8 @@ TEST(RequestGuard, MethodsTokenAndBodies) {
     return h;
   };
   EXPECT_EQ(status_of(head("POST", "/v1/scenes", with({})), g), 0);
-  EXPECT_EQ(status_of(head("POST", "/v1/scenes", {{"Host", "127.0.0.1:8080"}, {"Authorization", "Bearer s3cret"}}), g), 401);
+  EXPECT_EQ(status_of(head("POST", "/v1/scenes", {{"Host", "127.0.0.1:8080"}, {"Authorization", "Bearer s3cret"}}), g),
+            401);
   EXPECT_EQ(status_of(head("POST", "/v1/scenes", with({{"Content-Length", "999"}})), g), 0);
   EXPECT_EQ(status_of(head("POST", "/v1/scenes", with({{"Content-Length", "1001"}})), g), 413);
   EXPECT_EQ(status_of(head("POST", "/v1/scenes", with({{"Content-Length", "10737418240"}})), g), 413);
@@ -98,7 +102,8 @@ TEST(RequestGuard, MethodsTokenAndBodies) {
   EXPECT_EQ(status_of(head("POST", "/v1/scenes", with({{"Content-Length", "abc"}})), g), 400);
   EXPECT_EQ(status_of(head("POST", "/v1/scenes", with({{"Content-Length", "5"}, {"Content-Length", "5"}})), g), 400);
   EXPECT_EQ(status_of(head("POST", "/v1/scenes", with({{"Content-Length", "99999999999999999999"}})), g), 400);
-  EXPECT_EQ(status_of(head("POST", "/v1/scenes", with({{"Content-Length", "5"}, {"Transfer-Encoding", "chunked"}})), g), 400);
+  EXPECT_EQ(status_of(head("POST", "/v1/scenes", with({{"Content-Length", "5"}, {"Transfer-Encoding", "chunked"}})), g),
+            400);
   EXPECT_EQ(status_of(head("POST", "/v1/scenes", with({{"Transfer-Encoding", "gzip, chunked"}})), g), 400);
   EXPECT_EQ(status_of(head("POST", "/v1/scenes", with({{"Transfer-Encoding", "chunked"}})), g), 0);
   EXPECT_EQ(status_of(head("POST", "/v1/scenes", with({{"Content-Encoding", "gzip"}})), g), 0);
@@ -142,7 +147,8 @@ TEST(ImageHeader, PngAndJpegSizesWithoutDecoding) {
 TEST(HttpErrors, PathsAreRedacted) {
   EXPECT_EQ(redact_paths("cannot create /home/u/store/scenes/.tmp-intrinsics-ab.json: Permission denied"),
             "cannot create <path>: Permission denied");
-  EXPECT_EQ(redact_paths("File size mismatch : /etc/hostname, requestedBytes 1"), "File size mismatch : <path>, requestedBytes 1");
+  EXPECT_EQ(redact_paths("File size mismatch : /etc/hostname, requestedBytes 1"),
+            "File size mismatch : <path>, requestedBytes 1");
   EXPECT_EQ(redact_paths("parameter 'fov': must be between 1 and 179 degrees"),
             "parameter 'fov': must be between 1 and 179 degrees");
   EXPECT_EQ(redact_paths("a/b and /single stay"), "a/b and /single stay");
@@ -153,9 +159,15 @@ TEST(JobQueue, BoundedAndSurvivesThrowingJobs) {
   std::promise<void> gate;
   std::shared_future<void> open = gate.get_future().share();
   std::atomic<int> done{0};
-  EXPECT_TRUE(q.try_submit([open, &done] { open.wait(); ++done; }));
+  EXPECT_TRUE(q.try_submit([open, &done] {
+    open.wait();
+    ++done;
+  }));
   while (q.running() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  EXPECT_TRUE(q.try_submit([&done] { ++done; throw std::runtime_error("boom"); }));
+  EXPECT_TRUE(q.try_submit([&done] {
+    ++done;
+    throw std::runtime_error("boom");
+  }));
   EXPECT_FALSE(q.try_submit([&done] { ++done; }));  // one running, one waiting: full
   EXPECT_EQ(q.rejected(), 1u);
   gate.set_value();

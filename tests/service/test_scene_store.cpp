@@ -25,9 +25,9 @@ TEST(ServiceStore, IdsAreStrict) {
   EXPECT_EQ(id.size(), 32u);
   EXPECT_TRUE(is_valid_scene_id(id));
   EXPECT_NE(id, new_scene_id());
-  for (const char* bad : {"", "..", "../../etc/passwd", "0123456789abcdef0123456789abcde",
-                          "0123456789abcdef0123456789abcdef0", "0123456789ABCDEF0123456789abcdef",
-                          "0123456789abcdef0123456789abcde/", "0123456789abcdef0123456789abc%2e"})
+  for (const char* bad :
+       {"", "..", "../../etc/passwd", "0123456789abcdef0123456789abcde", "0123456789abcdef0123456789abcdef0",
+        "0123456789ABCDEF0123456789abcdef", "0123456789abcdef0123456789abcde/", "0123456789abcdef0123456789abc%2e"})
     EXPECT_FALSE(is_valid_scene_id(bad)) << bad;
 }
 
@@ -140,7 +140,10 @@ TEST(ServiceStore, BadMetadataIsQuarantinedAndTheRestServed) {
 // listing without refusing the scene (bookkeeping fields of the wrong type still quarantine it, above).
 TEST(ServiceStore, MetadataIsHeldAsCompactTextWithTheListingFields) {
   const std::string dir = rgbdcast::test::temp_dir("store-compact");
-  const nlohmann::json given = {{"points", 500}, {"triangles", 900}, {"vertices", 480}, {"source", "glb"},
+  const nlohmann::json given = {{"points", 500},
+                                {"triangles", 900},
+                                {"vertices", 480},
+                                {"source", "glb"},
                                 {"stages", {{{"name", "voxel"}, {"points", 22474}, {"ms", 25.125}}}}};
   std::string id, text, odd;
   {

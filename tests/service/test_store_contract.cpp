@@ -185,10 +185,14 @@ TYPED_TEST(StoreContract, ConcurrentPostsOfOneKeyStoreItOnce) {
     for (int i = 0; i < 8; ++i)
       senders.emplace_back([&, i] {
         auto r = store->put(keyframe("c", seq), bytes(distinct_bodies ? "body-" + std::to_string(i) : "body"));
-        if (!r) ++failed;
-        else if (r->outcome == PutOutcome::kCreated) ++created;
-        else if (r->outcome == PutOutcome::kSame) ++same;
-        else if (r->outcome == PutOutcome::kConflict) ++conflict;
+        if (!r)
+          ++failed;
+        else if (r->outcome == PutOutcome::kCreated)
+          ++created;
+        else if (r->outcome == PutOutcome::kSame)
+          ++same;
+        else if (r->outcome == PutOutcome::kConflict)
+          ++conflict;
       });
     for (auto& t : senders) t.join();
   };

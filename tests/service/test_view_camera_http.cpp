@@ -28,7 +28,7 @@ std::string capture_camera_json(const json& scene) {
     for (int col = 0; col < 4; ++col) row.push_back(c.at("camera_to_world")[r * 4 + col]);
     pose.push_back(row);
   }
-  return json{{"fx", c["fx"]},       {"fy", c["fy"]},         {"cx", c["cx"]},  {"cy", c["cy"]},
+  return json{{"fx", c["fx"]},       {"fy", c["fy"]},         {"cx", c["cx"]}, {"cy", c["cy"]},
               {"width", c["width"]}, {"height", c["height"]}, {"pose", pose}}
       .dump();
 }
@@ -70,8 +70,8 @@ TEST(ServiceViewCamera, CameraParameterAndPostBodyReproduceTheCaptureView) {
   ASSERT_EQ(post->status, 200) << post->body;
   EXPECT_EQ(query->body, capture->body) << "camera= gives the pose=capture image, byte for byte";
   EXPECT_EQ(post->body, capture->body) << "the POST body gives the pose=capture image, byte for byte";
-  const cv::Mat png = cv::imdecode(std::vector<unsigned char>(capture->body.begin(), capture->body.end()),
-                                   cv::IMREAD_UNCHANGED);
+  const cv::Mat png =
+      cv::imdecode(std::vector<unsigned char>(capture->body.begin(), capture->body.end()), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(png.cols, 640);
   ASSERT_EQ(png.rows, 480);
   std::vector<cv::Mat> ch;

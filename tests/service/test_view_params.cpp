@@ -33,9 +33,16 @@ TEST(ServiceViewParams, CapturePoseWithDefaults) {
 }
 
 TEST(ServiceViewParams, LookAtWithEverything) {
-  auto r = parse_view_request(q({{"eye", "0.5,-0.25,1e-1"}, {"target", "0,0,2"}, {"up", "0,-1,0"}, {"fov", "60"},
-                                 {"width", "4096"}, {"height", "1"}, {"mode", "points"}, {"format", "png"},
-                                 {"quality", "100"}, {"point_size", "3"}}));
+  auto r = parse_view_request(q({{"eye", "0.5,-0.25,1e-1"},
+                                 {"target", "0,0,2"},
+                                 {"up", "0,-1,0"},
+                                 {"fov", "60"},
+                                 {"width", "4096"},
+                                 {"height", "1"},
+                                 {"mode", "points"},
+                                 {"format", "png"},
+                                 {"quality", "100"},
+                                 {"point_size", "3"}}));
   ASSERT_TRUE(r.ok()) << r.error().message;
   EXPECT_FALSE(r->capture_pose);
   EXPECT_DOUBLE_EQ(r->eye.x(), 0.5);
@@ -142,13 +149,20 @@ TEST(ServiceViewParams, ErrorsAreOnePrintableLine) {
   };
   const std::string hostile = std::string("a\nb\r\x1b[31m\x7f") + "\xc3\xa9\\" + std::string(1, '\0') + "z";
   const QueryParams cases[] = {
-      q({{"pose", "capture"}, {hostile, "1"}}),                         // unknown name
-      q({{"pose", "capture"}, {"mode", hostile}}),                      // bad enum
-      q({{"pose", "capture"}, {"width", hostile}}),                     // bad integer
-      q({{"eye", hostile}, {"target", "0,0,1"}}),                       // bad vector
-      q({{"eye", "0,0,0"}, {"target", "0,0,1"}, {"fov", hostile}}),     // bad number
-      q({{"camera", nlohmann::json{{"fx", 1}, {"fy", 1}, {"cx", 0}, {"cy", 0}, {"width", 1}, {"height", 1},
-                                   {"pose", nlohmann::json::array()}, {hostile, 1}}.dump()}}),  // unknown camera key
+      q({{"pose", "capture"}, {hostile, "1"}}),                      // unknown name
+      q({{"pose", "capture"}, {"mode", hostile}}),                   // bad enum
+      q({{"pose", "capture"}, {"width", hostile}}),                  // bad integer
+      q({{"eye", hostile}, {"target", "0,0,1"}}),                    // bad vector
+      q({{"eye", "0,0,0"}, {"target", "0,0,1"}, {"fov", hostile}}),  // bad number
+      q({{"camera", nlohmann::json{{"fx", 1},
+                                   {"fy", 1},
+                                   {"cx", 0},
+                                   {"cy", 0},
+                                   {"width", 1},
+                                   {"height", 1},
+                                   {"pose", nlohmann::json::array()},
+                                   {hostile, 1}}
+                        .dump()}}),  // unknown camera key
   };
   for (const auto& params : cases) {
     auto r = parse_view_request(params);

@@ -11,9 +11,7 @@
 namespace rgbdcast::test {
 namespace {
 
-double unix_now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
+double unix_now() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
 
 // "tx,ty,tz,qx,qy,qz,qw" as the sender writes it (stream::pose_query); false when it is not seven numbers.
 bool parse_pose(const std::string& text, std::array<double, 7>& pose) {
@@ -81,8 +79,7 @@ void FakeMissionServer::stop() {
 
 std::string FakeMissionServer::url() const { return "http://127.0.0.1:" + std::to_string(port_); }
 
-bool FakeMissionServer::wait_until(const std::function<bool(const std::vector<ServedPost>&)>& done,
-                                   double timeout_s) {
+bool FakeMissionServer::wait_until(const std::function<bool(const std::vector<ServedPost>&)>& done, double timeout_s) {
   std::unique_lock lock(mu_);
   changed_.wait_for(lock, std::chrono::duration<double>(timeout_s), [&] { return stopping_ || done(posts_); });
   const bool met = done(posts_);

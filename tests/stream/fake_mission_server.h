@@ -37,9 +37,9 @@ struct ServedPost {
 class FakeMissionServer {
  public:
   struct Script {
-    int fail_with_503 = 0;  // the first POSTs get 503 with Retry-After: 1, nothing stored
-    int swallow = 0;        // then the answers of this many stored keyframes are held until the same (seq, rev) is
-                            // posted again (the client gave up on it): the keyframe is stored, its answer lost
+    int fail_with_503 = 0;      // the first POSTs get 503 with Retry-After: 1, nothing stored
+    int swallow = 0;            // then the answers of this many stored keyframes are held until the same (seq, rev) is
+                                // posted again (the client gave up on it): the keyframe is stored, its answer lost
     bool refuse_token = false;  // every POST gets 401 (a wrong token)
     // Called once a POST's body was read, before it is stored (the service's time: what another POST stores
     // meanwhile decides this one's answer, e.g. 409 stale_revision), without the server's lock; may wait with

@@ -39,8 +39,8 @@ TEST(CameraReader, AsFastAsTheTrackerTakesThemEveryFrameComesInOrder) {
     EXPECT_EQ(f->frame.index, static_cast<int>(i));
     EXPECT_EQ(f->frame.depth_m.cols, 640);
     EXPECT_GT(f->read_cpu_ms, 0.0);
-    EXPECT_GT(f->captured, 1.5e9);  // Unix seconds of the read
-    EXPECT_EQ(f->began_s, clock.now_s());  // on the clock it was given
+    EXPECT_GT(f->captured, 1.5e9);                               // Unix seconds of the read
+    EXPECT_EQ(f->began_s, clock.now_s());                        // on the clock it was given
     std::this_thread::sleep_for(std::chrono::milliseconds(20));  // a tracker's work
   }
   EXPECT_EQ(reader.dropped(), 0u);

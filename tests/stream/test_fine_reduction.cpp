@@ -99,11 +99,12 @@ TEST(FineReduction, ADeltaKeyframeThatSaturatesTurnsALargerBudgetIntoMoreBytes) 
   const FrameReductionOptions base = realtime_stream_options();
   const BudgetChoice at40 = glb_bytes(base, 40), at100 = glb_bytes(base, 100);
   const BudgetChoice fine100 = glb_bytes(reduction_for_budget(base, FineReduction{}, 100), 100);
-  std::printf("delta keyframe: 40 kB -> %zu B (%s, %.2f sigma, q%d); 100 kB -> %zu B (%s, %.2f sigma, q%d); fine "
-              "100 kB -> %zu B (%s, %.2f sigma, %.0f px, q%d)\n",
-              at40.glb_bytes, at40.rule.c_str(), at40.tolerance_factor, at40.jpeg_quality, at100.glb_bytes,
-              at100.rule.c_str(), at100.tolerance_factor, at100.jpeg_quality, fine100.glb_bytes, fine100.rule.c_str(),
-              fine100.tolerance_factor, fine100.simplify_px, fine100.jpeg_quality);
+  std::printf(
+      "delta keyframe: 40 kB -> %zu B (%s, %.2f sigma, q%d); 100 kB -> %zu B (%s, %.2f sigma, q%d); fine "
+      "100 kB -> %zu B (%s, %.2f sigma, %.0f px, q%d)\n",
+      at40.glb_bytes, at40.rule.c_str(), at40.tolerance_factor, at40.jpeg_quality, at100.glb_bytes, at100.rule.c_str(),
+      at100.tolerance_factor, at100.jpeg_quality, fine100.glb_bytes, fine100.rule.c_str(), fine100.tolerance_factor,
+      fine100.simplify_px, fine100.jpeg_quality);
   // The defaults saturate: at their floors (2 sigma, q92) the scene needs less than the 100 kB budget ("fits").
   EXPECT_EQ(at100.rule, "fits");
   EXPECT_EQ(at100.tolerance_factor, 2.0);

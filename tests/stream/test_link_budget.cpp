@@ -58,7 +58,7 @@ TEST(LinkEstimator, EwmaWeightsANewSampleByAlpha) {
   LinkEstimator e(p);
   e.on_ack(100000, 1.0);  // 800 kbit/s: the first sample replaces the guess
   EXPECT_DOUBLE_EQ(e.estimate_kbps(), 800);
-  e.on_ack(50000, 1.0);   // 400 kbit/s: below, weighted by alpha_down
+  e.on_ack(50000, 1.0);  // 400 kbit/s: below, weighted by alpha_down
   EXPECT_DOUBLE_EQ(e.estimate_kbps(), 0.5 * 400 + 0.5 * 800);
   e.on_ack(200000, 1.0);  // 1600 kbit/s: above, weighted by alpha
   EXPECT_DOUBLE_EQ(e.estimate_kbps(), 0.25 * 1600 + 0.75 * 600);
@@ -110,7 +110,7 @@ TEST(KeyframeBudget, FollowsALinkThatDegradesAndRecovers) {
   for (int i = 0; i < 10; ++i) keyframe(2000);
   EXPECT_DOUBLE_EQ(budget, 40);
   for (int i = 0; i < 10; ++i) keyframe(100);
-  EXPECT_LT(budget, 9);   // 100 kbit/s carries about 8 kB in 0.7 s
+  EXPECT_LT(budget, 9);  // 100 kbit/s carries about 8 kB in 0.7 s
   EXPECT_GT(budget, 4);
   for (int i = 0; i < 10; ++i) keyframe(2000);
   EXPECT_DOUBLE_EQ(budget, 40);
@@ -158,7 +158,7 @@ TEST(PostCostModel, FitsTheFixedCostAndTheLineRateFromPostsOfSeveralSizes) {
   PostCostModel m;
   EXPECT_TRUE(m.empty());
   m.on_sample(20000, post_seconds(20000, 500, 0.15));
-  EXPECT_FALSE(m.fitted());                     // one size: no fit yet, the goodput stands in
+  EXPECT_FALSE(m.fitted());  // one size: no fit yet, the goodput stands in
   EXPECT_DOUBLE_EQ(m.fixed_s(), 0);
   EXPECT_NEAR(m.rate_bytes_per_s(), 20000 / 0.47, 1);
   for (size_t bytes : {8000u, 30000u, 15000u, 40000u}) m.on_sample(bytes, post_seconds(bytes, 500, 0.15));
@@ -188,8 +188,8 @@ TEST(LinkEstimator, ReportsTheLineRateUnderTheCapAndFailuresLowerIt) {
   EXPECT_DOUBLE_EQ(e.post_fixed_s(), 0);
   for (int i = 0; i < 4; ++i)
     for (size_t bytes : {10000u, 30000u}) e.on_ack(bytes, post_seconds(bytes, 500, 0.15));
-  EXPECT_NEAR(e.line_kbps(), 500, 1);     // the line, not the goodput of these POSTs ...
-  EXPECT_LT(e.estimate_kbps(), 400);      // ... which the round trip dilutes
+  EXPECT_NEAR(e.line_kbps(), 500, 1);  // the line, not the goodput of these POSTs ...
+  EXPECT_LT(e.estimate_kbps(), 400);   // ... which the round trip dilutes
   EXPECT_NEAR(e.post_fixed_s(), 0.15, 1e-3);
   e.on_failure();
   EXPECT_NEAR(e.line_kbps(), 250, 1);
@@ -268,7 +268,7 @@ TEST(KeyframeInterval, SmoothsAndClampsTheGaps) {
   EXPECT_DOUBLE_EQ(k.seconds(), 1.0);  // one keyframe: no gap yet
   k.on_keyframe(10.6);
   EXPECT_NEAR(k.seconds(), 0.6, 1e-12);
-  k.on_keyframe(100.0);                // a stall counts as max_s
+  k.on_keyframe(100.0);  // a stall counts as max_s
   EXPECT_NEAR(k.seconds(), 0.5 * 5.0 + 0.5 * 0.6, 1e-12);
 }
 

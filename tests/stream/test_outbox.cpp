@@ -223,7 +223,8 @@ TEST(Outbox, DeferredKeyframesSurviveAReopenAndGoWhenAdded) {
     e.frame_index = 30;
     ASSERT_TRUE((*box)->add(e, bytes(100, 2)));
   }
-  std::ofstream(dir + "/deferred-00000030.json") << R"({"frame": 30, "timestamp": 0, "pose": [0,0,0,0,0,0,1], "captured": 1})";
+  std::ofstream(dir + "/deferred-00000030.json")
+      << R"({"frame": 30, "timestamp": 0, "pose": [0,0,0,0,0,0,1], "captured": 1})";
   {
     auto box = Outbox::open(dir, "m1");
     ASSERT_TRUE(box) << box.error().message;

@@ -34,11 +34,11 @@ constexpr double kWindowS = 4;         // --refine-window-ms (larger than the an
 struct AheadRun {
   StreamSummary summary;
   std::vector<PostRecord> log;
-  std::optional<OutboxEntry> first;  // the keyframe's entry at the end
-  std::map<int, int> stored_rev;     // seq -> the revision the server holds
+  std::optional<OutboxEntry> first;           // the keyframe's entry at the end
+  std::map<int, int> stored_rev;              // seq -> the revision the server holds
   std::map<std::pair<int, int>, int> stored;  // (seq, rev) -> times created
   std::map<std::pair<int, int>, size_t> stored_bytes;
-  int stale = 0;                     // POSTs answered 409 stale_revision
+  int stale = 0;  // POSTs answered 409 stale_revision
 };
 
 // Streams ICL frame 0 to the server above over `lanes` connections; cap_kbps 0: no cap. initial_fixed_s is the POST
@@ -158,7 +158,7 @@ TEST(KeyframeStream, UnderACapTheRefinementIsPostedBesideTheFirstPostBeforeItsAn
   ASSERT_TRUE(run.first);
   EXPECT_DOUBLE_EQ(run.first->budget_kb, refinement_budget_kb(2000, kWindowS, 0, 200, 0.9));
   EXPECT_DOUBLE_EQ(run.first->budget_kb, 200);
-  EXPECT_EQ(run.summary.refined_while_tracking, 1u);  // made on the reduction thread, before the drain
+  EXPECT_EQ(run.summary.refined_while_tracking, 1u);   // made on the reduction thread, before the drain
   EXPECT_EQ(run.summary.refined_beside_keyframe, 1u);  // reduced beside the keyframe itself, not after it
   EXPECT_LT(revision_started_after_answer_s(run), 0);  // before: rev 0's answer waited for it to be stored
   EXPECT_EQ(run.stale, 1);

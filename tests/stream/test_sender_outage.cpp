@@ -421,19 +421,16 @@ TEST(Sender, TheWaitForAnAnswerIsThreeSecondsPlusFourTransfersAtAnEstimateOfAtLe
     double estimate_kbps, timeout_s;
   };
   const std::vector<Case> cases = {
-      {0, 1000, 3.0},
-      {125000, 1000, 7.0},      // 1 s at 1 Mbit/s: 3 + 4
-      {8000, 10, 7.0},          // an estimate that failures pushed to 10 kbit/s counts as 64: 1 s
-      {8000, 64, 7.0},
-      {10000000, 1000, 60.0},   // 80 s of transfer: at most 60
+      {0, 1000, 3.0},  {125000, 1000, 7.0},     // 1 s at 1 Mbit/s: 3 + 4
+      {8000, 10, 7.0},                          // an estimate that failures pushed to 10 kbit/s counts as 64: 1 s
+      {8000, 64, 7.0}, {10000000, 1000, 60.0},  // 80 s of transfer: at most 60
   };
   for (const Case& c : cases)
     EXPECT_NEAR(answer_timeout_s(c.bytes, c.estimate_kbps), c.timeout_s, 1e-9) << c.bytes << " " << c.estimate_kbps;
 }
 
 TEST(Sender, AConflictIsOursWhenTheMissionStoresThisRevisionWithTheseBytesOrANewerOne) {
-  const std::string mission =
-      R"({"keyframes":[{"seq":3,"rev":1,"bytes":5000},{"seq":4,"rev":0,"bytes":7000}]})";
+  const std::string mission = R"({"keyframes":[{"seq":3,"rev":1,"bytes":5000},{"seq":4,"rev":0,"bytes":7000}]})";
   struct Case {
     std::string name, json;
     int seq, rev;
@@ -532,8 +529,7 @@ TEST(SenderLanes, ARefinementFillsTheWaitForAnAnswerAndANewKeyframeOvertakesIt) 
   const std::string dir = test::temp_dir("sender_refine_lane");
   auto box = Outbox::open(dir, "refine");
   ASSERT_TRUE(box);
-  const double unix_now =
-      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  const double unix_now = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   auto make = [&](int frame, double reduced) {
     OutboxEntry e;
     e.frame_index = frame;
@@ -570,9 +566,9 @@ TEST(SenderLanes, ARefinementFillsTheWaitForAnAnswerAndANewKeyframeOvertakesIt) 
       a->seq, [](const std::optional<OutboxEntry>& e) { return e && e->rev == 1 && e->attempted; },
       std::chrono::seconds(20));
   ASSERT_TRUE(attempted && attempted->attempted);
-  auto c = (*box)->add(
-      make(20, std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count()),
-      real_bytes(10000, 90000));
+  auto c =
+      (*box)->add(make(20, std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count()),
+                  real_bytes(10000, 90000));
   ASSERT_TRUE(c);
   sender.notify();
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);

@@ -90,9 +90,9 @@ json mission(int port, const std::string& name) {
 
 std::string stream_command(int port, const std::string& mission_name, const std::string& outbox, double kbps,
                            const std::string& extra = "") {
-  return rgbdcast_binary() + " stream --input " + data_path(kSequence) + " --to 40 --server http://127.0.0.1:" +
-         std::to_string(port) + " --mission " + mission_name + " --outbox " + outbox + " --link-kbps " +
-         std::to_string(kbps) + " --seed 5 " + extra;
+  return rgbdcast_binary() + " stream --input " + data_path(kSequence) +
+         " --to 40 --server http://127.0.0.1:" + std::to_string(port) + " --mission " + mission_name + " --outbox " +
+         outbox + " --link-kbps " + std::to_string(kbps) + " --seed 5 " + extra;
 }
 
 // "N <what>" from the summary line (e.g. " deferred while", " fully covered", " refinements)"); -1 when absent.
@@ -175,9 +175,9 @@ TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNoth
 
   // At 20 kbit/s the link, not the tracking, is the bottleneck: the budgets follow it down; the keyframes do not
   // grow, but they do not reach the budget either (the realtime reduction bottoms out near 32-47 kB on these frames
-  // within its limits of 32 sigma and a half-size texture: BENCHMARKS.md "Live missions"); the sender's pacing keeps the acknowledged rate under the cap. (On 2 busy cores keyframes come
-  // every few seconds; the budget rule clamps the interval to 5 s, so 20 kbit/s allows at most
-  // 2.5 kB/s x 5 s x 0.9 = 11.25 kB per keyframe.)
+  // within its limits of 32 sigma and a half-size texture: BENCHMARKS.md "Live missions"); the sender's pacing keeps
+  // the acknowledged rate under the cap. (On 2 busy cores keyframes come every few seconds; the budget rule clamps the
+  // interval to 5 s, so 20 kbit/s allows at most 2.5 kB/s x 5 s x 0.9 = 11.25 kB per keyframe.)
   const std::string slow_box = dir_ + "/slow";
   auto slow_cmd = run_command(stream_command(server_.port(), "slow", slow_box, 20));
   ASSERT_EQ(slow_cmd.exit_code, 0) << slow_cmd.out << slow_cmd.err;
@@ -192,17 +192,17 @@ TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNoth
   ASSERT_FALSE(slow_frames.empty());
   EXPECT_EQ(slow_frames.back(), fast_frames.back());
   EXPECT_EQ(count_before(fast_cmd.out, " deferred while"), 0) << fast_cmd.out;
-  const int covered_fast = count_before(fast_cmd.out, " fully covered"), covered_slow =
-                                                                          count_before(slow_cmd.out, " fully covered");
+  const int covered_fast = count_before(fast_cmd.out, " fully covered"),
+            covered_slow = count_before(slow_cmd.out, " fully covered");
   ASSERT_GE(covered_slow, 0) << slow_cmd.out;
-  EXPECT_EQ(slow_frames.size() + static_cast<size_t>(covered_slow), fast_frames.size() + covered_fast)
-      << slow_cmd.out;
+  EXPECT_EQ(slow_frames.size() + static_cast<size_t>(covered_slow), fast_frames.size() + covered_fast) << slow_cmd.out;
   EXPECT_EQ(count_before(slow_cmd.out, " of them sent later"), count_before(slow_cmd.out, " deferred while"))
       << slow_cmd.out;
   // (Whether any is deferred depends on how fast this machine tracks against 3+ s of line per keyframe at 20 kbit/s:
   // on a quiet one it was 1 of 3; at load 12, 0. The accounting above holds either way.)
   // At 2 Mbit/s the idle link refined keyframes (revisions that replaced them on the server: still one per seq,
-  // with the outbox's bytes, checked above; a keyframe refined twice is at rev 2); at 20 kbit/s a second of line buys too little to refine.
+  // with the outbox's bytes, checked above; a keyframe refined twice is at rev 2); at 20 kbit/s a second of line buys
+  // too little to refine.
   EXPECT_GE(count_before(fast_cmd.out, " refinements)"), 1) << fast_cmd.out;
   EXPECT_EQ(count_before(slow_cmd.out, " refinements)"), 0) << slow_cmd.out;
   size_t revised = 0;
@@ -226,16 +226,16 @@ TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNoth
   // --keep-every-keyframe nothing is superseded, so the resumed mission must hold exactly the fast run's keyframes.)
   const std::string box = dir_ + "/restart";
   const std::string cmd = stream_command(server_.port(), "restart", box, 300, "--keep-every-keyframe");
-  const bool killed_mid_mission = stop_when(
-                                      cmd,
-                                      [&] {
-                                        if (!fs::exists(box)) return false;
-                                        const auto entries = outbox_entries(box);
-                                        return std::any_of(entries.begin(), entries.end(),
-                                                           [](const json& e) { return e["acked"].get<bool>(); });
-                                      },
-                                      240)
-                                      .signalled;
+  const bool killed_mid_mission =
+      stop_when(
+          cmd,
+          [&] {
+            if (!fs::exists(box)) return false;
+            const auto entries = outbox_entries(box);
+            return std::any_of(entries.begin(), entries.end(), [](const json& e) { return e["acked"].get<bool>(); });
+          },
+          240)
+          .signalled;
   ASSERT_TRUE(killed_mid_mission) << "the sender finished before a keyframe was acknowledged";
   const size_t before = outbox_entries(box).size();
   EXPECT_LT(before, fast.outbox.size()) << "killed too late to test a resume";
@@ -299,7 +299,9 @@ TEST_F(StreamCli, DeferredKeyframesReachTheMissionOnceAfterASenderRestart) {
   const std::string box = dir_ + "/deferred", args = "--keyframe-gap 6 --refine-kb 0";
   const std::string slow = stream_command(server_.port(), "deferred", box, 5, args);
   auto records = [&] { return fs::exists(box) ? outbox_files(box, "deferred-") : std::vector<json>{}; };
-  ASSERT_TRUE(stop_when(slow, [&] { return records().size() >= 2; }, 240).signalled)
+  ASSERT_TRUE(stop_when(
+                  slow, [&] { return records().size() >= 2; }, 240)
+                  .signalled)
       << "the sender ended before two keyframes were deferred";
   std::set<int> deferred_frames;
   int latest_frame = -1;
@@ -387,9 +389,8 @@ TEST_F(StreamCli, TheBudgetFollowsALinkKbpsChangedWhileStreaming) {
   { std::ofstream(control) << "2000\n"; }
   // All 120 frames: with the faster reduction, 60 frames could end within 2 s of the change (the margin below).
   const std::string cmd = rgbdcast_binary() + " stream --input " + data_path(kSequence) +
-                          " --server http://127.0.0.1:" + std::to_string(server_.port()) +
-                          " --mission live --outbox " + box + " --link-kbps 2000 --link-kbps-file " + control +
-                          " --seed 5";
+                          " --server http://127.0.0.1:" + std::to_string(server_.port()) + " --mission live --outbox " +
+                          box + " --link-kbps 2000 --link-kbps-file " + control + " --seed 5";
   pid_t pid = -1;
   const std::string exec_cmd = "exec " + cmd + " >" + dir_ + "/live.out 2>" + dir_ + "/live.err";
   const char* argv[] = {"/bin/sh", "-c", exec_cmd.c_str(), nullptr};
@@ -456,8 +457,8 @@ TEST_F(StreamCli, BadInputGetsAOneLineError) {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   }
   EXPECT_FALSE(fs::exists(dir_ + "/bad/mission.json"));  // nothing written before the input was checked
-  auto r = run_command(rgbdcast_binary() + " stream --input " + dir_ + "/no-such-source --mission m --server http://127.0.0.1:" +
-                       std::to_string(server_.port()));
+  auto r = run_command(rgbdcast_binary() + " stream --input " + dir_ +
+                       "/no-such-source --mission m --server http://127.0.0.1:" + std::to_string(server_.port()));
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
 }

@@ -123,9 +123,9 @@ TEST(BacklogRule, AKeyframeIsHeldWhileTheLinkOwesMoreThanItsReductionTakes) {
     bool hold;
   };
   const std::vector<Case> cases = {
-      {true, 0.0, 0.3, false}, {true, 0.3, 0.3, false}, {true, 0.31, 0.3, true},
-      {true, 0.1, 0.0, false},  // at least 0.1 s
-      {true, 0.11, 0.0, true},  {false, 5.0, 0.3, false},  // supersede off: never held
+      {true, 0.0, 0.3, false}, {true, 0.3, 0.3, false},
+      {true, 0.31, 0.3, true}, {true, 0.1, 0.0, false},   // at least 0.1 s
+      {true, 0.11, 0.0, true}, {false, 5.0, 0.3, false},  // supersede off: never held
   };
   for (const Case& c : cases)
     EXPECT_EQ(hold_keyframe(c.supersede, c.owed_s, c.reduce_s), c.hold) << c.owed_s << " " << c.reduce_s;
@@ -158,8 +158,8 @@ TEST(BacklogRule, WithoutRealtimeTheTrackerWaitsForTheReductionUnlessTheKeyframe
   };
   const std::vector<Case> cases = {
       {false, 0, false, true},  // nothing left to reduce
-      {false, 1, false, false}, {false, 0, true, false}, {false, 2, true, false},
-      {true, 1, false, true},   // held back: a newer keyframe may supersede it
+      {false, 1, false, false}, {false, 0, true, false},
+      {false, 2, true, false},  {true, 1, false, true},  // held back: a newer keyframe may supersede it
       {true, 0, true, true},
   };
   for (const Case& c : cases)
@@ -390,12 +390,9 @@ TEST(RefinementPlanner, ARefinementFromTheCapGoesBesideItsKeyframesPostOnceStart
     bool settled, beside;
   };
   const std::vector<Case> cases = {
-      {"not started: wait", waiting, false, false},
-      {"its POST is out", out, true, true},
-      {"answered already", answered, true, false},
-      {"another revision", revised, true, false},
-      {"rejected", rejected, true, false},
-      {"removed", std::nullopt, true, false},
+      {"not started: wait", waiting, false, false}, {"its POST is out", out, true, true},
+      {"answered already", answered, true, false},  {"another revision", revised, true, false},
+      {"rejected", rejected, true, false},          {"removed", std::nullopt, true, false},
   };
   for (const Case& c : cases) {
     EXPECT_EQ(post_start_settled(c.now, 0), c.settled) << c.name;
@@ -457,7 +454,12 @@ TEST(Resume, RestartsAtTheLatestKeyframesFrameOverEntriesAndDeferredRecords) {
   };
   const std::vector<Case> cases = {
       {"empty outbox", {}, {}, false, -1, 0, {}},
-      {"entries", {posed(entry(0, 1000, 10, true, 1), 0), posed(entry(1, 1000, 10, true, 2), 1)}, {}, true, 10, 1,
+      {"entries",
+       {posed(entry(0, 1000, 10, true, 1), 0), posed(entry(1, 1000, 10, true, 2), 1)},
+       {},
+       true,
+       10,
+       1,
        {0, 1}},
       {"a higher seq with an older frame",
        {posed(entry(1, 1000, 10, true, 2), 1), rejected, after_outage},

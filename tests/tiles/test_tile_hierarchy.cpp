@@ -69,11 +69,11 @@ struct Keyframes {
   }
 };
 
-#define REQUIRE_KEYFRAMES()                                                                    \
-  do {                                                                                         \
-    REQUIRE_DATA(test::kMissionExcerpt);                                                       \
-    ASSERT_TRUE(Keyframes::get().error.empty()) << Keyframes::get().error;                     \
-    ASSERT_EQ(Keyframes::get().size(), 4u);                                                    \
+#define REQUIRE_KEYFRAMES()                                                \
+  do {                                                                     \
+    REQUIRE_DATA(test::kMissionExcerpt);                                   \
+    ASSERT_TRUE(Keyframes::get().error.empty()) << Keyframes::get().error; \
+    ASSERT_EQ(Keyframes::get().size(), 4u);                                \
   } while (0)
 
 std::vector<KeyframeId> first(size_t count) {
@@ -414,10 +414,13 @@ TEST(TileHierarchyTest, ReopeningServesTheCommittedVersionAndBuildsNothingAgain)
     before = contents(*h);
     // A stop during the next update (set while its new keyframes load) ends it uncommitted.
     std::atomic<bool> stop{false};
-    const auto stopped = h->update(first(8), [&](const KeyframeId& id) {
-      if (id.seq >= 6) stop = true;
-      return Keyframes::get().placed(id);
-    }, &stop);
+    const auto stopped = h->update(
+        first(8),
+        [&](const KeyframeId& id) {
+          if (id.seq >= 6) stop = true;
+          return Keyframes::get().placed(id);
+        },
+        &stop);
     ASSERT_FALSE(stopped);
     EXPECT_EQ(stopped.error().code, ErrorCode::kUnavailable) << stopped.error().message;
     EXPECT_EQ(h->version(), 2u);
@@ -515,7 +518,8 @@ Mesh world_mesh(std::int64_t seq, const Eigen::Vector3f& shift, bool flip) {
   for (auto& p : node.mesh.positions)
     p = (node.to_world * p.cast<double>().homogeneous()).head<3>().cast<float>() + shift;
   if (flip)
-    for (size_t t = 0; t < node.mesh.triangle_count(); ++t) std::swap(node.mesh.indices[3 * t + 1], node.mesh.indices[3 * t + 2]);
+    for (size_t t = 0; t < node.mesh.triangle_count(); ++t)
+      std::swap(node.mesh.indices[3 * t + 1], node.mesh.indices[3 * t + 2]);
   return node.mesh;
 }
 

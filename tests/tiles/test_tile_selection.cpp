@@ -87,7 +87,8 @@ TEST(TileSelection, AViewOverTheRendererBudgetIsCoarsenedUntilItFits) {
   EXPECT_EQ(used, 1.0);
   EXPECT_EQ(keys(same), keys(full));
   // No budget: the same.
-  EXPECT_EQ(keys(select_tiles_to_fit(records, 3, near, 0.0, 0, 1000.0, &used)), keys(select_tiles(records, 3, near, 0.0)));
+  EXPECT_EQ(keys(select_tiles_to_fit(records, 3, near, 0.0, 0, 1000.0, &used)),
+            keys(select_tiles(records, 3, near, 0.0)));
   EXPECT_EQ(used, 0.0);
   // Smaller budgets: a coarser error, a power of two times 1 px, under the budget, and the smallest such error (half
   // of it does not fit).
@@ -139,10 +140,9 @@ TEST(TileSelection, BoxTestsAgreeWithGeometry) {
   EXPECT_FALSE(box_in_frustum(Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -30), Eigen::Vector3d(1, 1, -20)), c));
   EXPECT_FALSE(box_in_frustum(Eigen::AlignedBox3d(Eigen::Vector3d(50, -1, -1), Eigen::Vector3d(60, 1, 1)), c));
   EXPECT_FALSE(box_in_frustum(Eigen::AlignedBox3d(), c));  // empty
-  EXPECT_DOUBLE_EQ(distance_to_box(Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1, 1, 1)), c),
-                   9.0);
-  EXPECT_DOUBLE_EQ(
-      distance_to_box(Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -11), Eigen::Vector3d(1, 1, 1)), c), 0.0);
+  EXPECT_DOUBLE_EQ(distance_to_box(Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1, 1, 1)), c), 9.0);
+  EXPECT_DOUBLE_EQ(distance_to_box(Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -11), Eigen::Vector3d(1, 1, 1)), c),
+                   0.0);
 }
 
 }  // namespace
