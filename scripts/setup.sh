@@ -19,11 +19,11 @@ DEMO_PACKAGES=(
 )
 # Tests only: GoogleTest, the Vulkan validation layers, ROS 1 bag reading and writing, clang-16 with libFuzzer and
 # the sanitizers' runtime, headless Chromium (the page tests), wrk (load benchmarks), curl and jq (scripts),
-# promtool (the /metrics check), git (tests that read the tree), and the external glTF viewers (Blender, whose glTF
-# importer needs numpy, and Assimp), the PostgreSQL server the store tests start, and nginx in front of the replicas
-# that deploy/cluster.sh starts.
+# promtool (the /metrics check), git and clang-format 14 (the tests that read the tree and check its format), the
+# external glTF viewers (Blender, whose glTF importer needs numpy, and Assimp), the PostgreSQL server the store tests
+# start, and nginx in front of the replicas that deploy/cluster.sh starts.
 TEST_PACKAGES=(
-  git ca-certificates libgtest-dev vulkan-tools vulkan-validationlayers glslang-dev
+  git clang-format-14 ca-certificates libgtest-dev vulkan-tools vulkan-validationlayers glslang-dev
   librosbag-storage-dev libsensor-msgs-dev python3-rosbag python3-sensor-msgs
   clang-16 libfuzzer-16-dev libclang-rt-16-dev
   chromium wrk curl jq prometheus
