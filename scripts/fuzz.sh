@@ -6,7 +6,6 @@
 #   scripts/fuzz.sh            # the CI smoke run: 10 harnesses x 20 s (rosbag only where ROS bag input is built)
 #   scripts/fuzz.sh 600        # longer
 #   FUZZ_ONLY=glb scripts/fuzz.sh 3600
-#   RGBDCAST_BUILD_ONLY=1 scripts/fuzz.sh   # configure and build, run nothing (scripts/test.sh builds it beside ctest)
 # Reproduce a crash: build-fuzz/fuzz/fuzz_glb build-fuzz/fuzz/artifacts/glb-crash-<sha1>
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -32,7 +31,6 @@ for name in ${only//|/ }; do targets+=("fuzz_$name"); done
 start=$(date +%s)
 cmake --build build-fuzz -j"$jobs" --target "${targets[@]}"
 built=$(date +%s)
-if [ "${RGBDCAST_BUILD_ONLY:-0}" = 1 ]; then echo "fuzz.sh: build $((built - start)) s"; exit 0; fi
 cd build-fuzz
 ctest -L fuzz -R "^fuzz_smoke_(${only})\$" --output-on-failure -j"$jobs"
 echo "fuzz.sh: build $((built - start)) s, runs $(($(date +%s) - built)) s (${seconds} s per harness)"

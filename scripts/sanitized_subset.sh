@@ -6,7 +6,6 @@
 # scripts/sanitize.sh: its build alone takes longer than CI's headroom (BENCHMARKS.md, "Sanitizers").
 #   scripts/sanitized_subset.sh            # after scripts/fuzz.sh (scripts/test.sh runs both)
 #   scripts/sanitized_subset.sh -R Gltf    # extra arguments go to ctest
-#   RGBDCAST_BUILD_ONLY=1 scripts/sanitized_subset.sh   # build the test programs, run nothing
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
@@ -16,7 +15,6 @@ targets=(service_core_test camera_json_test input_tests keyframes_unit_test test
 start=$(date +%s)
 cmake --build build-fuzz -j"${RGBDCAST_JOBS:-2}" --target "${targets[@]}"
 built=$(date +%s)
-if [ "${RGBDCAST_BUILD_ONLY:-0}" = 1 ]; then echo "sanitized_subset.sh: build $((built - start)) s"; exit 0; fi
 source scripts/sanitizer_env.sh "$root"
 cd build-fuzz
 status=0
