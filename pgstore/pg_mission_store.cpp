@@ -2,6 +2,7 @@
 
 #include <chrono>
 
+#include "base/stopwatch.h"
 #include "pgstore/pg_mission_listener.h"
 #include "pgstore/pg_schema.h"
 #include "service/mission_index.h"
@@ -36,10 +37,6 @@ Status log_change(PgConnection& c, std::int64_t change, const std::string& missi
                    seq ? PgParam::integer(*seq) : PgParam::null(), PgParam::text(record)});
   if (!st) return st;
   return c.run("SELECT pg_notify($1, $2)", {PgParam::text(kMissionChannel), PgParam::integer(change)});
-}
-
-double now_unix_s() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 }  // namespace
@@ -90,7 +87,7 @@ Status PgMissionStore::load_all() {
       "BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY");
   if (!st) return st;
   std::lock_guard lock(apply_mutex_);
-  const double now = now_unix_s();
+  const double now = unix_seconds_now();
   for (auto& [name, by_seq] : missions) {
     created_change_[name] = created[name];
     index().load(name, std::move(by_seq), now);

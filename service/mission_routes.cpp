@@ -21,10 +21,6 @@
 namespace rgbdcast::service {
 namespace {
 
-double now_unix_s() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
-
 // The mission named by the route's first capture, or a 400 answered.
 std::optional<std::string> name_or_error(const httplib::Request& req, httplib::Response& res) {
   const std::string name = req.matches.size() > 1 ? req.matches[1].str() : std::string();
@@ -138,7 +134,7 @@ void MissionRoutes::install(httplib::Server& server, const Guard& guard, const G
 
 void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response& res,
                                   const httplib::ContentReader& reader) {
-  const double received = now_unix_s();
+  const double received = unix_seconds_now();
   // Everything the query says is checked before the body is read; a refusal closes the connection (the unread body
   // is not taken for the next request).
   auto refuse = [&](int status, const std::string& detail) {
@@ -221,7 +217,7 @@ void MissionRoutes::post_keyframe(const httplib::Request& req, httplib::Response
   // and the tile worker takes it into the tileset off this request's path.
   const auto t_done = std::chrono::steady_clock::now();
   res.set_header("X-Store-Ms", std::to_string(ms_between(t_store, t_done)));
-  const double available = now_unix_s();
+  const double available = unix_seconds_now();
   auto marked = missions_.mark_available(*name, *seq, available);
   if (!marked) return send_error(res, marked.error());
   tiles_.enqueue(*name);

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "base/atomic_file.h"
+#include "base/stopwatch.h"
 #include "service/mission_index.h"
 #include "service/scene_store.h"  // read_text, quarantine, etag_of
 
@@ -98,10 +99,6 @@ Result<MissionKeyframe> parse_stored_keyframe(const std::string& name, std::int6
 }
 
 namespace {
-
-double now_unix_s() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
 
 Status write_json(const std::string& dir, std::int64_t seq, const MissionKeyframe& k) {
   const std::string text = stored_keyframe_json(k).dump(2);
@@ -293,7 +290,7 @@ Status DirectoryMissionStore::load_mission(const std::string& name) {
     fs::remove_all(dir, ec);
     return ok_status();
   }
-  index().load(name, std::move(by_seq), now_unix_s());
+  index().load(name, std::move(by_seq), unix_seconds_now());
   return ok_status();
 }
 

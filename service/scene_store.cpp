@@ -9,6 +9,7 @@
 #include <random>
 
 #include "base/atomic_file.h"
+#include "base/stopwatch.h"
 
 namespace fs = std::filesystem;
 
@@ -197,7 +198,7 @@ StoredScene new_stored_scene(const std::vector<std::uint8_t>& glb, nlohmann::jso
   s.id = new_scene_id();
   s.bytes = glb.size();
   s.etag = etag_of(glb.data(), glb.size());
-  s.created_unix_s = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  s.created_unix_s = unix_seconds_now();
   metadata["id"] = s.id;
   metadata["bytes"] = s.bytes;
   metadata["etag"] = s.etag;

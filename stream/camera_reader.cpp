@@ -2,11 +2,11 @@
 
 #include <time.h>
 
+#include "base/stopwatch.h"
+
 namespace rgbdcast::stream {
 
 namespace {
-
-double unix_now() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
 
 double thread_cpu_ms() {
   timespec ts{};
@@ -48,7 +48,7 @@ double CameraReader::stamp(size_t i) const {
 }
 
 void CameraReader::run() {
-  const std::function<double()> unix_s = options_.unix_s ? options_.unix_s : unix_now;
+  const std::function<double()> unix_s = options_.unix_s ? options_.unix_s : unix_seconds_now;
   const Clock::time_point start = clock_.now();
   const double start_unix = unix_s(), first = stamp(options_.from);
   auto due = [&](size_t i) { return start + Clock::from_seconds(stamp(i) - first); };

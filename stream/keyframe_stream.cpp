@@ -9,6 +9,7 @@
 #include <thread>
 #include <utility>
 
+#include "base/stopwatch.h"
 #include "keyframes/trajectory_io.h"
 #include "stream/camera_reader.h"
 #include "stream/thread_priority.h"
@@ -16,10 +17,6 @@
 namespace rgbdcast::stream {
 
 namespace {
-
-double system_unix_s() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
 
 // How often a wait that nothing else ends polls should_stop (a flag set by a signal handler, which cannot notify).
 constexpr std::chrono::milliseconds kStopPollPeriod{50};
@@ -64,7 +61,7 @@ class StreamRun {
         on_progress_(on_progress),
         should_stop_(should_stop),
         clock_(sender.clock()),
-        unix_s_(options.unix_s ? options.unix_s : system_unix_s),
+        unix_s_(options.unix_s ? options.unix_s : unix_seconds_now),
         t_start_(clock_.now_s()),
         params_(options.sequence),
         queues_(options.max_deferred),

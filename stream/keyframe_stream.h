@@ -39,8 +39,9 @@ struct StreamOptions {
   // idle scheduling class (docs/streaming.md).
   bool refine_while_tracking = true;
   FineReduction fine;
-  // The entries' times (Unix s, wall-clock facts written into the records); empty: the system's. The runtime's
-  // steady clock (durations, the keyframe interval, the camera's pacing, the hold-back's deadlines) is the
+  // The entries' times (Unix s, wall-clock facts written into the records); empty: the system's. The sender's
+  // SenderParams::unix_s must be the same clock: it measures a keyframe's wait in the outbox from `reduced`. The
+  // runtime's steady clock (durations, the keyframe interval, the camera's pacing, the hold-back's deadlines) is the
   // sender's (SenderParams::clock), so that one clock drives the camera, the producer and the link.
   std::function<double()> unix_s;
 };

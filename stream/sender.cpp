@@ -3,11 +3,9 @@
 #include <algorithm>
 #include <nlohmann/json.hpp>
 
-namespace rgbdcast::stream {
+#include "base/stopwatch.h"
 
-namespace {
-double unix_now() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
-}  // namespace
+namespace rgbdcast::stream {
 
 Sender::Sender(Outbox& outbox, Uplink& uplink, const SenderParams& params)
     : Sender(outbox, std::vector<Uplink*>{&uplink}, params) {}
@@ -17,6 +15,7 @@ Sender::Sender(Outbox& outbox, std::vector<Uplink*> uplinks, const SenderParams&
       uplinks_(std::move(uplinks)),
       params_(params),
       clock_(params.clock ? *params.clock : system_steady_clock()),
+      unix_s_(params.unix_s ? params.unix_s : unix_seconds_now),
       estimator_(params.link),
       backoff_(params.backoff),
       rng_(params.seed ? params.seed : std::random_device{}()) {
@@ -369,7 +368,7 @@ void Sender::run(Uplink& uplink) {
       }
       changed();  // another lane may wait for this entry (a retry) or for the stop; the producer for the answer
     };
-    const double post_started = unix_now();
+    const double post_started = unix_s_();
     note_queue_wait(*entry, post_started);
     // The GLB is read before the entry is marked attempted, so that a revision added beside this POST once it is
     // marked (Outbox::revise_in_flight, which removes the older GLB) cannot take its body's place.
@@ -445,7 +444,7 @@ void Sender::resolve_conflict(Uplink& uplink, const OutboxEntry& entry, size_t b
 
 void Sender::record_post_locked(const OutboxEntry& entry, size_t bytes, double post_started, const PostResult& r) {
   ++stats_.posts;
-  post_log_.push_back({entry.seq, entry.rev, bytes, post_started, unix_now(), r.outcome == PostOutcome::kStored});
+  post_log_.push_back({entry.seq, entry.rev, bytes, post_started, unix_s_(), r.outcome == PostOutcome::kStored});
   switch (r.outcome) {
     case PostOutcome::kStored:  // (the link's sample went in before the outbox was told)
       backoff_.reset();

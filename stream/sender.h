@@ -56,9 +56,14 @@ struct SenderParams {
   size_t max_first_in_flight = 0;
   // The clock of the pacing, the backoff and the busy times (null: the system's); must outlive the sender.
   Clock* clock = nullptr;
+  // The wall clock of the records (Unix s; empty: the system's): a POST's start (the entry's `attempted`, the post
+  // log) and end. A keyframe's wait in the outbox (queue_wait_s) is its POST's start minus the entry's `reduced`, so
+  // it must be the clock the producer stamps `reduced` with (StreamOptions::unix_s).
+  std::function<double()> unix_s;
 };
 
-// One POST as the sender saw it (Unix s), for a benchmark that wants the line's timeline (rgbdcast stream
+// One POST as the sender saw it (Unix s, SenderParams::unix_s), for a benchmark that wants the line's timeline
+// (rgbdcast stream
 // --post-log).
 struct PostRecord {
   int seq = -1, rev = 0;
@@ -176,6 +181,7 @@ class Sender {
   std::vector<Uplink*> uplinks_;
   SenderParams params_;
   Clock& clock_;
+  std::function<double()> unix_s_;  // params_.unix_s or the system's
   mutable std::mutex mu_;
   std::condition_variable cv_;
   std::vector<std::thread> threads_;

@@ -6,12 +6,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "base/stopwatch.h"
 #include "tests/common/test_data.h"
 
 namespace rgbdcast::test {
 namespace {
-
-double unix_now() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
 
 // "tx,ty,tz,qx,qy,qz,qw" as the sender writes it (stream::pose_query); false when it is not seven numbers.
 bool parse_pose(const std::string& text, std::array<double, 7>& pose) {
@@ -126,7 +125,7 @@ void FakeMissionServer::post_keyframe(const httplib::Request& req, httplib::Resp
   {
     std::lock_guard lock(mu_);
     post.body_step = ++step_;
-    post.body_unix_s = unix_now();
+    post.body_unix_s = unix_seconds_now();
     if (script_.refuse_token) {
       scripted = 401;
     } else if (script_.fail_with_503 > 0) {
@@ -149,7 +148,7 @@ void FakeMissionServer::post_keyframe(const httplib::Request& req, httplib::Resp
   k.seq = post.seq;
   k.rev = post.rev;
   k.captured = req.has_param("captured") ? std::atof(req.get_param_value("captured").c_str()) : 0;
-  k.received = unix_now();
+  k.received = unix_seconds_now();
   if (!parse_pose(req.get_param_value("pose"), k.pose)) return answer(400, {{"error", "bad pose"}});
   auto put = store_->put(k, std::vector<std::uint8_t>(req.body.begin(), req.body.end()));
   if (!put) return answer(500, {{"error", put.error().message}});
@@ -164,7 +163,7 @@ void FakeMissionServer::post_keyframe(const httplib::Request& req, httplib::Resp
     case service::PutOutcome::kReplaced:
       break;
   }
-  (void)store_->mark_available(k.mission, k.seq, unix_now());
+  (void)store_->mark_available(k.mission, k.seq, unix_seconds_now());
   decide(201);
   bool swallow = false;
   {

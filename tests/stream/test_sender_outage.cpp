@@ -337,6 +337,51 @@ TEST(SenderLanes, PacingAtTheCapWaitsOnTheInjectedClock) {
   server.stop();
 }
 
+// A keyframe's wait in the outbox (Sender::queue_wait_s, which the latency rule subtracts) is measured on the injected
+// wall clock, the one the producer stamps `reduced` with: three keyframes of 10 kB reduced at once and paced at
+// 800 kbit/s start their POSTs 0, 0.1 and 0.2 s later, so the smoothed wait is 0.3 x 0.2 + 0.7 x (0.3 x 0.1) s
+// exactly; each POST's start is recorded in the outbox and the post log on that clock.
+TEST(SenderLanes, TheOutboxWaitIsMeasuredOnTheInjectedWallClock) {
+  OnManualClock t("queue_wait");
+  ASSERT_TRUE(t.box);
+  const double unix_at_start = 1.7e9;
+  const double clock_at_start = t.clock.now_s();
+  t.params.unix_s = [&t, unix_at_start, clock_at_start] { return unix_at_start + (t.clock.now_s() - clock_at_start); };
+  for (int i = 0; i < 3; ++i) {
+    OutboxEntry e;
+    e.frame_index = i;
+    e.captured = unix_at_start - 1.0 + 0.1 * i;
+    e.reduced = unix_at_start;
+    ASSERT_TRUE(t.box->add(e, std::vector<std::uint8_t>(10000, static_cast<std::uint8_t>(i))));
+  }
+  FakeMissionServer server;
+  const int port = server.start();
+  ASSERT_GT(port, 0);
+  t.lanes = make_lanes(port, 1);
+  t.params.link.cap_kbps = 800;
+  std::vector<PostRecord> log;
+  {
+    Sender sender(*t.box, t.lanes.uplinks, t.params);
+    EXPECT_EQ(sender.queue_wait_s(), 0.0);  // none yet
+    sender.start();
+    for (size_t posted = 1; posted < 3; ++posted) t.clock.set(t.clock.next_deadline());
+    wait_until_delivered(sender);
+    sender.stop();
+    EXPECT_NEAR(sender.queue_wait_s(), 0.3 * 0.2 + 0.7 * (0.3 * 0.1 + 0.7 * 0.0), 1e-5);
+    log = sender.post_log();
+  }
+  ASSERT_EQ(log.size(), 3u);
+  for (size_t i = 0; i < log.size(); ++i) {
+    EXPECT_NEAR(log[i].started, unix_at_start + 0.1 * static_cast<double>(i), 1e-5) << i;
+    EXPECT_NEAR(log[i].ended, log[i].started, 1e-6) << i;  // the clock does not move while a POST is answered
+    const auto entry = t.box->entry(log[i].seq);
+    ASSERT_TRUE(entry);
+    EXPECT_NEAR(entry->post_started, log[i].started, 1e-6) << i;
+  }
+  close_lanes(t.lanes);
+  server.stop();
+}
+
 // A refused POST is retried after the backoff's delay on the injected clock (0.1-0.2 s for the first failure, a
 // longer one after the second), not before the clock reaches it.
 TEST(SenderOutage, ARetryWaitsForTheBackoffOnTheInjectedClock) {
