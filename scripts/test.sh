@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # The whole test suite: install what is needed (scripts/setup.sh test: the demo's packages and the test tools),
-# build everything with warnings as errors, run every test under ctest, RGBDCAST_TEST_JOBS (default: the number of
-# cores) at a time. Tests that need a resource alone say so in their CMakeLists (RESOURCE_LOCK).
+# build everything with warnings as errors, run every test under ctest, RGBDCAST_TEST_JOBS (default: two per core,
+# since the tests spend much of their time waiting on their servers, browsers and disks; BENCHMARKS.md, "Time of
+# the test command") at a time. Tests that need a resource alone say so in their CMakeLists (RESOURCE_LOCK).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh test
 RGBDCAST_WERROR=ON bash scripts/build.sh
 cd build
-ctest --output-on-failure --timeout 900 -j"${RGBDCAST_TEST_JOBS:-$(nproc)}" "$@"
+ctest --output-on-failure --timeout 900 -j"${RGBDCAST_TEST_JOBS:-$((2 * $(nproc)))}" "$@"
 # The fuzz smoke run: every libFuzzer target for RGBDCAST_FUZZ_SECONDS (20 s) from its seed corpus, built
 # with clang-16 in build-fuzz/. RGBDCAST_FUZZ_SECONDS=0 skips it.
 cd ..

@@ -65,8 +65,9 @@ bool run_sql(const std::string& uri, const std::string& sql) {
 }  // namespace
 
 std::string postgres_bin_dir() {
-  const char* dir = "/usr/lib/postgresql/15/bin";
-  return fs::exists(std::string(dir) + "/initdb") && fs::exists(std::string(dir) + "/postgres") ? dir : "";
+  const fs::path dir = "/usr/lib/postgresql/15/bin";
+  // path / name rather than string + literal: GCC 12's false positive on the latter (top CMakeLists.txt).
+  return fs::exists(dir / "initdb") && fs::exists(dir / "postgres") ? dir.string() : "";
 }
 
 Result<std::unique_ptr<PostgresServer>> PostgresServer::start() {
