@@ -14,6 +14,6 @@ ctest --output-on-failure --timeout 900 -j"${RGBDCAST_TEST_JOBS:-$((2 * $(nproc)
 cd ..
 if [ "${RGBDCAST_FUZZ_SECONDS:-20}" != 0 ]; then
   bash scripts/fuzz.sh "${RGBDCAST_FUZZ_SECONDS:-20}"
-  # The tests of the untrusted-input libraries under ASan + UBSan, built beside the harnesses (about 6-7 min).
+  # The tests of the untrusted-input libraries under ASan + UBSan, built beside the harnesses (about 2.5 min).
   bash scripts/sanitized_subset.sh
 fi
