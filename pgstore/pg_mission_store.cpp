@@ -1,7 +1,5 @@
 #include "pgstore/pg_mission_store.h"
 
-#include <chrono>
-
 #include "base/stopwatch.h"
 #include "pgstore/pg_mission_listener.h"
 #include "pgstore/pg_schema.h"
