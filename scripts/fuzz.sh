@@ -6,6 +6,8 @@
 #   scripts/fuzz.sh            # the CI smoke run: 10 harnesses x 20 s (rosbag only where ROS bag input is built)
 #   scripts/fuzz.sh 600        # longer
 #   FUZZ_ONLY=glb scripts/fuzz.sh 3600
+# RGBDCAST_FUZZ_ALSO_BUILD: more targets of build-fuzz/ to build in the same build (scripts/test.sh gives the
+# sanitized subset's, so that the two keep both cores busy to the end).
 # Reproduce a crash: build-fuzz/fuzz/fuzz_glb build-fuzz/fuzz/artifacts/glb-crash-<sha1>
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,7 +31,8 @@ fi
 targets=()
 for name in ${only//|/ }; do targets+=("fuzz_$name"); done
 start=$(date +%s)
-cmake --build build-fuzz -j"$jobs" --target "${targets[@]}"
+read -r -a also <<<"${RGBDCAST_FUZZ_ALSO_BUILD:-}"
+cmake --build build-fuzz -j"$jobs" --target "${targets[@]}" "${also[@]}"
 built=$(date +%s)
 cd build-fuzz
 ctest -L fuzz -R "^fuzz_smoke_(${only})\$" --output-on-failure -j"$jobs"

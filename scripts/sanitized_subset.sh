@@ -6,12 +6,17 @@
 # scripts/sanitize.sh: its build alone takes longer than CI's headroom (BENCHMARKS.md, "Sanitizers").
 #   scripts/sanitized_subset.sh            # after scripts/fuzz.sh (scripts/test.sh runs both)
 #   scripts/sanitized_subset.sh -R Gltf    # extra arguments go to ctest
+#   scripts/sanitized_subset.sh --targets  # prints the test programs it builds, and exits
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
-[ -f build-fuzz/CMakeCache.txt ] || { echo "sanitized_subset.sh: no build-fuzz/ (run scripts/fuzz.sh first)" >&2; exit 2; }
 targets=(service_core_test camera_json_test input_tests keyframes_unit_test test_gltf_untrusted test_gltf_hostile
          fuzz_regression_test)
+if [ "${1:-}" = --targets ]; then
+  echo "${targets[*]}"
+  exit 0
+fi
+[ -f build-fuzz/CMakeCache.txt ] || { echo "sanitized_subset.sh: no build-fuzz/ (run scripts/fuzz.sh first)" >&2; exit 2; }
 start=$(date +%s)
 cmake --build build-fuzz -j"${RGBDCAST_JOBS:-2}" --target "${targets[@]}"
 built=$(date +%s)

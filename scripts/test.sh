@@ -13,7 +13,7 @@ ctest --output-on-failure --timeout 900 -j"${RGBDCAST_TEST_JOBS:-$((2 * $(nproc)
 # with clang-16 in build-fuzz/. RGBDCAST_FUZZ_SECONDS=0 skips it.
 cd ..
 if [ "${RGBDCAST_FUZZ_SECONDS:-20}" != 0 ]; then
-  bash scripts/fuzz.sh "${RGBDCAST_FUZZ_SECONDS:-20}"
-  # The tests of the untrusted-input libraries under ASan + UBSan, built beside the harnesses (about 2.5 min).
+  # The tests of the untrusted-input libraries under ASan + UBSan are built with the harnesses, in one build.
+  RGBDCAST_FUZZ_ALSO_BUILD="$(bash scripts/sanitized_subset.sh --targets)" bash scripts/fuzz.sh "${RGBDCAST_FUZZ_SECONDS:-20}"
   bash scripts/sanitized_subset.sh
 fi
