@@ -7,6 +7,9 @@
 # GET /v1/missions/{name}), and coverage + novel-view PSNR of the final mission against a batch
 # `reduce --sequence --preset realtime` of the same frames (rgbdcast eval with ground-truth poses).
 # Extra flags of `rgbdcast stream`: STREAM_BENCH_STREAM_ARGS (e.g. "--latency-ms 0" for the rate rule alone).
+# The outage starts once half of the 2 Mbit/s run's keyframes are in the outbox, so that run comes first; without it
+# STREAM_BENCH_OUTAGE_AFTER=K says after how many. The servers, relays and watchers it started are stopped (by pid)
+# when it ends, also on a failure.
 # Usage: bash bench/stream_bench.sh [OUT_DIR]   (needs build/app/rgbdcast; about 15 min on 2 busy cores)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -26,6 +29,14 @@ declare -A VIEWS=([tum]="10 35 65 95 115" [icl]="1 2 3 4")
 RUNS=${STREAM_BENCH_RUNS:-"2000 500 100 500-outage"}   # a subset, e.g. STREAM_BENCH_RUNS=500
 DATASETS=${STREAM_BENCH_INPUTS:-"tum icl"}
 port=$((20000 + RANDOM % 20000))
+serve_pid= relay_pid= watcher_pid=
+stop_started() {
+  local pid
+  for pid in $watcher_pid $relay_pid $serve_pid; do kill -TERM "$pid" 2>/dev/null && wait "$pid" 2>/dev/null || true; done
+  serve_pid= relay_pid= watcher_pid=
+  return 0
+}
+trap stop_started EXIT
 # A build that can log its POSTs writes them to NAME.posts.jsonl (table.py's timeline; older builds lack the flag).
 POST_LOG=; if "$BIN" stream --help 2>/dev/null | grep -- --post-log >/dev/null; then POST_LOG=1; fi
 
@@ -52,6 +63,16 @@ for ds in $DATASETS; do
     name=$ds.$run
     echo "== $name" >&2
     rm -rf "$OUT/$name".*
+    if [[ $run == *outage ]]; then
+      if [[ -n ${STREAM_BENCH_OUTAGE_AFTER:-} ]]; then
+        half=$STREAM_BENCH_OUTAGE_AFTER
+      elif compgen -G "$OUT/$ds.2000.outbox/kf-*.json" >/dev/null; then
+        half=$(( $(ls "$OUT/$ds.2000.outbox"/kf-*.json | wc -l) / 2 )); [[ $half -lt 1 ]] && half=1
+      else
+        echo "stream_bench: $name needs the 2000 run first (it starts the outage at half its keyframes), or STREAM_BENCH_OUTAGE_AFTER=K" >&2
+        exit 2
+      fi
+    fi
     port=$((port + 2)); sport=$port; rport=$((port + 1))   # not in a subshell: $port must advance
     "$BIN" serve --data-dir "$OUT/$name.data" --port "$sport" --allow-origin "http://127.0.0.1:$rport" > "$OUT/$name.serve.log" 2>&1 &
     serve_pid=$!
@@ -62,8 +83,7 @@ for ds in $DATASETS; do
     for _ in $(seq 100); do curl -sf "http://127.0.0.1:$rport/healthz" >/dev/null && break; sleep 0.1; done   # the relay too
     watcher_pid=
     if [[ $run == *outage ]]; then
-      # The outage in the middle: once half of the keyframes of the 2 Mbit/s run are in the outbox.
-      half=$(( $(ls "$OUT/$ds.2000.outbox"/kf-*.json | wc -l) / 2 )); [[ $half -lt 1 ]] && half=1
+      # The outage in the middle: once `half` keyframes are in the outbox.
       ( while [[ $(ls "$OUT/$name.outbox"/kf-*.json 2>/dev/null | wc -l) -lt $half ]]; do sleep 0.05; done
         date +%s.%N > "$OUT/$name.outage_start"; kill -USR1 $relay_pid ) &
       watcher_pid=$!
@@ -76,11 +96,9 @@ for ds in $DATASETS; do
     end=$(date +%s.%N)
     cut -d' ' -f1 /proc/loadavg >> "$OUT/$name.load"
     echo "{\"start\": $start, \"end\": $end}" > "$OUT/$name.times.json"
-    [[ -n $watcher_pid ]] && kill $watcher_pid 2>/dev/null || true
     curl -sf "http://127.0.0.1:$sport/v1/missions/$ds$kbps" > "$OUT/$name.mission.json" || echo '{}' > "$OUT/$name.mission.json"
     curl -sf "http://127.0.0.1:$sport/v1/missions/$ds$kbps/model.glb" -o "$OUT/$name.model.glb" || true
-    kill -TERM $relay_pid; wait $relay_pid || true
-    kill -TERM $serve_pid; wait $serve_pid || true
+    stop_started
     [[ -s $OUT/$name.model.glb ]] && eval_scene "$name" "$OUT/$name.model.glb" "$ds"
   done
 done
