@@ -11,7 +11,9 @@
 // - fit_bytes > 0 bounds the view: tiles that would take more than fit_bytes on a renderer are selected again at a
 //   coarser error (tiles::select_tiles_to_fit, up to kMaxMaxErrorPx), so a view of a long mission draws coarser
 //   tiles instead of loading its parts again for every view (a renderer keeps at most its share of the resident
-//   cap). The error used is reported (MissionViewPlan::max_error_px).
+//   cap). When no error up to kMaxMaxErrorPx fits (a camera inside tiles' boxes refines them at any error), the
+//   tiles are refined by largest error first while they fit (tiles::select_tiles_within). The error used is
+//   reported (MissionViewPlan::max_error_px; kMaxMaxErrorPx in that case).
 #include <cstddef>
 #include <cstdint>
 #include <string>

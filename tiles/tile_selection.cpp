@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cmath>
+#include <queue>
 
 namespace rgbdcast::tiles {
 
@@ -81,6 +82,106 @@ TileSelection select_tiles(const std::map<TileKey, TileRecord>& records, int top
   return std::move(t.out);
 }
 
+namespace {
+
+// Refinement in order of screen-space error under a byte budget (tile_selection.h, select_tiles_within).
+class BudgetTraversal {
+ public:
+  BudgetTraversal(const std::map<TileKey, TileRecord>& records, const ViewCamera& camera, double max_error_px,
+                  size_t fit_bytes)
+      : records_(records), camera_(camera), max_error_px_(max_error_px), fit_bytes_(fit_bytes) {}
+
+  TileSelection run(int top_level) {
+    for (const auto& [key, r] : records_) {
+      if (key.level != top_level) continue;
+      ++out_.visited;
+      if (box_in_frustum(r.box, camera_))
+        add(r);
+      else
+        ++out_.culled;
+    }
+    while (!queue_.empty()) {
+      const Candidate c = queue_.top();
+      queue_.pop();
+      refine_if_it_fits(*c.record);
+    }
+    for (const auto& [key, r] : drawn_) {
+      out_.tiles.push_back(r);
+      out_.triangles += r->triangles;
+      out_.bytes += r->bytes;
+    }
+    out_.render_bytes = render_bytes_;
+    return std::move(out_);
+  }
+
+ private:
+  struct Candidate {
+    double sse_px;
+    const TileRecord* record;
+    // The largest error first; among equal ones (a camera inside several boxes: infinite) the coarser tile, then the
+    // key, so that the order does not depend on the heap.
+    bool operator<(const Candidate& o) const {
+      if (sse_px != o.sse_px) return sse_px < o.sse_px;
+      if (record->key.level != o.record->key.level) return record->key.level < o.record->key.level;
+      return o.record->key < record->key;
+    }
+  };
+
+  // The visible children of r (culled ones counted).
+  std::vector<const TileRecord*> visible_children(const TileRecord& r) {
+    std::vector<const TileRecord*> out;
+    for (const TileRecord* c : children_of(records_, r.key)) {
+      ++out_.visited;
+      if (box_in_frustum(c->box, camera_))
+        out.push_back(c);
+      else
+        ++out_.culled;
+    }
+    return out;
+  }
+
+  // A visible tile joins the drawn set; a stale one is replaced by its visible children at once (it cannot be drawn).
+  void add(const TileRecord& r) {
+    if (r.key.level > 0 && r.stale) {
+      for (const TileRecord* c : visible_children(r)) add(*c);
+      return;
+    }
+    drawn_.emplace(r.key, &r);
+    render_bytes_ += r.render_bytes;
+    if (r.key.level == 0 || children_of(records_, r.key).empty()) return;
+    const double d = distance_to_box(r.box, camera_);
+    const double sse_px = d > 0.0 ? r.geometric_error_m * camera_.fy / d : INFINITY;
+    if (sse_px > max_error_px_) queue_.push({sse_px, &r});
+  }
+
+  // REPLACE: r gives way to all its visible children, or it stays.
+  void refine_if_it_fits(const TileRecord& r) {
+    const std::vector<const TileRecord*> children = visible_children(r);
+    std::uint64_t children_bytes = 0;
+    for (const TileRecord* c : children) children_bytes += c->render_bytes;
+    if (render_bytes_ - r.render_bytes + children_bytes > fit_bytes_) return;
+    drawn_.erase(r.key);
+    render_bytes_ -= r.render_bytes;
+    for (const TileRecord* c : children) add(*c);
+  }
+
+  const std::map<TileKey, TileRecord>& records_;
+  const ViewCamera& camera_;
+  const double max_error_px_;
+  const size_t fit_bytes_;
+  std::priority_queue<Candidate> queue_;
+  std::map<TileKey, const TileRecord*> drawn_;  // by key: the draw order does not depend on addresses
+  std::uint64_t render_bytes_ = 0;
+  TileSelection out_;
+};
+
+}  // namespace
+
+TileSelection select_tiles_within(const std::map<TileKey, TileRecord>& records, int top_level, const ViewCamera& camera,
+                                  double max_error_px, size_t fit_bytes) {
+  return BudgetTraversal(records, camera, max_error_px, fit_bytes).run(top_level);
+}
+
 TileSelection select_tiles_to_fit(const std::map<TileKey, TileRecord>& records, int top_level, const ViewCamera& camera,
                                   double max_error_px, size_t fit_bytes, double limit_px, double* used_px) {
   *used_px = max_error_px;
@@ -89,6 +190,9 @@ TileSelection select_tiles_to_fit(const std::map<TileKey, TileRecord>& records, 
     *used_px = std::min(limit_px, std::max(1.0, 2.0 * *used_px));
     s = select_tiles(records, top_level, camera, *used_px);
   }
+  // No uniform error fits: a camera inside tiles' boxes refines them at any error.
+  if (fit_bytes > 0 && s.render_bytes > fit_bytes)
+    s = select_tiles_within(records, top_level, camera, max_error_px, fit_bytes);
   return s;
 }
 

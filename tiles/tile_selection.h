@@ -32,9 +32,20 @@ TileSelection select_tiles(const std::map<TileKey, TileRecord>& records, int top
 
 // The tiles `camera` draws at max_error_px, or coarser when they would take more than fit_bytes on a renderer (their
 // records' render_bytes): the error is doubled (from at least 1 px, up to limit_px) and the tiles selected again
-// until they fit or the limit is reached. *used_px gets the error of the selection returned. fit_bytes 0: no bound.
+// until they fit. When even limit_px does not fit (a camera inside tiles' boxes refines them at any error), the
+// selection is select_tiles_within(max_error_px, fit_bytes). *used_px gets the uniform error of the selection
+// returned, limit_px for the last case. fit_bytes 0: no bound.
 TileSelection select_tiles_to_fit(const std::map<TileKey, TileRecord>& records, int top_level, const ViewCamera& camera,
                                   double max_error_px, size_t fit_bytes, double limit_px, double* used_px);
+
+// Refinement under a byte budget, in order of screen-space error (as point-cloud viewers fill a point budget): from
+// the visible top tiles, the drawn tile with the largest error above max_error_px is replaced by its visible
+// children when the drawn tiles' render_bytes stay within fit_bytes with them; otherwise it stays drawn. Among equal
+// errors (infinite for a camera inside boxes) the coarser tile goes first. A stale tile is always replaced. The
+// selection is over fit_bytes only when the visible top tiles (or the fresh tiles under stale ones) already are.
+// With a budget that no refinement exceeds it draws what select_tiles(max_error_px) draws.
+TileSelection select_tiles_within(const std::map<TileKey, TileRecord>& records, int top_level, const ViewCamera& camera,
+                                  double max_error_px, size_t fit_bytes);
 
 // Whether an axis-aligned world box can be seen by `camera` (some part of it inside the frustum, near to far), by the
 // plane test: false only when all eight corners lie outside one plane. Conservative: may say true for a box beside

@@ -106,6 +106,70 @@ TEST(TileSelection, AViewOverTheRendererBudgetIsCoarsenedUntilItFits) {
   EXPECT_EQ(keys(floor), keys(select_tiles(records, 3, near, 1000.0)));
 }
 
+// The contract of select_tiles_within, checked on a selection: within the budget (unless the top tiles alone are
+// over it), REPLACE (no drawn tile under another), nothing stale or culled drawn, and no drawn tile left coarse that
+// was above the error and whose visible children would have fitted in place of it.
+void expect_budget_contract(const std::map<TileKey, TileRecord>& records, const ViewCamera& camera, double max_px,
+                            size_t budget, const TileSelection& s) {
+  const std::set<TileKey> drawn = keys(s);
+  std::uint64_t total = 0;
+  for (const TileRecord* r : s.tiles) total += r->render_bytes;
+  EXPECT_EQ(total, s.render_bytes);
+  EXPECT_LE(s.render_bytes, budget);
+  for (const TileRecord* r : s.tiles) {
+    EXPECT_FALSE(r->stale && r->key.level > 0) << r->key.name();
+    EXPECT_TRUE(box_in_frustum(r->box, camera)) << r->key.name();
+    for (TileKey a = r->key.parent(); records.count(a); a = a.parent()) EXPECT_FALSE(drawn.count(a)) << r->key.name();
+    const auto children = children_of(records, r->key);
+    if (r->key.level == 0 || children.empty()) continue;
+    const double d = distance_to_box(r->box, camera);
+    const double sse = d > 0.0 ? r->geometric_error_m * camera.fy / d : INFINITY;
+    if (sse <= max_px) continue;
+    std::uint64_t children_bytes = 0;
+    for (const TileRecord* c : children)
+      if (box_in_frustum(c->box, camera)) children_bytes += c->render_bytes;
+    EXPECT_GT(s.render_bytes - r->render_bytes + children_bytes, budget) << r->key.name() << " could have refined";
+  }
+}
+
+TEST(TileSelection, ACameraInsideTheTilesIsBoundedByRefiningTheLargestErrorFirst) {
+  auto records = row_of_leaves(8, 3, 0.05);
+  for (auto& [key, r] : records) r.render_bytes = key.level == 0 ? 4000 : 1000;
+  // Standing inside leaf 4's box (and its ancestors'): their distance is 0, so they refine at any error, and no
+  // uniform error brings the view under a budget below two leaves.
+  auto inside = ViewCamera::look_at(Eigen::Vector3d(9.0, -0.5, 0.5), Eigen::Vector3d(9.0, -0.5, 5.0),
+                                    Eigen::Vector3d(0, -1, 0), 60.0, 640, 480);
+  ASSERT_TRUE(inside.ok());
+  inside->far_m = 1000.0;
+  const TileSelection at_limit = select_tiles(records, 3, *inside, 1000.0);
+  EXPECT_TRUE(keys(at_limit).count(TileKey{0, 4, 0}));
+  for (size_t budget : {1000u, 2500u, 4500u, 7000u}) {
+    ASSERT_GT(at_limit.render_bytes, budget);
+    double used = -1.0;
+    const TileSelection fit = select_tiles_to_fit(records, 3, *inside, 1.0, budget, 1000.0, &used);
+    EXPECT_EQ(used, 1000.0) << budget;
+    EXPECT_EQ(keys(fit), keys(select_tiles_within(records, 3, *inside, 1.0, budget))) << budget;
+    expect_budget_contract(records, *inside, 1.0, budget, fit);
+  }
+  // A budget no refinement exceeds: what the error alone selects.
+  EXPECT_EQ(keys(select_tiles_within(records, 3, *inside, 1.0, SIZE_MAX)),
+            keys(select_tiles(records, 3, *inside, 1.0)));
+  EXPECT_EQ(keys(select_tiles_within(records, 3, camera_at(8.0, 20.0), 1.0, SIZE_MAX)),
+            keys(select_tiles(records, 3, camera_at(8.0, 20.0), 1.0)));
+  // A budget below the top tile: the top tile, over the budget (nothing coarser exists).
+  const TileSelection top = select_tiles_within(records, 3, *inside, 1.0, 10);
+  ASSERT_EQ(top.tiles.size(), 1u);
+  EXPECT_EQ(top.tiles.front()->key, (TileKey{3, 0, 0}));
+  // Stale tiles are never drawn: the top and a level-2 tile stale, their fresh descendants stand in, within budget.
+  records[TileKey{3, 0, 0}].stale = true;
+  records[TileKey{2, 1, 0}].stale = true;
+  const TileSelection stale = select_tiles_within(records, 3, *inside, 1.0, 4500);
+  EXPECT_FALSE(keys(stale).count(TileKey{3, 0, 0}));
+  EXPECT_FALSE(keys(stale).count(TileKey{2, 1, 0}));
+  EXPECT_FALSE(stale.tiles.empty());
+  expect_budget_contract(records, *inside, 1.0, 4500, stale);
+}
+
 TEST(TileSelection, TheSelectionCoversTheViewOnceAndCullsWhatIsBehind) {
   const auto records = row_of_leaves(8, 3, 0.05);
   for (double px : {0.0, 1.0, 8.0}) {
