@@ -1,8 +1,10 @@
 #include "input/depth_encoding.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <optional>
 
 namespace rgbdcast {
 
@@ -14,27 +16,55 @@ constexpr double kSensorMaxM = 20.0;  // the far end of an RGB-D sensor's range 
 
 std::uint16_t sun_to_mm(std::uint16_t raw) { return static_cast<std::uint16_t>((raw >> 3) | (raw << 13)); }
 
-// The raw values' signature, for png16 images that hold another encoding.
-struct RawSignature {
-  size_t valid = 0, multiples_of_8 = 0, at_2047 = 0;
-  std::uint16_t max_raw = 0;
-  explicit RawSignature(const cv::Mat& raw16) {
-    for (int y = 0; y < raw16.rows; ++y) {
-      const std::uint16_t* row = raw16.ptr<std::uint16_t>(y);
-      for (int x = 0; x < raw16.cols; ++x) {
-        if (row[x] == 0) continue;
-        ++valid;
-        multiples_of_8 += (row[x] & 7) == 0;
-        at_2047 += row[x] == kNyuNoDepth;
-        max_raw = std::max(max_raw, row[x]);
+// One pass over a depth image in units (png16's raw values, sun's millimetres), in integers: what the checks of
+// decode_depth_encoding read. A frame is read for every image a stream tracks, so this pass is on its critical path.
+struct UnitStats {
+  size_t valid = 0, beyond = 0, multiples_of_8 = 0, at_2047 = 0;
+  std::uint16_t max_units = 0;
+  // units / depth_scale > kSensorMaxM, for integer units: units > floor(kSensorMaxM * depth_scale).
+  UnitStats(const cv::Mat& units16, double depth_scale) {
+    const double limit = std::floor(kSensorMaxM * depth_scale);
+    const std::uint32_t far = limit >= 65535.0 ? 65535u : limit <= 0.0 ? 0u : static_cast<std::uint32_t>(limit);
+    for (int y = 0; y < units16.rows; ++y) {
+      const std::uint16_t* row = units16.ptr<std::uint16_t>(y);
+      size_t v = 0, f = 0, m8 = 0, a = 0;
+      std::uint16_t mx = 0;
+      for (int x = 0; x < units16.cols; ++x) {
+        const std::uint16_t u = row[x];
+        const size_t on = u != 0;
+        v += on;
+        f += u > far;
+        m8 += on & static_cast<size_t>((u & 7) == 0);
+        a += u == kNyuNoDepth;
+        mx = std::max(mx, u);
       }
+      valid += v, beyond += f, multiples_of_8 += m8, at_2047 += a;
+      max_units = std::max(max_units, mx);
     }
   }
   // Kinect disparity: nothing above its "no depth" value 2047, which fills at least 1 % of the pixels.
-  bool looks_like_disparity() const { return max_raw == kNyuNoDepth && at_2047 * 100 >= valid; }
+  bool looks_like_disparity() const { return max_units == kNyuNoDepth && at_2047 * 100 >= valid; }
   // SUN's rotation of millimetres below 8.192 m leaves the low 3 bits 0.
   bool looks_rotated() const { return valid > 0 && multiples_of_8 == valid; }
 };
+
+// NYU raw disparity to metres (CV_32FC1), counting the valid depths and those beyond the sensor's range.
+cv::Mat nyu_to_metres(const cv::Mat& raw16, size_t& valid, size_t& beyond, std::uint16_t& max_raw) {
+  cv::Mat out(raw16.size(), CV_32FC1);
+  for (int y = 0; y < raw16.rows; ++y) {
+    const std::uint16_t* in = raw16.ptr<std::uint16_t>(y);
+    float* o = out.ptr<float>(y);
+    for (int x = 0; x < raw16.cols; ++x) {
+      const std::uint16_t raw = in[x];
+      max_raw = std::max(max_raw, raw);
+      double z = 0;
+      if (raw != kNyuNoDepth && raw < kNyuOffset) z = kNyuNumerator / (kNyuOffset - raw);
+      o[x] = static_cast<float>(z);
+      if (z > 0) ++valid, beyond += z > kSensorMaxM;
+    }
+  }
+  return out;
+}
 
 }  // namespace
 
@@ -62,27 +92,26 @@ Result<cv::Mat> decode_depth_encoding(const cv::Mat& raw16, DepthEncoding encodi
   if (raw16.type() != CV_16UC1)
     return make_error(ErrorCode::kInvalidInput, what + ": depth must be 16-bit, one channel");
   // png16 is returned as it is; the others get an image of their own.
-  cv::Mat out = encoding == DepthEncoding::kPng16
-                    ? raw16
-                    : cv::Mat(raw16.size(), encoding == DepthEncoding::kNyu ? CV_32FC1 : CV_16UC1);
+  cv::Mat out;
   size_t valid = 0, beyond = 0;
   std::uint16_t max_raw = 0;
-  for (int y = 0; y < raw16.rows; ++y) {
-    const std::uint16_t* in = raw16.ptr<std::uint16_t>(y);
-    for (int x = 0; x < raw16.cols; ++x) {
-      const std::uint16_t raw = in[x];
-      max_raw = std::max(max_raw, raw);
-      double z = 0;
-      if (encoding == DepthEncoding::kNyu) {
-        if (raw != kNyuNoDepth && raw < kNyuOffset) z = kNyuNumerator / (kNyuOffset - raw);
-        out.ptr<float>(y)[x] = static_cast<float>(z);
-      } else {
-        const std::uint16_t units = encoding == DepthEncoding::kSun ? sun_to_mm(raw) : raw;
-        if (encoding == DepthEncoding::kSun) out.ptr<std::uint16_t>(y)[x] = units;
-        z = units / depth_scale;
+  std::optional<UnitStats> stats;
+  if (encoding == DepthEncoding::kNyu) {
+    out = nyu_to_metres(raw16, valid, beyond, max_raw);
+  } else {
+    if (encoding == DepthEncoding::kSun) {
+      out = cv::Mat(raw16.size(), CV_16UC1);
+      for (int y = 0; y < raw16.rows; ++y) {
+        const std::uint16_t* in = raw16.ptr<std::uint16_t>(y);
+        std::uint16_t* o = out.ptr<std::uint16_t>(y);
+        for (int x = 0; x < raw16.cols; ++x) o[x] = sun_to_mm(in[x]);
       }
-      if (z > 0) ++valid, beyond += z > kSensorMaxM;
+    } else {
+      out = raw16;
     }
+    stats.emplace(out, depth_scale);
+    valid = stats->valid;
+    beyond = stats->beyond;
   }
   char buf[320];
   std::string hint;
@@ -94,7 +123,7 @@ Result<cv::Mat> decode_depth_encoding(const cv::Mat& raw16, DepthEncoding encodi
     return make_error(ErrorCode::kInvalidInput, what + buf);
   }
   if (encoding == DepthEncoding::kPng16) {
-    const RawSignature sig(raw16);
+    const UnitStats& sig = *stats;  // png16's units are its raw values
     if (sig.looks_like_disparity()) {
       std::snprintf(buf, sizeof buf,
                     ": no value exceeds 2047 and 2047 fills %.0f%% of the valid pixels, as the Kinect's disparity "
