@@ -41,6 +41,12 @@ double distance_to_box(const Eigen::AlignedBox3d& box, const ViewCamera& camera)
 
 namespace {
 
+// A tile's screen-space error in pixels (tile_selection.h); infinite for a camera inside its box.
+double screen_error_px(const TileRecord& r, const ViewCamera& camera) {
+  const double d = distance_to_box(r.box, camera);
+  return d > 0.0 ? r.geometric_error_m * camera.fy / d : INFINITY;
+}
+
 struct Traversal {
   const std::map<TileKey, TileRecord>& records;
   const ViewCamera& camera;
@@ -62,9 +68,7 @@ struct Traversal {
     }
     if (r.key.level == 0) return draw(r);
     if (!r.stale) {  // a stale tile's content lacks what changed below it: its fresh descendants are drawn instead
-      const double d = distance_to_box(r.box, camera);
-      const double sse_px = d > 0.0 ? r.geometric_error_m * camera.fy / d : INFINITY;
-      if (sse_px <= max_error_px) return draw(r);
+      if (screen_error_px(r, camera) <= max_error_px) return draw(r);
     }
     const auto children = children_of(records, r.key);
     if (children.empty() && !r.stale) return draw(r);
@@ -149,8 +153,7 @@ class BudgetTraversal {
     drawn_.emplace(r.key, &r);
     render_bytes_ += r.render_bytes;
     if (r.key.level == 0 || children_of(records_, r.key).empty()) return;
-    const double d = distance_to_box(r.box, camera_);
-    const double sse_px = d > 0.0 ? r.geometric_error_m * camera_.fy / d : INFINITY;
+    const double sse_px = screen_error_px(r, camera_);
     if (sse_px > max_error_px_) queue_.push({sse_px, &r});
   }
 
