@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -51,6 +52,21 @@ Eigen::Matrix4d pose_of(const std::vector<double>& v) {
 
 }  // namespace
 
+std::string mission_keyframe_cache() {
+  const char* shared = std::getenv("RGBDCAST_MISSION_KEYFRAMES_DIR");
+  if (shared && *shared) {
+    std::filesystem::create_directories(shared);
+    return shared;
+  }
+  // Built once per test program and removed when it exits.
+  struct Cache {
+    std::string dir = temp_dir("mission-keyframes");
+    ~Cache() { remove_tree_quietly(dir); }
+  };
+  static const Cache cache;
+  return cache.dir;
+}
+
 std::vector<MissionKeyframeFile> mission_keyframes(const std::vector<int>& frames, std::string* error) {
   std::vector<MissionKeyframeFile> out;
   const std::string root = data_path(kMissionExcerpt);
@@ -66,13 +82,7 @@ std::vector<MissionKeyframeFile> mission_keyframes(const std::vector<int>& frame
       if (std::abs(g.t - t) < std::abs(best->t - t)) best = &g;
     return pose_of(best->v);
   };
-  // Built once per test binary and removed when it exits.
-  struct Cache {
-    std::string dir = temp_dir("mission-keyframes");
-    ~Cache() { remove_tree_quietly(dir); }
-  };
-  static const Cache cache_dir;
-  const std::string& cache = cache_dir.dir;
+  const std::string cache = mission_keyframe_cache();
   const Eigen::Matrix4d world_from_first_inv = nearest(rgb.at(static_cast<size_t>(frames.front())).t).inverse();
   for (int f : frames) {
     if (f < 0 || static_cast<size_t>(f) >= rgb.size()) {
