@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer harnesses of fuzz/ (clang-16, ASan + UBSan + libFuzzer) in build-fuzz/ and runs each one for
-# [seconds] (default 20) from its seed corpus, through ctest (tests fuzz_smoke_*, RGBDCAST_JOBS of them at a time).
+# [seconds] (default 10) from its seed corpus, through ctest (tests fuzz_smoke_*, RGBDCAST_JOBS of them at a time).
 # A crash, leak, timeout (10 s) or an input that takes over 2.5 GB fails the run; the input is kept in
 # build-fuzz/fuzz/artifacts/.
-#   scripts/fuzz.sh            # the CI smoke run: 10 harnesses x 20 s (rosbag only where ROS bag input is built)
+#   scripts/fuzz.sh            # the CI smoke run: 10 harnesses x 10 s (rosbag only where ROS bag input is built)
 #   scripts/fuzz.sh 600        # longer
 #   FUZZ_ONLY=glb scripts/fuzz.sh 3600
 # RGBDCAST_FUZZ_ALSO_BUILD: more targets of build-fuzz/ to build in the same build (scripts/test.sh gives the
@@ -11,7 +11,7 @@
 # Reproduce a crash: build-fuzz/fuzz/fuzz_glb build-fuzz/fuzz/artifacts/glb-crash-<sha1>
 set -euo pipefail
 cd "$(dirname "$0")/.."
-seconds="${1:-20}"
+seconds="${1:-10}"
 jobs="${RGBDCAST_JOBS:-2}"
 only="${FUZZ_ONLY:-glb|draco|intrinsics|frame_decode|frame_upload|multipart|pcd|trajectory|view_query|rosbag}"
 for tool in clang-16 clang++-16; do
