@@ -11,7 +11,7 @@ cd build
 ctest --output-on-failure --timeout 900 -j"${RGBDCAST_TEST_JOBS:-$((2 * $(nproc)))}" "$@"
 # The fuzz smoke run: every libFuzzer target for RGBDCAST_FUZZ_SECONDS (10 s) from its seed corpus, built
 # with clang-16 in build-fuzz/. RGBDCAST_FUZZ_SECONDS=0 skips it. A smoke run, not a campaign: from the seeds, the
-# GLB target reaches about 95 % of the edges in 10 s that it reaches in 20 (BENCHMARKS.md, "Fuzzing").
+# GLB target reached about 95 % of its 20 s edges by half its executions (BENCHMARKS.md, "Fuzzing").
 cd ..
 if [ "${RGBDCAST_FUZZ_SECONDS:-10}" != 0 ]; then
   # The tests of the untrusted-input libraries under ASan + UBSan are built with the harnesses, in one build.
