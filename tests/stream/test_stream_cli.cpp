@@ -212,7 +212,13 @@ TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNoth
       << slow.bytes_per_keyframe << " vs " << fast.bytes_per_keyframe;
   for (const auto& e : fast.outbox) EXPECT_GT(e["budget_kb"].get<double>(), 11.25 + 1e-9) << e.dump();
   for (const auto& e : slow.outbox) EXPECT_LE(e["budget_kb"].get<double>(), 11.25 + 1e-9) << e.dump();
-  // Paced: every keyframe but the last arrived no faster than the cap allows.
+  // Paced: every keyframe but the last arrived no faster than the cap allows. The server stamps `received` when a
+  // POST's headers arrive, so the span of the stamps can fall short of the sender's by the difference between the
+  // first POST's delay and the last one's (the first opens the connection and creates the mission, and on 2 busy
+  // cores a server thread may wait its turn). A second of it is allowed: unpaced, these keyframes (about 7 s of line
+  // at the cap) would all arrive within it. The pacing itself is checked on an injected clock
+  // (SenderLanes.PacingAtTheCapWaitsOnTheInjectedClock).
+  constexpr double kStampJitterS = 1.0;
   std::vector<std::pair<double, double>> arrivals;  // received, bytes
   for (const auto& k : slow.mission["keyframes"])
     arrivals.push_back({k["received"].get<double>(), k["bytes"].get<double>()});
@@ -220,7 +226,7 @@ TEST_F(StreamCli, BudgetFollowsLinkKbpsAndARestartedSenderLosesAndDuplicatesNoth
   double paced_bytes = 0;
   for (size_t i = 0; i + 1 < arrivals.size(); ++i) paced_bytes += arrivals[i].second;
   const double span_s = arrivals.back().first - arrivals.front().first;
-  EXPECT_LE(paced_bytes * 8 / 1000, 20 * 1.05 * span_s + 1.0) << paced_bytes << " bytes in " << span_s << " s";
+  EXPECT_LE(paced_bytes * 8 / 1000, 20 * (span_s + kStampJitterS)) << paced_bytes << " bytes in " << span_s << " s";
 
   // Killed mid-mission once a keyframe was acknowledged, then started again with the same outbox. (With
   // --keep-every-keyframe nothing is superseded, so the resumed mission must hold exactly the fast run's keyframes.)
