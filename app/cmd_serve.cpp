@@ -90,6 +90,9 @@ void register_serve(CLI::App& app) {
                   "MiB of mission tiles and keyframes kept on the renderers, all together (least recently used go)")
       ->capture_default_str()
       ->check(CLI::Range(16, 1 << 20));
+  cmd->add_flag("!--keep-every-surface", opts->supersede,
+                "Tiles keep every keyframe's whole surface (by default newer keyframes supersede the older surface "
+                "they cover)");
 
   cmd->add_option("--max-event-streams", opts->max_event_streams,
                   "Mission event streams (SSE) open at once before 503; each holds an HTTP thread while open")

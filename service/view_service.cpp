@@ -591,8 +591,9 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   mission_options.event_stream_max_s = options.event_stream_max_s;
   mission_options.keep_alive_s = options.keep_alive_s;
   Impl* raw = impl.get();
-  impl->tiles =
-      std::make_unique<MissionTiles>(options.data_dir, *impl->missions, tiles::TilingOptions{}, impl->tile_storage);
+  tiles::TilingOptions tiling;
+  tiling.supersede = options.supersede;
+  impl->tiles = std::make_unique<MissionTiles>(options.data_dir, *impl->missions, tiling, impl->tile_storage);
   impl->tiles->start();
   // Keyframes and removals made through other replicas (a shared store) bring this replica's tiles up to date too.
   MissionTiles* tiles = impl->tiles.get();

@@ -39,6 +39,7 @@ struct ServeOptions {
   int render_queue = 16;     // views waiting beyond those rendering; more get 503
   size_t resident_mb = 512;  // missions' tiles and keyframes resident on the renderers, all together (MiB;
                              // least recently used evicted: service/render_pool.h)
+  bool supersede = true;     // newer keyframes supersede the older surface they cover in the tiles (tiles/tile_cover.h)
   int reducers = 1;          // frame reductions at once
   int reduce_threads = 0;    // OpenMP threads per reduction (ReductionParams::threads); 0 = max(1, cores /
                              // reducers), so reductions at once never ask for more threads than cores

@@ -15,9 +15,9 @@
 namespace rgbdcast::tiles {
 namespace {
 
-constexpr int kFormat = 6;  // 2: inner tiles are textured; 3: their texels at least twice their children's;
+constexpr int kFormat = 7;  // 2: inner tiles are textured; 3: their texels at least twice their children's;
                             // 4: records carry render bytes; 5: keyframes are the leaves, inner tiles can be stale;
-                            // 6: inner tiles keep one layer where children overlap
+                            // 6: inner tiles keep one layer where children overlap; 7: newer keyframes supersede
 
 nlohmann::json options_json(const TilingOptions& o) {
   return {{"leaf_size_m", o.leaf_size_m},
@@ -32,7 +32,11 @@ nlohmann::json options_json(const TilingOptions& o) {
           {"inner_texels_per_error", o.inner.texels_per_error},
           {"inner_min_leg_texels", o.inner.min_leg_texels},
           {"inner_min_layer_voxel_m", o.inner.min_layer_voxel_m},
-          {"geometry", to_string(o.geometry)}};
+          {"geometry", to_string(o.geometry)},
+          {"supersede", o.supersede},
+          {"cover_depth_tolerance_m", o.cover.depth_tolerance_m},
+          {"cover_max_range_ratio", o.cover.max_range_ratio},
+          {"cover_downscale", o.cover.downscale}};
 }
 
 // The quantization step of a tile's positions bounds how far its stored vertices are from the exact ones: the box
@@ -67,6 +71,29 @@ class TileHierarchy::SceneCache {
   const KeyframeLoader& load_;
   size_t keep_;
   std::list<std::pair<KeyframeId, std::shared_ptr<const Scene>>> entries_;  // most recent first
+};
+
+// The depths of the keyframes that trim older ones, the most recent few kept (a newer keyframe is asked for once per
+// older one it overlaps, and again when one of those is worked out from scratch).
+class TileHierarchy::CoverCache {
+ public:
+  explicit CoverCache(size_t keep) : keep_(keep) {}
+  std::shared_ptr<const CoverDepth> find(const KeyframeId& id) {
+    for (auto it = entries_.begin(); it != entries_.end(); ++it)
+      if (it->first == id) {
+        entries_.splice(entries_.begin(), entries_, it);
+        return entries_.front().second;
+      }
+    return nullptr;
+  }
+  void put(const KeyframeId& id, std::shared_ptr<const CoverDepth> depth) {
+    entries_.emplace_front(id, std::move(depth));
+    if (entries_.size() > keep_) entries_.pop_back();
+  }
+
+ private:
+  size_t keep_;
+  std::list<std::pair<KeyframeId, std::shared_ptr<const CoverDepth>>> entries_;  // most recent first
 };
 
 std::string TileRecord::file() const { return key.name() + ".v" + std::to_string(version) + ".glb"; }
@@ -140,6 +167,9 @@ Result<std::unique_ptr<TileHierarchy>> TileHierarchy::open(std::shared_ptr<TileS
   return h;
 }
 
+TileHierarchy::TileHierarchy(std::shared_ptr<TileStorage> storage, TilingOptions options)
+    : storage_(std::move(storage)), options_(std::move(options)), covers_(std::make_unique<CoverCache>(64)) {}
+
 TileHierarchy::~TileHierarchy() = default;
 
 Status TileHierarchy::load_committed(const std::vector<std::uint8_t>& record) {
@@ -158,6 +188,10 @@ Status TileHierarchy::load_committed(const std::vector<std::uint8_t>& record) {
         if (!key) return make_error(ErrorCode::kInvalidInput, "tiles: bad tile name in " + path);
         e.leaves.push_back(*key);
       }
+      const auto& box = k.at(3);
+      e.box = Eigen::AlignedBox3d(Eigen::Vector3d(box.at(0), box.at(1), box.at(2)),
+                                  Eigen::Vector3d(box.at(3), box.at(4), box.at(5)));
+      e.covered_by = k.at(4).get<std::vector<std::int64_t>>();
       keyframes_[k.at(0).get<std::int64_t>()] = std::move(e);
     }
     for (const auto& t : j.at("tiles")) {
@@ -199,6 +233,8 @@ size_t count_stale(const std::map<TileKey, TileRecord>& tiles) {
 Status TileHierarchy::apply_keyframes(Build& b, const std::vector<KeyframeId>& wanted, SceneCache& scenes) {
   std::map<std::int64_t, std::int64_t> want;
   for (const auto& k : wanted) want[k.seq] = k.rev;
+  std::vector<std::pair<std::int64_t, Eigen::AlignedBox3d>> gone;
+  std::vector<std::int64_t> added;
   // Keyframes gone or replaced: their leaves go (a replacement's is built again below).
   for (auto it = b.keyframes.begin(); it != b.keyframes.end();) {
     auto w = want.find(it->first);
@@ -206,6 +242,7 @@ Status TileHierarchy::apply_keyframes(Build& b, const std::vector<KeyframeId>& w
       ++it;
       continue;
     }
+    gone.emplace_back(it->first, it->second.box);
     b.leaves.insert(it->second.leaves.begin(), it->second.leaves.end());
     ++b.stats.keyframes_changed;
     it = b.keyframes.erase(it);
@@ -214,11 +251,114 @@ Status TileHierarchy::apply_keyframes(Build& b, const std::vector<KeyframeId>& w
     if (b.keyframes.count(seq)) continue;
     auto scene = scenes.get({seq, rev});
     if (!scene) return scene.error();
-    KeyframeEntry e{rev, {}};
+    KeyframeEntry e;
+    e.rev = rev;
     if (auto leaf = keyframe_leaf(**scene, seq, options_.leaf_size_m)) e.leaves.push_back(*leaf);
+    e.box = cover_box(**scene, options_.cover);
     b.leaves.insert(e.leaves.begin(), e.leaves.end());
     if (!keyframes_.count(seq)) ++b.stats.keyframes_changed;
     b.keyframes[seq] = std::move(e);
+    added.push_back(seq);
+  }
+  if (!options_.supersede) return ok_status();
+  return supersede(b, added, gone, scenes);
+}
+
+Result<std::shared_ptr<const CoverDepth>> TileHierarchy::depth_of(const KeyframeId& id, SceneCache& scenes) {
+  if (auto cached = covers_->find(id)) return cached;
+  auto scene = scenes.get(id);
+  if (!scene) return scene.error();
+  auto depth = cover_depth(**scene, options_.cover);
+  // A keyframe without a camera or a surface in front of it covers nothing: an empty depth says so.
+  auto shared = std::make_shared<const CoverDepth>(depth ? std::move(*depth) : CoverDepth{});
+  covers_->put(id, shared);
+  return shared;
+}
+
+namespace {
+// `covered` with what `more` marks added; whether anything was.
+bool add_covered(std::vector<bool>& covered, const std::vector<bool>& more) {
+  bool changed = false;
+  if (covered.size() < more.size()) covered.resize(more.size(), false);
+  for (size_t i = 0; i < more.size(); ++i)
+    if (more[i] && !covered[i]) covered[i] = changed = true;
+  return changed;
+}
+bool all_covered(const std::vector<bool>& covered) {
+  return !covered.empty() && std::all_of(covered.begin(), covered.end(), [](bool c) { return c; });
+}
+}  // namespace
+
+Status TileHierarchy::cover_again(Build& b, std::int64_t seq, SceneCache& scenes) {
+  KeyframeEntry& e = b.keyframes.at(seq);
+  auto scene = scenes.get({seq, e.rev});
+  if (!scene) return scene.error();
+  auto covered = std::make_shared<std::vector<bool>>();
+  e.covered_by.clear();
+  for (auto it = b.keyframes.upper_bound(seq); it != b.keyframes.end(); ++it) {
+    if (!it->second.box.intersects(e.box)) continue;
+    auto depth = depth_of({it->first, it->second.rev}, scenes);
+    if (!depth) return depth.error();
+    if ((*depth)->depth_m.empty()) continue;
+    std::vector<bool> by;
+    if (mark_covered(**scene, **depth, options_.cover, by) == 0) continue;
+    e.covered_by.push_back(it->first);
+    add_covered(*covered, by);
+  }
+  b.leaves.insert(e.leaves.begin(), e.leaves.end());
+  e.leaves.clear();
+  if (!all_covered(*covered))
+    if (auto leaf = keyframe_leaf(**scene, seq, options_.leaf_size_m)) e.leaves.push_back(*leaf);
+  b.leaves.insert(e.leaves.begin(), e.leaves.end());
+  e.covered = e.covered_by.empty() ? nullptr : std::move(covered);
+  return ok_status();
+}
+
+Status TileHierarchy::supersede(Build& b, const std::vector<std::int64_t>& added,
+                                const std::vector<std::pair<std::int64_t, Eigen::AlignedBox3d>>& gone,
+                                SceneCache& scenes) {
+  // From scratch: what newer keyframes cover of the added ones, and of those a gone keyframe covered.
+  std::set<std::int64_t> again(added.begin(), added.end());
+  for (const auto& [g, box] : gone)
+    for (auto& [seq, e] : b.keyframes)
+      if (seq < g && std::binary_search(e.covered_by.begin(), e.covered_by.end(), g)) again.insert(seq);
+  for (std::int64_t seq : again)
+    if (auto st = cover_again(b, seq, scenes); !st) return st;
+  // Each added keyframe trims the older ones it overlaps that still show a surface.
+  for (std::int64_t j : added) {
+    const KeyframeEntry& newer = b.keyframes.at(j);
+    std::shared_ptr<const CoverDepth> depth;
+    for (auto& [seq, e] : b.keyframes) {
+      if (seq >= j) break;
+      if (again.count(seq) || e.leaves.empty() || !e.box.intersects(newer.box)) continue;
+      if (!e.covered_by.empty() && !e.covered) {  // not worked out since the hierarchy was opened
+        if (auto st = cover_again(b, seq, scenes); !st) return st;
+        again.insert(seq);
+        ++b.stats.leaves_trimmed;
+        continue;
+      }
+      if (!depth) {
+        auto d = depth_of({j, newer.rev}, scenes);
+        if (!d) return d.error();
+        depth = *d;
+      }
+      if (depth->depth_m.empty()) break;
+      auto scene = scenes.get({seq, e.rev});
+      if (!scene) return scene.error();
+      std::vector<bool> by;
+      if (mark_covered(**scene, *depth, options_.cover, by) == 0) continue;
+      e.covered_by.push_back(j);
+      std::sort(e.covered_by.begin(), e.covered_by.end());
+      auto covered = std::make_shared<std::vector<bool>>(e.covered ? *e.covered : std::vector<bool>());
+      if (!add_covered(*covered, by)) {
+        e.covered = std::move(covered);
+        continue;
+      }
+      ++b.stats.leaves_trimmed;
+      b.leaves.insert(e.leaves.begin(), e.leaves.end());
+      if (all_covered(*covered)) e.leaves.clear();
+      e.covered = std::move(covered);
+    }
   }
   return ok_status();
 }
@@ -353,7 +493,9 @@ Status TileHierarchy::build_leaves(Build& b, SceneCache& scenes, const std::atom
     if (held) {
       auto scene = scenes.get({leaf.keyframe, holder->second.rev});
       if (!scene) return scene.error();
-      content = build_leaf(**scene, leaf.name(), options_.leaf);
+      const auto& covered = holder->second.covered;
+      content = covered ? build_leaf(without_covered(**scene, *covered), leaf.name(), options_.leaf)
+                        : build_leaf(**scene, leaf.name(), options_.leaf);
     }
     if (auto st = store_tile(b, leaf, std::move(content), TileRecord{}, &b.stats.leaves_built); !st) return st;
     mark_ancestors_stale(b, leaf);
@@ -521,7 +663,9 @@ Status TileHierarchy::commit(Build& b) {
   for (const auto& [seq, e] : b.keyframes) {
     nlohmann::json leaves = nlohmann::json::array();
     for (const auto& k : e.leaves) leaves.push_back(k.name());
-    keyframes.push_back({seq, e.rev, std::move(leaves)});
+    const nlohmann::json box = {e.box.min().x(), e.box.min().y(), e.box.min().z(),
+                                e.box.max().x(), e.box.max().y(), e.box.max().z()};
+    keyframes.push_back({seq, e.rev, std::move(leaves), box, e.covered_by});
   }
   for (const auto& [key, r] : b.tiles)
     tiles.push_back({key.name(), r.version, r.box.min().x(), r.box.min().y(), r.box.min().z(), r.box.max().x(),

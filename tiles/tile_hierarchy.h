@@ -19,8 +19,13 @@
 //   it is built again from its children. A stale tile is drawn by nobody: views and clients refine through it
 //   (tiles/tile_selection.h, tiles/tileset_json.h), so a keyframe is in the tileset as soon as its leaf is committed,
 //   and no view shows a coarse tile that lacks it.
-// - Every build is a function of its inputs (a leaf: its keyframe; an inner tile: its children's stored GLBs, built
-//   only once none of them is stale), so a hierarchy with no stale tile has the same contents however it was reached.
+// - Newer keyframes supersede what they cover (TilingOptions::supersede, tiles/tile_cover.h): a leaf holds its
+//   keyframe's surface less the triangles that keyframes of a higher seq saw again, and a keyframe they cover whole
+//   has no leaf. A new keyframe trims the older leaves it overlaps (their leaves built again); a keyframe replaced
+//   or gone has the older keyframes it covered worked out again from all the newer ones that overlap them.
+// - Every build is a function of its inputs (a leaf: its keyframe and the newer keyframes that overlap it; an inner
+//   tile: its children's stored GLBs, built only once none of them is stale), so a hierarchy with no stale tile has
+//   the same contents however it was reached.
 // - Every tile's geometric error is in metres and at least each of its children's; leaves' is 0.
 // Not thread-safe, except snapshot() and build_tile(), which any thread may call while another call runs.
 #include <atomic>
@@ -40,6 +45,7 @@
 #include "scene/result.h"
 #include "scene/scene.h"
 #include "tiles/tile_content.h"
+#include "tiles/tile_cover.h"
 #include "tiles/tile_key.h"
 #include "tiles/tile_storage.h"
 
@@ -54,6 +60,10 @@ struct TilingOptions {
   // Draco, the keyframes' own codec: a leaf's geometry then takes what its keyframe GLB took (meshopt: 2.4x more on
   // TUM keyframes); three.js (DRACOLoader) and decode_glb read it.
   GeometryCodec geometry = GeometryCodec::kDraco;
+  // Newer keyframes supersede the older surface they cover (tiles/tile_cover.h), so that a place seen on many passes
+  // holds about one surface, not one per pass. Off: every keyframe's whole surface is a leaf.
+  bool supersede = true;
+  CoverOptions cover;
   // step() builds a stale tile again once nothing under it changed for settle_s (a tile that keyframes keep changing
   // is not built over and over: a burst of keyframes costs one build), or once it has been stale for max_stale_s
   // however often it changes (so the tiles over a robot that keeps posting are still built now and then). Neither
@@ -104,6 +114,7 @@ struct UpdateStats {
   std::uint64_t version = 0;
   size_t keyframes_changed = 0;  // added, replaced or removed
   size_t leaves_built = 0, inner_built = 0, tiles_removed = 0;
+  size_t leaves_trimmed = 0;  // older keyframes of which newer ones covered more (their leaves built again)
   std::uint64_t bytes_written = 0;
   size_t stale = 0;  // inner tiles still stale when the call returned
   // When stale > 0: the earliest time (the caller's clock, as step()'s now_s) at which a step can build one of them.
@@ -167,7 +178,12 @@ class TileHierarchy {
   // seq -> (rev, its leaf), as committed.
   struct KeyframeEntry {
     std::int64_t rev = 0;
-    std::vector<TileKey> leaves;  // its one leaf; none for a keyframe without triangles
+    std::vector<TileKey> leaves;           // its one leaf; none for a keyframe without triangles, or covered whole
+    Eigen::AlignedBox3d box;               // its whole surface's (tiles/tile_cover.h: cover_box)
+    std::vector<std::int64_t> covered_by;  // the newer keyframes that cover any of its triangles, ascending
+    // Which of its triangles they cover (mark_covered's order). Not stored: null when none is covered, or, with
+    // covered_by not empty, when not worked out since the hierarchy was opened.
+    std::shared_ptr<const std::vector<bool>> covered;
   };
   const std::map<std::int64_t, KeyframeEntry>& keyframes() const { return keyframes_; }
   TileStorage& storage() const { return *storage_; }
@@ -177,13 +193,20 @@ class TileHierarchy {
   std::shared_ptr<const TilesetSnapshot> snapshot() const;
 
  private:
-  TileHierarchy(std::shared_ptr<TileStorage> storage, TilingOptions options)
-      : storage_(std::move(storage)), options_(std::move(options)) {}
+  TileHierarchy(std::shared_ptr<TileStorage> storage, TilingOptions options);
   struct Build;
   class SceneCache;
+  class CoverCache;
   Status load_committed(const std::vector<std::uint8_t>& record);
   Build begin_build() const;
   Status apply_keyframes(Build& b, const std::vector<KeyframeId>& wanted, SceneCache& scenes);
+  // Supersession after apply_keyframes: `added` (new or replacing, ascending) trim the older keyframes they
+  // overlap; the keyframes that a `gone` one (replaced or removed: seq, its box) covered are worked out again.
+  Status supersede(Build& b, const std::vector<std::int64_t>& added,
+                   const std::vector<std::pair<std::int64_t, Eigen::AlignedBox3d>>& gone, SceneCache& scenes);
+  // Keyframe `seq`'s coverage from every newer keyframe of the build that overlaps it; its leaf to build again.
+  Status cover_again(Build& b, std::int64_t seq, SceneCache& scenes);
+  Result<std::shared_ptr<const CoverDepth>> depth_of(const KeyframeId& id, SceneCache& scenes);
   Status build_leaves(Build& b, SceneCache& scenes, const std::atomic<bool>* stop);
   void mark_ancestors_stale(Build& b, const TileKey& leaf);
   // Builds the stale tiles `due` accepts (all when it is empty).
@@ -205,6 +228,8 @@ class TileHierarchy {
   std::uint64_t version_ = 0;
   std::map<TileKey, TileRecord> tiles_;
   std::map<std::int64_t, KeyframeEntry> keyframes_;
+  std::unique_ptr<CoverCache>
+      covers_;  // the newer keyframes' depths, the most recent 64 (two layers of 320 x 240: 40 MB)
   std::map<std::string, std::uint64_t> retired_;  // files (-> bytes) of the previous version the current one lacks
   int sweep_level_ = 1;                           // where step()'s next sweep starts
   struct StaleSince {

@@ -86,10 +86,51 @@ KeyframeLoader loader() {
   return [](const KeyframeId& id) { return Keyframes::get().placed(id); };
 }
 
-std::unique_ptr<TileHierarchy> open_ok(const std::string& dir) {
-  auto h = TileHierarchy::open(dir, TilingOptions{});
+std::unique_ptr<TileHierarchy> open_ok(const std::string& dir, const TilingOptions& options = {}) {
+  auto h = TileHierarchy::open(dir, options);
   EXPECT_TRUE(h) << (h ? "" : h.error().message);
   return h ? std::move(*h) : nullptr;
+}
+
+void append_world_triangles(const Scene& placed, std::vector<std::array<Eigen::Vector3d, 3>>& out) {
+  for (const SceneNode& node : placed.nodes)
+    for (size_t t = 0; t < node.mesh.triangle_count(); ++t) {
+      std::array<Eigen::Vector3d, 3> tri;
+      for (int k = 0; k < 3; ++k)
+        tri[k] =
+            (node.to_world * node.mesh.positions[node.mesh.indices[3 * t + k]].cast<double>().homogeneous()).head<3>();
+      out.push_back(tri);
+    }
+}
+
+// The distance from p to the nearest of `triangles` (the closest point on each: inside it, on an edge or a corner).
+double distance_to(const std::vector<std::array<Eigen::Vector3d, 3>>& triangles, const Eigen::Vector3d& p) {
+  double best = INFINITY;
+  for (const auto& t : triangles) {
+    const Eigen::Vector3d e0 = t[1] - t[0], e1 = t[2] - t[0];
+    const Eigen::Vector3d n = e0.cross(e1);
+    double d = INFINITY;
+    if (n.squaredNorm() > 0) {  // inside: the plane's distance, when the projection's barycentrics are all >= 0
+      const Eigen::Vector3d q = p - n * (n.dot(p - t[0]) / n.squaredNorm());
+      const double a = n.dot((t[1] - q).cross(t[2] - q)), b = n.dot((t[2] - q).cross(t[0] - q)),
+                   c = n.dot((t[0] - q).cross(t[1] - q));
+      if (a >= 0 && b >= 0 && c >= 0) d = (p - q).norm();
+    }
+    for (int k = 0; k < 3; ++k) {  // else an edge (or its end)
+      const Eigen::Vector3d a = t[k], ab = t[(k + 1) % 3] - t[k];
+      const double s = ab.squaredNorm() > 0 ? std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0) : 0.0;
+      d = std::min(d, (p - (a + s * ab)).norm());
+    }
+    best = std::min(best, d);
+  }
+  return best;
+}
+
+// Every keyframe's whole surface a leaf: no supersession.
+TilingOptions whole_keyframes() {
+  TilingOptions o;
+  o.supersede = false;
+  return o;
 }
 
 // A tile's mesh in world coordinates (a leaf's node is placed by its keyframe's pose).
@@ -131,7 +172,7 @@ TEST(TileKeyTest, ParentsFloorAndNamesRoundTrip) {
 TEST(TileHierarchyTest, EveryTriangleIsInExactlyOneLeafAndBoxesHoldTheirContent) {
   REQUIRE_KEYFRAMES();
   const auto ids = first(12);  // three laps of four keyframes
-  auto h = open_ok(test::temp_dir("tiles-leaves"));
+  auto h = open_ok(test::temp_dir("tiles-leaves"), whole_keyframes());
   ASSERT_TRUE(h);
   auto stats = h->update(ids, loader());
   ASSERT_TRUE(stats) << stats.error().message;
@@ -197,45 +238,115 @@ TEST(TileHierarchyTest, ErrorGrowsFromLeavesToRootAndInnerTilesAreSimplified) {
 
 // A robot that returns to the same room: every keyframe lands in the same cells, so a level-1 tile is built from
 // more keyframes than the update's decoded-keyframe cache keeps (16), and each keyframe is still its own leaf.
-TEST(TileHierarchyTest, ACellSeenByManyKeyframesHoldsThemAllAsLeaves) {
+// Ten passes over the same four poses, without supersession: every pass is a leaf (and the cell holds more of them
+// than the scene cache keeps); with it (the default), the last pass's keyframes cover the earlier ones whole, and the
+// cell holds exactly what one pass holds.
+TEST(TileHierarchyTest, ACellSeenOnManyPassesKeepsTheNewestPassOnly) {
   REQUIRE_KEYFRAMES();
   const size_t passes = 10, n = Keyframes::get().size();  // 40 keyframes, 10 on each of the 4 poses
   KeyframeLoader same_place = [n](const KeyframeId& id) {
     return Keyframes::get().placed({static_cast<std::int64_t>(static_cast<size_t>(id.seq) % n), id.rev});
   };
-  auto h = open_ok(test::temp_dir("tiles-revisit"));
-  ASSERT_TRUE(h);
   const auto ids = first(passes * n);
-  auto stats = h->update(ids, same_place);
-  ASSERT_TRUE(stats) << stats.error().message;
   size_t posted = 0;
   for (const auto& id : ids) posted += same_place(id)->triangle_count();
+  auto whole = open_ok(test::temp_dir("tiles-revisit-whole"), whole_keyframes());
+  auto newest = open_ok(test::temp_dir("tiles-revisit"));
+  auto one_pass = open_ok(test::temp_dir("tiles-revisit-one"));
+  ASSERT_TRUE(whole && newest && one_pass);
+  for (auto* h : {whole.get(), newest.get()}) {
+    auto stats = h->update(ids, same_place);
+    ASSERT_TRUE(stats) << stats.error().message;
+  }
+  ASSERT_TRUE(one_pass->update(first(n), same_place));
   size_t in_leaves = 0, most_children = 0;
-  for (const auto& [key, r] : h->tiles()) {
+  for (const auto& [key, r] : whole->tiles()) {
     if (key.level == 0) {
-      EXPECT_EQ(tile_mesh(*h, r).triangle_count(), r.triangles) << key.name();
+      EXPECT_EQ(tile_mesh(*whole, r).triangle_count(), r.triangles) << key.name();
       in_leaves += r.triangles;
     }
     if (key.level == 1) {
-      most_children = std::max(most_children, children_of(h->tiles(), key).size());
-      EXPECT_GT(tile_mesh(*h, r).triangle_count(), 0u) << key.name();
+      most_children = std::max(most_children, children_of(whole->tiles(), key).size());
+      EXPECT_GT(tile_mesh(*whole, r).triangle_count(), 0u) << key.name();
     }
   }
   EXPECT_GT(most_children, 16u) << "the test must put more keyframes under one tile than the cache keeps";
   EXPECT_EQ(in_leaves, posted);
+
+  size_t leaves = 0;
+  for (const auto& [key, r] : newest->tiles()) leaves += key.level == 0;
+  EXPECT_LE(leaves, n);
+  for (const auto& id : ids) {
+    const auto& kept = newest->keyframes().at(id.seq);
+    const auto& alone = one_pass->keyframes().at(id.seq % static_cast<std::int64_t>(n));
+    if (static_cast<size_t>(id.seq) < (passes - 1) * n) {
+      EXPECT_TRUE(kept.leaves.empty()) << "keyframe " << id.seq << " is seen again by a later pass";
+      EXPECT_FALSE(kept.covered_by.empty()) << id.seq;
+      continue;
+    }
+    ASSERT_EQ(kept.leaves.size(), alone.leaves.size()) << id.seq;
+    if (kept.leaves.empty()) continue;
+    EXPECT_EQ(newest->tiles().at(kept.leaves[0]).triangles, one_pass->tiles().at(alone.leaves[0]).triangles) << id.seq;
+  }
+}
+
+// Newer keyframes of one lap trim the older ones where they saw the same surface: the newest is whole, the older
+// ones lose triangles, and each triangle they lose lies on a newer keyframe's surface.
+TEST(TileHierarchyTest, NewerKeyframesSupersedeOnlyTheSurfaceTheySawAgain) {
+  REQUIRE_KEYFRAMES();
+  const auto ids = first(4);
+  auto h = open_ok(test::temp_dir("tiles-supersede"));
+  ASSERT_TRUE(h);
+  auto stats = h->update(ids, loader());
+  ASSERT_TRUE(stats) << stats.error().message;
+  size_t dropped = 0;
+  for (const auto& id : ids) {
+    auto scene = Keyframes::get().placed(id);
+    ASSERT_TRUE(scene);
+    const auto& e = h->keyframes().at(id.seq);
+    const size_t shown = e.leaves.empty() ? 0 : tile_mesh(*h, h->tiles().at(e.leaves[0])).triangle_count();
+    if (id.seq == ids.back().seq) {
+      EXPECT_EQ(shown, scene->triangle_count()) << "the newest keyframe is whole";
+      continue;
+    }
+    EXPECT_LE(shown, scene->triangle_count()) << id.seq;
+    dropped += scene->triangle_count() - shown;
+    // How many of its triangles lie within 10 cm of the newer keyframes' surfaces (every corner): at most those can
+    // have been dropped.
+    std::vector<std::array<Eigen::Vector3d, 3>> newer;
+    for (const auto& n : ids)
+      if (n.seq > id.seq) append_world_triangles(*Keyframes::get().placed(n), newer);
+    const SceneNode& node = scene->nodes.front();
+    std::vector<bool> near(node.mesh.positions.size());
+    for (size_t v = 0; v < near.size(); ++v)
+      near[v] =
+          distance_to(newer, (node.to_world * node.mesh.positions[v].cast<double>().homogeneous()).head<3>()) <= 0.10;
+    size_t near_newer = 0;
+    for (size_t t = 0; t < node.mesh.triangle_count(); ++t)
+      near_newer +=
+          near[node.mesh.indices[3 * t]] && near[node.mesh.indices[3 * t + 1]] && near[node.mesh.indices[3 * t + 2]];
+    EXPECT_LE(scene->triangle_count() - shown, near_newer) << id.seq;
+  }
+  EXPECT_GT(dropped, 0u);
 }
 
 TEST(TileHierarchyTest, IncrementalUpdatesGiveTheSameTilesAsOneBuild) {
   REQUIRE_KEYFRAMES();
   auto once = open_ok(test::temp_dir("tiles-once"));
-  auto steps = open_ok(test::temp_dir("tiles-steps"));
+  const std::string steps_dir = test::temp_dir("tiles-steps");
+  auto steps = open_ok(steps_dir);
   ASSERT_TRUE(once && steps);
   ASSERT_TRUE(once->update(first(8), loader()));
   for (size_t n = 1; n <= 8; ++n) {
+    // Reopened halfway: what the newer keyframes covered is not stored, and is worked out again when needed.
+    if (n == 6) steps = open_ok(steps_dir);
+    ASSERT_TRUE(steps);
     auto s = steps->update(first(n), loader());
     ASSERT_TRUE(s) << s.error().message;
     EXPECT_EQ(s->keyframes_changed, 1u);
-    EXPECT_EQ(s->leaves_built, 1u) << "a keyframe builds its own leaf only";
+    // A keyframe builds its own leaf and those of the older keyframes it trims (a leaf it covers whole goes).
+    EXPECT_GE(s->leaves_built, 1u);
+    EXPECT_LE(s->leaves_built, 1u + s->leaves_trimmed);
     EXPECT_EQ(s->stale, 0u);
   }
   EXPECT_EQ(steps->version(), 8u);
@@ -259,7 +370,8 @@ TEST(TileHierarchyTest, AStepShowsANewKeyframeAtOnceAndSweepsEndWhereOneBuildDoe
     const double t = static_cast<double>(n) * settle_s;  // keyframe n at t
     auto s = live->step(first(n), loader(), t, nullptr, always);
     ASSERT_TRUE(s) << s.error().message;
-    EXPECT_EQ(s->leaves_built, 1u);
+    EXPECT_GE(s->leaves_built, 1u);
+    EXPECT_LE(s->leaves_built, 1u + s->leaves_trimmed);
     EXPECT_EQ(s->inner_built, 0u);
     EXPECT_GT(s->stale, 0u);
     EXPECT_EQ(live->snapshot()->stale, s->stale);  // what a view reports (X-Stale-Tiles)
@@ -376,29 +488,39 @@ TEST(TileHierarchyTest, ABuildWhoseChildrenChangedMeanwhileIsDroppedAndPickedAga
   EXPECT_EQ(contents(*once), contents(*live));
 }
 
+// With and without supersession: a revision gives what a hierarchy made with the revision from the start has (the
+// older keyframe it covered worked out again), and a keyframe no longer listed leaves the tiles.
 TEST(TileHierarchyTest, ARevisionReplacesItsKeyframesSurface) {
   REQUIRE_KEYFRAMES();
-  auto revised = open_ok(test::temp_dir("tiles-revised"));
-  auto fresh = open_ok(test::temp_dir("tiles-fresh"));
-  ASSERT_TRUE(revised && fresh);
-  ASSERT_TRUE(revised->update(first(4), loader()));
-  std::vector<KeyframeId> with_revision = first(4);
-  with_revision[1].rev = 1;  // seq 1 now carries another surface
-  auto s = revised->update(with_revision, loader());
-  ASSERT_TRUE(s) << s.error().message;
-  EXPECT_EQ(s->keyframes_changed, 1u);
-  EXPECT_EQ(revised->keyframes().at(1).rev, 1);
-  ASSERT_TRUE(fresh->update(with_revision, loader()));
-  EXPECT_EQ(contents(*revised), contents(*fresh));
-  size_t leaves = 0, expected = 0;
-  for (const auto& [key, r] : revised->tiles())
-    if (key.level == 0) leaves += r.triangles;
-  for (const auto& id : with_revision) expected += Keyframes::get().placed(id)->triangle_count();
-  EXPECT_EQ(leaves, expected);
-  // A keyframe no longer listed leaves the tiles too.
-  auto removed = revised->update(first(3), loader());
-  ASSERT_TRUE(removed);
-  EXPECT_FALSE(revised->keyframes().count(3));
+  for (const TilingOptions& options : {TilingOptions{}, whole_keyframes()}) {
+    SCOPED_TRACE(options.supersede ? "supersede" : "whole keyframes");
+    auto revised = open_ok(test::temp_dir("tiles-revised"), options);
+    auto fresh = open_ok(test::temp_dir("tiles-fresh"), options);
+    ASSERT_TRUE(revised && fresh);
+    ASSERT_TRUE(revised->update(first(4), loader()));
+    std::vector<KeyframeId> with_revision = first(4);
+    with_revision[1].rev = 1;  // seq 1 now carries another surface
+    auto s = revised->update(with_revision, loader());
+    ASSERT_TRUE(s) << s.error().message;
+    EXPECT_EQ(s->keyframes_changed, 1u);
+    EXPECT_EQ(revised->keyframes().at(1).rev, 1);
+    ASSERT_TRUE(fresh->update(with_revision, loader()));
+    EXPECT_EQ(contents(*revised), contents(*fresh));
+    if (!options.supersede) {
+      size_t leaves = 0, expected = 0;
+      for (const auto& [key, r] : revised->tiles())
+        if (key.level == 0) leaves += r.triangles;
+      for (const auto& id : with_revision) expected += Keyframes::get().placed(id)->triangle_count();
+      EXPECT_EQ(leaves, expected);
+    }
+    // A keyframe no longer listed leaves the tiles too, and what it covered of older ones comes back.
+    auto removed = revised->update(first(3), loader());
+    ASSERT_TRUE(removed);
+    EXPECT_FALSE(revised->keyframes().count(3));
+    auto without = open_ok(test::temp_dir("tiles-without"), options);
+    ASSERT_TRUE(without && without->update(first(3), loader()));
+    EXPECT_EQ(contents(*revised), contents(*without));
+  }
 }
 
 // A stopped update commits nothing; reopening serves the committed version, deletes what the stopped one wrote and
