@@ -14,7 +14,9 @@ For each size N, variant and binary, a fresh server on loopback (its own data di
      CPU seconds (user + system) from its start to then, which a shared machine does not inflate;
   3. RSS (VmRSS, and VmHWM, the peak) after ingest;
   4. VIEWS robot views (pose=capture: the newest keyframe's camera) and VIEWS overviews (a camera that frames the
-     whole mission from above and behind at 45 degrees, 60 degrees vertical fov), 640x480, sequential: p50;
+     whole mission from above and behind at 45 degrees, 60 degrees vertical fov), 640x480, sequential: p50; then
+     (unless --no-fidelity) the PSNR of a default robot view and overview against max-error=0 at the same camera, and
+     of the robot view against the newest keyframe's own GLB uploaded as a scene and viewed at its capture pose;
   5. CLIENTS concurrent clients for THROUGHPUT_S seconds, each cycling robot, overview and orbit views (the operator
      page's orbit: 2.7 m around a point 1.5 m ahead of a random keyframe's camera): views/s and p99; RSS after;
   6. LIVE more keyframes at LIVE_RATE a second, each timed from its POST's start to the SSE `event: tileset` whose
@@ -47,6 +49,9 @@ import sys
 import tempfile
 import threading
 import time
+import zlib
+
+import numpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import tileset_selection  # noqa: E402
@@ -366,6 +371,80 @@ def view_paths(workload, variant, n, width, height, extra):
     return robot, overview, orbit
 
 
+def png_rgb(data):
+    """An 8-bit RGB or RGBA PNG (not interlaced), as the service writes its views, as an h x w x 3 array."""
+    if data[:8] != b"\x89PNG\r\n\x1a\n":
+        raise ValueError("not a PNG")
+    pos, idat, w = 8, [], 0
+    while pos < len(data):
+        length, kind = struct.unpack(">I4s", data[pos:pos + 8])
+        chunk = data[pos + 8:pos + 8 + length]
+        if kind == b"IHDR":
+            w, h, depth, colour, _, _, interlace = struct.unpack(">IIBBBBB", chunk)
+            if depth != 8 or colour not in (2, 6) or interlace:
+                raise ValueError("not an 8-bit RGB(A) PNG")
+            bpp = 3 if colour == 2 else 4
+        elif kind == b"IDAT":
+            idat.append(chunk)
+        pos += 12 + length
+    raw, stride = zlib.decompress(b"".join(idat)), w * bpp
+    out, prev = bytearray(h * stride), bytearray(stride)
+    for y in range(h):
+        f, row = raw[y * (stride + 1)], bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+        if f == 1:
+            for i in range(bpp, stride):
+                row[i] = (row[i] + row[i - bpp]) & 255
+        elif f == 2:
+            row = bytearray((a + b) & 255 for a, b in zip(row, prev))
+        elif f == 3:
+            for i in range(stride):
+                row[i] = (row[i] + ((row[i - bpp] if i >= bpp else 0) + prev[i]) // 2) & 255
+        elif f == 4:
+            for i in range(stride):
+                a, b = (row[i - bpp] if i >= bpp else 0), prev[i]
+                c = prev[i - bpp] if i >= bpp else 0
+                pa, pb, pc = abs(b - c), abs(a - c), abs(a + b - 2 * c)
+                row[i] = (row[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
+        out[y * stride:(y + 1) * stride], prev = row, row
+    return numpy.frombuffer(bytes(out), numpy.uint8).reshape(h, w, bpp)[:, :, :3]
+
+
+def psnr_db(a, b):
+    mse = numpy.mean((a.astype(numpy.float64) - b.astype(numpy.float64)) ** 2)
+    return float("inf") if mse == 0 else 10 * math.log10(255.0 ** 2 / mse)
+
+
+def fidelity(server, workload, variant, n, robot, overview):
+    """PSNR (dB) of the default robot view and overview against max-error=0 (full detail) at the same camera, and of
+    the robot view (the newest keyframe's capture camera) against that keyframe's own GLB uploaded as a scene and
+    rendered at its capture pose."""
+    def png(path):
+        status, body, _ = server.get(path + "&format=png")
+        if status != 200:
+            raise RuntimeError(f"view {path}: {status}")
+        return png_rgb(body)
+
+    def full(path):
+        return path.replace("view?", "view?max-error=0&", 1)
+
+    robot_img = png(robot)
+    out = {"robot_db": psnr_db(robot_img, png(full(robot))), "overview_db": psnr_db(png(overview), png(full(overview)))}
+    c = server.connect()
+    try:
+        c.request("POST", "/v1/scenes", body=workload.keyframe(variant, n - 1)[0],
+                  headers={"Content-Type": "model/gltf-binary"})
+        res = c.getresponse()
+        answer = res.read()
+    finally:
+        c.close()
+    if res.status != 201:
+        raise RuntimeError(f"scene upload: {res.status} {answer[:200]!r}")
+    scene = json.loads(answer)["id"]
+    q = robot.split("?", 1)[1]
+    out["robot_vs_own_glb_db"] = psnr_db(robot_img, png(f"/v1/scenes/{scene}/view?{q}"))
+    return out
+
+
 def timed_views(server, path, count):
     c = server.connect()
     times = []
@@ -550,6 +629,8 @@ def run_one(name, binary, n, variant, workload, a, work):
         r["first_views_ms"] = first
         r["robot_p50_ms"] = pct(timed_views(server, robot, a.views), 50)
         r["overview_p50_ms"] = pct(timed_views(server, overview, a.views), 50)
+        if a.fidelity:
+            r["fidelity"] = fidelity(server, workload, variant, n, robot, overview)
         r["throughput"] = throughput(server, robot, overview, orbit, a.clients, a.throughput_s)
         r["rss_views_mb"], r["hwm_views_mb"] = server.memory_mb()
 
@@ -600,8 +681,15 @@ def cell(v, f="%.0f"):
 
 
 COLUMNS = ["N", "binary", "posted MB", "POST p50/p95 ms", "tile lag s", "settled s", "ingest CPU s", "RSS ingest MB (peak)", "RSS views MB (peak)",
-           "robot p50 ms", "overview p50 ms", "8 clients views/s (p99 ms)", "tileset p50/p95 ms", "late join MB (tiles)",
+           "robot p50 ms", "overview p50 ms", "robot/overview dB vs full, robot dB vs own GLB",
+           "8 clients views/s (p99 ms)", "tileset p50/p95 ms", "late join MB (tiles)",
            "tiles/posted", "data/posted", "model.glb MB (s)"]
+
+
+def fidelity_cell(f):
+    if not f:
+        return "-"
+    return "/".join("%.1f" % f[k] for k in ("robot_db", "overview_db", "robot_vs_own_glb_db"))
 
 
 def row(r):
@@ -618,7 +706,7 @@ def row(r):
             f"{cell(r['post_p50_ms'], '%.1f')}/{cell(r['post_p95_ms'], '%.1f')}", cell(r["tile_lag_s"], "%.1f"),
             cell(r.get("settled_s"), "%.1f"),
             cell(r.get("ingest_cpu_s"), "%.1f"), f"{r['rss_ingest_mb']:.0f} ({r['hwm_ingest_mb']:.0f})", f"{r['rss_views_mb']:.0f} ({r['hwm_views_mb']:.0f})",
-            cell(r["robot_p50_ms"], "%.1f"), cell(r["overview_p50_ms"], "%.1f"),
+            cell(r["robot_p50_ms"], "%.1f"), cell(r["overview_p50_ms"], "%.1f"), fidelity_cell(r.get("fidelity")),
             f"{t['views_per_s']:.1f} ({cell(t['p99_ms'])})" + (f" {t['failures']} failed" if t["failures"] else ""),
             live_cell, ("%.2f (%d)" % (lj["bytes"] / mb, lj["tiles"])) if "bytes" in lj else lj.get("error", "-"),
             "%.2f" % (r["tiles_bytes"] / r["posted_bytes"]), "%.2f" % (r["data_bytes"] / r["posted_bytes"]),
@@ -643,6 +731,8 @@ def main():
     p.add_argument("--max-rss-gb", type=float, default=16.0)
     p.add_argument("--view-extra", default="", help="query parameters added to every view, e.g. 'max-error=1'")
     p.add_argument("--views", type=int, default=20, help="robot views and overviews each, sequential")
+    p.add_argument("--no-fidelity", dest="fidelity", action="store_false",
+                   help="skip the PSNR of default views against max-error=0 and of the robot view against its GLB")
     p.add_argument("--clients", type=int, default=8)
     p.add_argument("--throughput-s", type=float, default=10.0)
     p.add_argument("--live", type=int, default=20, help="keyframes posted at --live-rate after the bulk")
