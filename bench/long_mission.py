@@ -16,7 +16,8 @@ For each size N, variant and binary, a fresh server on loopback (its own data di
   4. VIEWS robot views (pose=capture: the newest keyframe's camera) and VIEWS overviews (a camera that frames the
      whole mission from above and behind at 45 degrees, 60 degrees vertical fov), 640x480, sequential: p50; then
      (unless --no-fidelity) the PSNR of a default robot view and overview against max-error=0 at the same camera, and
-     of the robot view against the newest keyframe's own GLB uploaded as a scene and viewed at its capture pose;
+     against the captured frame, over the pixels that the newest keyframe's own GLB (uploaded as a scene) draws at
+     its capture pose, of the robot view and of that own GLB's view;
   5. CLIENTS concurrent clients for THROUGHPUT_S seconds, each cycling robot, overview and orbit views (the operator
      page's orbit: 2.7 m around a point 1.5 m ahead of a random keyframe's camera): views/s and p99; RSS after;
   6. LIVE more keyframes at LIVE_RATE a second, each timed from its POST's start to the SSE `event: tileset` whose
@@ -142,6 +143,11 @@ class Workload:
             self.bodies.append(open(out, "rb").read())
             self.boxes.append(glb_position_box(out))
         self.poses = relative_poses(excerpt)
+        self.images = [os.path.join(excerpt, r[1]) for r in read_rows(os.path.join(excerpt, "rgb.txt"))]
+
+    def frame_image(self, i):
+        """The colour image keyframe i was reduced from."""
+        return self.images[FRAMES[i % len(FRAMES)]]
 
     def keyframe(self, variant, i):
         """(body, pose query value, camera-to-world R, t) of keyframe i."""
@@ -372,7 +378,7 @@ def view_paths(workload, variant, n, width, height, extra):
 
 
 def png_rgb(data):
-    """An 8-bit RGB or RGBA PNG (not interlaced), as the service writes its views, as an h x w x 3 array."""
+    """An 8-bit RGB or RGBA PNG (not interlaced), as the service writes its views, as an h x w x 3 or 4 array."""
     if data[:8] != b"\x89PNG\r\n\x1a\n":
         raise ValueError("not a PNG")
     pos, idat, w = 8, [], 0
@@ -406,18 +412,20 @@ def png_rgb(data):
                 pa, pb, pc = abs(b - c), abs(a - c), abs(a + b - 2 * c)
                 row[i] = (row[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
         out[y * stride:(y + 1) * stride], prev = row, row
-    return numpy.frombuffer(bytes(out), numpy.uint8).reshape(h, w, bpp)[:, :, :3]
+    return numpy.frombuffer(bytes(out), numpy.uint8).reshape(h, w, bpp)
 
 
-def psnr_db(a, b):
-    mse = numpy.mean((a.astype(numpy.float64) - b.astype(numpy.float64)) ** 2)
+def psnr_db(a, b, mask=None):
+    """PSNR of the RGB channels of a against b, over the pixels mask (h x w, bool) holds, or all."""
+    d = (a[:, :, :3].astype(numpy.float64) - b[:, :, :3].astype(numpy.float64)) ** 2
+    mse = numpy.mean(d if mask is None else d[mask])
     return float("inf") if mse == 0 else 10 * math.log10(255.0 ** 2 / mse)
 
 
 def fidelity(server, workload, variant, n, robot, overview):
-    """PSNR (dB) of the default robot view and overview against max-error=0 (full detail) at the same camera, and of
-    the robot view (the newest keyframe's capture camera) against that keyframe's own GLB uploaded as a scene and
-    rendered at its capture pose."""
+    """PSNR (dB) of the default robot view and overview against max-error=0 (full detail) at the same camera; and
+    against the captured frame, over the pixels the newest keyframe's own GLB draws (uploaded as a scene, rendered at
+    its capture pose), of the robot view (that keyframe's capture camera, the tileset) and of that own GLB's view."""
     def png(path):
         status, body, _ = server.get(path + "&format=png")
         if status != 200:
@@ -440,8 +448,11 @@ def fidelity(server, workload, variant, n, robot, overview):
     if res.status != 201:
         raise RuntimeError(f"scene upload: {res.status} {answer[:200]!r}")
     scene = json.loads(answer)["id"]
-    q = robot.split("?", 1)[1]
-    out["robot_vs_own_glb_db"] = psnr_db(robot_img, png(f"/v1/scenes/{scene}/view?{q}"))
+    own = png(f"/v1/scenes/{scene}/view?{robot.split('?', 1)[1]}")
+    frame = png_rgb(open(workload.frame_image(n - 1), "rb").read())
+    drawn = own[:, :, 3] > 0 if own.shape[2] == 4 else None
+    out["robot_vs_frame_db"] = psnr_db(robot_img, frame, drawn)
+    out["own_glb_vs_frame_db"] = psnr_db(own, frame, drawn)
     return out
 
 
@@ -681,7 +692,7 @@ def cell(v, f="%.0f"):
 
 
 COLUMNS = ["N", "binary", "posted MB", "POST p50/p95 ms", "tile lag s", "settled s", "ingest CPU s", "RSS ingest MB (peak)", "RSS views MB (peak)",
-           "robot p50 ms", "overview p50 ms", "robot/overview dB vs full, robot dB vs own GLB",
+           "robot p50 ms", "overview p50 ms", "robot/overview dB vs full, robot/own GLB dB vs frame",
            "8 clients views/s (p99 ms)", "tileset p50/p95 ms", "late join MB (tiles)",
            "tiles/posted", "data/posted", "model.glb MB (s)"]
 
@@ -689,7 +700,7 @@ COLUMNS = ["N", "binary", "posted MB", "POST p50/p95 ms", "tile lag s", "settled
 def fidelity_cell(f):
     if not f:
         return "-"
-    return "/".join("%.1f" % f[k] for k in ("robot_db", "overview_db", "robot_vs_own_glb_db"))
+    return "/".join("%.1f" % f[k] for k in ("robot_db", "overview_db", "robot_vs_frame_db", "own_glb_vs_frame_db"))
 
 
 def row(r):
