@@ -3,6 +3,8 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
+#include "scene/mesh_compact.h"
+
 namespace rgbdcast {
 
 namespace {
@@ -50,22 +52,7 @@ size_t drop_covered_triangles(Mesh& mesh, const Eigen::Matrix4d& mesh_to_world,
       kept.insert(kept.end(), {a, b, c});
   }
   if (removed == 0) return 0;
-  // Compact: keep only referenced vertices (and their per-vertex attributes).
-  std::vector<std::int64_t> remap(mesh.positions.size(), -1);
-  Mesh out;
-  out.texture = std::move(mesh.texture);
-  out.texture_encoded = std::move(mesh.texture_encoded);
-  out.texture_mime = std::move(mesh.texture_mime);
-  for (std::uint32_t i : kept) {
-    if (remap[i] < 0) {
-      remap[i] = static_cast<std::int64_t>(out.positions.size());
-      out.positions.push_back(mesh.positions[i]);
-      if (!mesh.colors.empty()) out.colors.push_back(mesh.colors[i]);
-      if (!mesh.uvs.empty()) out.uvs.push_back(mesh.uvs[i]);
-    }
-    out.indices.push_back(static_cast<std::uint32_t>(remap[i]));
-  }
-  mesh = std::move(out);
+  mesh = compact_mesh(std::move(mesh), kept);
   return removed;
 }
 

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "scene/mesh_compact.h"
+
 namespace rgbdcast::tiles {
 namespace {
 
@@ -180,28 +182,14 @@ Scene without_covered(const Scene& placed, const std::vector<bool>& covered) {
   size_t base = 0;
   for (SceneNode& node : out.nodes) {
     if (!consistent(node.mesh)) continue;
-    const Mesh& in = node.mesh;
-    const size_t n = in.triangle_count();
-    Mesh kept;
-    std::vector<std::int64_t> remap(in.positions.size(), -1);
-    for (size_t t = 0; t < n; ++t) {
-      if (base + t < covered.size() && covered[base + t]) continue;
-      for (int k = 0; k < 3; ++k) {
-        const std::uint32_t i = in.indices[3 * t + k];
-        if (remap[i] < 0) {
-          remap[i] = static_cast<std::int64_t>(kept.positions.size());
-          kept.positions.push_back(in.positions[i]);
-          if (!in.uvs.empty()) kept.uvs.push_back(in.uvs[i]);
-          if (!in.colors.empty()) kept.colors.push_back(in.colors[i]);
-        }
-        kept.indices.push_back(static_cast<std::uint32_t>(remap[i]));
-      }
-    }
+    const size_t n = node.mesh.triangle_count();
+    std::vector<std::uint32_t> kept;
+    kept.reserve(node.mesh.indices.size());
+    for (size_t t = 0; t < n; ++t)
+      if (base + t >= covered.size() || !covered[base + t])
+        kept.insert(kept.end(), node.mesh.indices.begin() + 3 * t, node.mesh.indices.begin() + 3 * t + 3);
     base += n;
-    kept.texture = std::move(node.mesh.texture);
-    kept.texture_encoded = std::move(node.mesh.texture_encoded);
-    kept.texture_mime = std::move(node.mesh.texture_mime);
-    node.mesh = std::move(kept);
+    node.mesh = compact_mesh(std::move(node.mesh), kept);
   }
   return out;
 }

@@ -39,6 +39,11 @@ nlohmann::json options_json(const TilingOptions& o) {
           {"cover_downscale", o.cover.downscale}};
 }
 
+Status stopped(const std::atomic<bool>* stop) {
+  if (stop && stop->load()) return make_error(ErrorCode::kUnavailable, "tiles: stopped before the update committed");
+  return ok_status();
+}
+
 // The quantization step of a tile's positions bounds how far its stored vertices are from the exact ones: the box
 // is grown by it so that it holds the GLB's (dequantized) positions. encode_glb's step is 1 mm, or extent / 65,535.
 double position_pad_m(const Eigen::AlignedBox3d& box) {
@@ -230,7 +235,8 @@ size_t count_stale(const std::map<TileKey, TileRecord>& tiles) {
 }
 }  // namespace
 
-Status TileHierarchy::apply_keyframes(Build& b, const std::vector<KeyframeId>& wanted, SceneCache& scenes) {
+Status TileHierarchy::apply_keyframes(Build& b, const std::vector<KeyframeId>& wanted, SceneCache& scenes,
+                                      const std::atomic<bool>* stop) {
   std::map<std::int64_t, std::int64_t> want;
   for (const auto& k : wanted) want[k.seq] = k.rev;
   std::vector<std::pair<std::int64_t, Eigen::AlignedBox3d>> gone;
@@ -261,7 +267,7 @@ Status TileHierarchy::apply_keyframes(Build& b, const std::vector<KeyframeId>& w
     added.push_back(seq);
   }
   if (!options_.supersede) return ok_status();
-  return supersede(b, added, gone, scenes);
+  return supersede(b, added, gone, scenes, stop);
 }
 
 Result<std::shared_ptr<const CoverDepth>> TileHierarchy::depth_of(const KeyframeId& id, SceneCache& scenes) {
@@ -289,14 +295,14 @@ bool all_covered(const std::vector<bool>& covered) {
 }
 }  // namespace
 
-Status TileHierarchy::cover_again(Build& b, std::int64_t seq, SceneCache& scenes) {
+Status TileHierarchy::cover_again(Build& b, std::int64_t seq, SceneCache& scenes, const std::set<std::int64_t>* skip) {
   KeyframeEntry& e = b.keyframes.at(seq);
   auto scene = scenes.get({seq, e.rev});
   if (!scene) return scene.error();
   auto covered = std::make_shared<std::vector<bool>>();
   e.covered_by.clear();
   for (auto it = b.keyframes.upper_bound(seq); it != b.keyframes.end(); ++it) {
-    if (!it->second.box.intersects(e.box)) continue;
+    if ((skip && skip->count(it->first)) || !it->second.box.intersects(e.box)) continue;
     auto depth = depth_of({it->first, it->second.rev}, scenes);
     if (!depth) return depth.error();
     if ((*depth)->depth_m.empty()) continue;
@@ -316,22 +322,34 @@ Status TileHierarchy::cover_again(Build& b, std::int64_t seq, SceneCache& scenes
 
 Status TileHierarchy::supersede(Build& b, const std::vector<std::int64_t>& added,
                                 const std::vector<std::pair<std::int64_t, Eigen::AlignedBox3d>>& gone,
-                                SceneCache& scenes) {
-  // From scratch: what newer keyframes cover of the added ones, and of those a gone keyframe covered.
-  std::set<std::int64_t> again(added.begin(), added.end());
+                                SceneCache& scenes, const std::atomic<bool>* stop) {
+  const std::set<std::int64_t> fresh(added.begin(), added.end());
+  // From scratch, against every newer keyframe: the older ones a gone keyframe covered.
+  std::set<std::int64_t> again;
   for (const auto& [g, box] : gone)
     for (auto& [seq, e] : b.keyframes)
-      if (seq < g && std::binary_search(e.covered_by.begin(), e.covered_by.end(), g)) again.insert(seq);
-  for (std::int64_t seq : again)
+      if (seq < g && !fresh.count(seq) && std::binary_search(e.covered_by.begin(), e.covered_by.end(), g))
+        again.insert(seq);
+  for (std::int64_t seq : again) {
+    if (auto st = stopped(stop); !st) return st;
     if (auto st = cover_again(b, seq, scenes); !st) return st;
-  // Each added keyframe trims the older ones it overlaps that still show a surface.
+  }
+  // The added keyframes one by one in seq order, as if they had come so (a batch of n costs n applications, not
+  // n^2): each is covered by the newer keyframes that were there before it (none, for the newest), then trims the
+  // older ones that still show a surface, the ones added before it included.
   for (std::int64_t j : added) {
+    if (auto st = stopped(stop); !st) return st;
     const KeyframeEntry& newer = b.keyframes.at(j);
+    for (auto it = b.keyframes.upper_bound(j); it != b.keyframes.end(); ++it)
+      if (!fresh.count(it->first) && it->second.box.intersects(newer.box)) {
+        if (auto st = cover_again(b, j, scenes, &fresh); !st) return st;
+        break;
+      }
     std::shared_ptr<const CoverDepth> depth;
     for (auto& [seq, e] : b.keyframes) {
       if (seq >= j) break;
       if (again.count(seq) || e.leaves.empty() || !e.box.intersects(newer.box)) continue;
-      if (!e.covered_by.empty() && !e.covered) {  // not worked out since the hierarchy was opened
+      if (!e.covered_by.empty() && !e.covered) {  // not worked out since the hierarchy was opened: from scratch
         if (auto st = cover_again(b, seq, scenes); !st) return st;
         again.insert(seq);
         ++b.stats.leaves_trimmed;
@@ -366,8 +384,8 @@ Status TileHierarchy::supersede(Build& b, const std::vector<std::int64_t>& added
 Result<UpdateStats> TileHierarchy::update(const std::vector<KeyframeId>& wanted, const KeyframeLoader& load,
                                           const std::atomic<bool>* stop) {
   Build b = begin_build();
-  SceneCache scenes(load, 16);
-  if (auto st = apply_keyframes(b, wanted, scenes); !st) return st.error();
+  SceneCache scenes(load, 48);
+  if (auto st = apply_keyframes(b, wanted, scenes, stop); !st) return st.error();
   if (b.stats.keyframes_changed == 0 && count_stale(b.tiles) == 0) return b.stats;
   if (auto st = build_leaves(b, scenes, stop); !st) return st.error();
   if (auto st = sweep_stale(b, stop, nullptr, nullptr); !st) return st.error();
@@ -401,8 +419,8 @@ double TileHierarchy::due_at(const TileKey& key) const {
 Result<UpdateStats> TileHierarchy::add_leaves(const std::vector<KeyframeId>& wanted, const KeyframeLoader& load,
                                               double now_s, const std::atomic<bool>* stop) {
   Build b = begin_build();
-  SceneCache scenes(load, 16);
-  if (auto st = apply_keyframes(b, wanted, scenes); !st) return st.error();
+  SceneCache scenes(load, 48);
+  if (auto st = apply_keyframes(b, wanted, scenes, stop); !st) return st.error();
   if (b.stats.keyframes_changed > 0) {
     if (auto st = build_leaves(b, scenes, stop); !st) return st.error();
     for (const TileKey& key : b.restaled) {  // changed under it at now_s
@@ -474,11 +492,6 @@ Result<Mesh> read_tile(const TileStorage& storage, const TileRecord& r) {
   if (!node.to_world.isIdentity())
     for (auto& p : node.mesh.positions) p = (node.to_world * p.cast<double>().homogeneous()).head<3>().cast<float>();
   return std::move(node.mesh);
-}
-
-Status stopped(const std::atomic<bool>* stop) {
-  if (stop && stop->load()) return make_error(ErrorCode::kUnavailable, "tiles: stopped before the update committed");
-  return ok_status();
 }
 
 }  // namespace

@@ -199,13 +199,17 @@ class TileHierarchy {
   class CoverCache;
   Status load_committed(const std::vector<std::uint8_t>& record);
   Build begin_build() const;
-  Status apply_keyframes(Build& b, const std::vector<KeyframeId>& wanted, SceneCache& scenes);
+  Status apply_keyframes(Build& b, const std::vector<KeyframeId>& wanted, SceneCache& scenes,
+                         const std::atomic<bool>* stop);
   // Supersession after apply_keyframes: `added` (new or replacing, ascending) trim the older keyframes they
   // overlap; the keyframes that a `gone` one (replaced or removed: seq, its box) covered are worked out again.
+  // `stop` ends it between two keyframes.
   Status supersede(Build& b, const std::vector<std::int64_t>& added,
-                   const std::vector<std::pair<std::int64_t, Eigen::AlignedBox3d>>& gone, SceneCache& scenes);
-  // Keyframe `seq`'s coverage from every newer keyframe of the build that overlaps it; its leaf to build again.
-  Status cover_again(Build& b, std::int64_t seq, SceneCache& scenes);
+                   const std::vector<std::pair<std::int64_t, Eigen::AlignedBox3d>>& gone, SceneCache& scenes,
+                   const std::atomic<bool>* stop);
+  // Keyframe `seq`'s coverage from every newer keyframe of the build that overlaps it (but those in `skip`); its
+  // leaf to build again.
+  Status cover_again(Build& b, std::int64_t seq, SceneCache& scenes, const std::set<std::int64_t>* skip = nullptr);
   Result<std::shared_ptr<const CoverDepth>> depth_of(const KeyframeId& id, SceneCache& scenes);
   Status build_leaves(Build& b, SceneCache& scenes, const std::atomic<bool>* stop);
   void mark_ancestors_stale(Build& b, const TileKey& leaf);
