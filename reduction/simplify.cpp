@@ -3,31 +3,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <utility>
 
 #include "reduction/mesh_edges.h"
 #include "reduction/stages.h"
+#include "scene/mesh_compact.h"
 
 namespace rgbdcast {
-
-namespace {
-
-// The mesh reduced to these triangles (indices into it): only the vertices still referenced, with their colours.
-void keep_triangles(Mesh& mesh, const std::vector<std::uint32_t>& indices) {
-  std::vector<std::int64_t> remap(mesh.positions.size(), -1);
-  Mesh kept;
-  kept.indices.reserve(indices.size());
-  for (std::uint32_t i : indices) {
-    if (remap[i] < 0) {
-      remap[i] = static_cast<std::int64_t>(kept.positions.size());
-      kept.positions.push_back(mesh.positions[i]);
-      if (!mesh.colors.empty()) kept.colors.push_back(mesh.colors[i]);
-    }
-    kept.indices.push_back(static_cast<std::uint32_t>(remap[i]));
-  }
-  mesh = std::move(kept);
-}
-
-}  // namespace
 
 // Edge collapses (meshoptimizer's quadric simplifier) until the next one would move the surface by more than
 // max_error_m. Borders are locked, so the mesh's outline and its holes stay where the depth put them; only the
@@ -44,7 +26,7 @@ void simplify_mesh(Mesh& mesh, double max_error_m) {
                                     mesh.positions.size(), stride, /*target_index_count=*/0,
                                     static_cast<float>(max_error_m / scale), meshopt_SimplifyLockBorder, nullptr);
   out.resize(n);
-  keep_triangles(mesh, out);
+  mesh = compact_mesh(std::move(mesh), out);
 }
 
 // The realtime mesh's edge collapses, in the space its error model lives in: (u, v) in pixels and inverse depth in
@@ -147,7 +129,7 @@ size_t simplify_image_space(Mesh& mesh, const Intrinsics& k, double w_unit, doub
       kept += 3;
     }
   out.resize(kept);
-  keep_triangles(mesh, out);
+  mesh = compact_mesh(std::move(mesh), out);
   return mesh.triangle_count();
 }
 
