@@ -52,38 +52,15 @@ double position_pad_m(const Eigen::AlignedBox3d& box) {
 
 }  // namespace
 
-// The placed keyframes one update reads, the most recent few kept decoded. A scene is shared: a caller that holds
-// many at once (a leaf seen by more keyframes than the cache keeps) keeps each alive after the cache drops it.
-class TileHierarchy::SceneCache {
- public:
-  SceneCache(const KeyframeLoader& load, size_t keep) : load_(load), keep_(keep) {}
-  Result<std::shared_ptr<const Scene>> get(const KeyframeId& id) {
-    for (auto it = entries_.begin(); it != entries_.end(); ++it)
-      if (it->first == id) {
-        entries_.splice(entries_.begin(), entries_, it);
-        return entries_.front().second;
-      }
-    auto scene = load_(id);
-    if (!scene)
-      return make_error(scene.error().code, "keyframe " + std::to_string(id.seq) + " rev " + std::to_string(id.rev) +
-                                                ": " + scene.error().message);
-    entries_.emplace_front(id, std::make_shared<const Scene>(std::move(*scene)));
-    if (entries_.size() > keep_) entries_.pop_back();
-    return entries_.front().second;
-  }
+namespace {
 
- private:
-  const KeyframeLoader& load_;
-  size_t keep_;
-  std::list<std::pair<KeyframeId, std::shared_ptr<const Scene>>> entries_;  // most recent first
-};
-
-// The depths of the keyframes that trim older ones, the most recent few kept (a newer keyframe is asked for once per
-// older one it overlaps, and again when one of those is worked out from scratch).
-class TileHierarchy::CoverCache {
+// What was made for the most recent few keyframes, most recent first: the scenes an update decoded, the depths that
+// trim older keyframes. A value is shared: a caller that holds it keeps it alive after the cache drops it.
+template <class T>
+class RecentKeyframes {
  public:
-  explicit CoverCache(size_t keep) : keep_(keep) {}
-  std::shared_ptr<const CoverDepth> find(const KeyframeId& id) {
+  explicit RecentKeyframes(size_t keep) : keep_(keep) {}
+  std::shared_ptr<const T> find(const KeyframeId& id) {
     for (auto it = entries_.begin(); it != entries_.end(); ++it)
       if (it->first == id) {
         entries_.splice(entries_.begin(), entries_, it);
@@ -91,14 +68,42 @@ class TileHierarchy::CoverCache {
       }
     return nullptr;
   }
-  void put(const KeyframeId& id, std::shared_ptr<const CoverDepth> depth) {
-    entries_.emplace_front(id, std::move(depth));
+  std::shared_ptr<const T> put(const KeyframeId& id, std::shared_ptr<const T> value) {
+    entries_.emplace_front(id, std::move(value));
     if (entries_.size() > keep_) entries_.pop_back();
+    return entries_.front().second;
   }
 
  private:
   size_t keep_;
-  std::list<std::pair<KeyframeId, std::shared_ptr<const CoverDepth>>> entries_;  // most recent first
+  std::list<std::pair<KeyframeId, std::shared_ptr<const T>>> entries_;
+};
+
+}  // namespace
+
+// The placed keyframes one update reads, decoded (a leaf seen by more keyframes than the cache keeps still works).
+class TileHierarchy::SceneCache {
+ public:
+  SceneCache(const KeyframeLoader& load, size_t keep) : load_(load), recent_(keep) {}
+  Result<std::shared_ptr<const Scene>> get(const KeyframeId& id) {
+    if (auto cached = recent_.find(id)) return cached;
+    auto scene = load_(id);
+    if (!scene)
+      return make_error(scene.error().code, "keyframe " + std::to_string(id.seq) + " rev " + std::to_string(id.rev) +
+                                                ": " + scene.error().message);
+    return recent_.put(id, std::make_shared<const Scene>(std::move(*scene)));
+  }
+
+ private:
+  const KeyframeLoader& load_;
+  RecentKeyframes<Scene> recent_;
+};
+
+// The depths of the keyframes that trim older ones (a newer keyframe is asked for once per older one it overlaps,
+// and again when one of those is worked out from scratch).
+class TileHierarchy::CoverCache : public RecentKeyframes<CoverDepth> {
+ public:
+  using RecentKeyframes::RecentKeyframes;
 };
 
 std::string TileRecord::file() const { return key.name() + ".v" + std::to_string(version) + ".glb"; }
@@ -239,8 +244,7 @@ Status TileHierarchy::apply_keyframes(Build& b, const std::vector<KeyframeId>& w
                                       const std::atomic<bool>* stop) {
   std::map<std::int64_t, std::int64_t> want;
   for (const auto& k : wanted) want[k.seq] = k.rev;
-  std::vector<std::pair<std::int64_t, Eigen::AlignedBox3d>> gone;
-  std::vector<std::int64_t> added;
+  std::vector<std::int64_t> gone, added;
   // Keyframes gone or replaced: their leaves go (a replacement's is built again below).
   for (auto it = b.keyframes.begin(); it != b.keyframes.end();) {
     auto w = want.find(it->first);
@@ -248,7 +252,7 @@ Status TileHierarchy::apply_keyframes(Build& b, const std::vector<KeyframeId>& w
       ++it;
       continue;
     }
-    gone.emplace_back(it->first, it->second.box);
+    gone.push_back(it->first);
     b.leaves.insert(it->second.leaves.begin(), it->second.leaves.end());
     ++b.stats.keyframes_changed;
     it = b.keyframes.erase(it);
@@ -320,13 +324,12 @@ Status TileHierarchy::cover_again(Build& b, std::int64_t seq, SceneCache& scenes
   return ok_status();
 }
 
-Status TileHierarchy::supersede(Build& b, const std::vector<std::int64_t>& added,
-                                const std::vector<std::pair<std::int64_t, Eigen::AlignedBox3d>>& gone,
+Status TileHierarchy::supersede(Build& b, const std::vector<std::int64_t>& added, const std::vector<std::int64_t>& gone,
                                 SceneCache& scenes, const std::atomic<bool>* stop) {
   const std::set<std::int64_t> fresh(added.begin(), added.end());
   // From scratch, against every newer keyframe: the older ones a gone keyframe covered.
   std::set<std::int64_t> again;
-  for (const auto& [g, box] : gone)
+  for (std::int64_t g : gone)
     for (auto& [seq, e] : b.keyframes)
       if (seq < g && !fresh.count(seq) && std::binary_search(e.covered_by.begin(), e.covered_by.end(), g))
         again.insert(seq);

@@ -202,11 +202,10 @@ class TileHierarchy {
   Status apply_keyframes(Build& b, const std::vector<KeyframeId>& wanted, SceneCache& scenes,
                          const std::atomic<bool>* stop);
   // Supersession after apply_keyframes: `added` (new or replacing, ascending) trim the older keyframes they
-  // overlap; the keyframes that a `gone` one (replaced or removed: seq, its box) covered are worked out again.
-  // `stop` ends it between two keyframes.
-  Status supersede(Build& b, const std::vector<std::int64_t>& added,
-                   const std::vector<std::pair<std::int64_t, Eigen::AlignedBox3d>>& gone, SceneCache& scenes,
-                   const std::atomic<bool>* stop);
+  // overlap; the keyframes that a `gone` one (replaced or removed) covered are worked out again. `stop` ends it
+  // between two keyframes.
+  Status supersede(Build& b, const std::vector<std::int64_t>& added, const std::vector<std::int64_t>& gone,
+                   SceneCache& scenes, const std::atomic<bool>* stop);
   // Keyframe `seq`'s coverage from every newer keyframe of the build that overlaps it (but those in `skip`); its
   // leaf to build again.
   Status cover_again(Build& b, std::int64_t seq, SceneCache& scenes, const std::set<std::int64_t>* skip = nullptr);
