@@ -47,6 +47,12 @@ struct RenderOptions {
   float point_size_px = 1.0f;  // splat edge length in pixels, points mode
   std::array<std::uint8_t, 3> background{0, 0, 0};
   bool want_depth = false;  // read back depth too (for evaluation)
+  // A view drawn in batches, whose scenes do not fit the device together (a full-detail view of a long mission):
+  // keep_targets draws over the colour and depth that the previous render_scenes() call left, instead of clearing
+  // them; that call must have had the same image size (else kInvalidArgument). read_back = false draws only: the
+  // result's images stay empty (every batch but a view's last).
+  bool keep_targets = false;
+  bool read_back = true;
 };
 
 struct RenderTimings {

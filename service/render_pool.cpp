@@ -356,11 +356,35 @@ Result<RenderOutput> RenderPool::render_scene_job(Worker* w, Job& job, RenderOut
 
 Result<RenderOutput> RenderPool::render_parts_job(Worker* w, Job& job, RenderOutput out) {
   const size_t cap = part_cap_bytes();
-  std::vector<ResidentSceneId> ids;
-  size_t touched = 0;  // this view's parts, at the front of w->parts
+  RenderOptions options;
+  options.mode = job.request.mode;
+  options.point_size_px = job.request.point_size_px;
+  // The parts are drawn in batches that fit the worker's share of the cap: a batch is drawn over the previous one
+  // (colour and depth kept), after which its parts may be evicted to make room for the next. A view whose parts fit
+  // is one batch, as before; one whose parts do not (a full-detail overview of a long mission) keeps the device, and
+  // the process, within the cap instead of holding every part at once.
+  std::vector<ResidentSceneId> batch;
+  size_t batch_bytes = 0;
+  RenderTimings timings;
+  auto draw_batch = [&](bool last) -> Status {
+    options.read_back = last;
+    auto rendered = w->renderer->render_scenes(batch, job.camera, options);
+    if (!rendered) return rendered.error();
+    timings.render_ms += rendered->timings.render_ms;
+    timings.readback_ms += rendered->timings.readback_ms;
+    if (last) out.color = std::move(rendered->color);
+    options.keep_targets = true;
+    ++out.batches;
+    out.parts_drawn += batch.size();
+    batch.clear();
+    batch_bytes = 0;
+    return ok_status();
+  };
   for (const ViewPart& part : *job.parts) {
     auto found = w->part_index.find(part.key);
     if (found != w->part_index.end()) {
+      if (!batch.empty() && batch_bytes + found->second->bytes > cap)
+        if (Status s = draw_batch(false); !s) return s.error();
       w->parts.splice(w->parts.begin(), w->parts, found->second);
     } else {
       const auto t0 = std::chrono::steady_clock::now();
@@ -371,33 +395,32 @@ Result<RenderOutput> RenderPool::render_parts_job(Worker* w, Job& job, RenderOut
         continue;
       }
       if (!scene) return scene.error();
+      const size_t bytes = render_bytes(**scene);
+      if (!batch.empty() && batch_bytes + bytes > cap)
+        if (Status s = draw_batch(false); !s) return s.error();
+      // Room for the part, keeping the batch being gathered.
+      evict_parts(w, cap > bytes ? cap - bytes : 0, batch.size());
       double upload_ms = 0.0;
       auto id = w->renderer->upload(**scene, &upload_ms);
       if (!id && id.error().code == ErrorCode::kEmpty) continue;
       if (!id) return id.error();
       out.upload_ms += upload_ms;
       ++out.parts_loaded;
-      const size_t bytes = render_bytes(**scene);
       w->parts.push_front({part.key, *id, bytes});
       w->part_index[part.key] = w->parts.begin();
       w->part_bytes += bytes;
+      w->part_count = w->parts.size();
     }
-    ++touched;
-    ids.push_back(w->parts.front().device_id);
-    evict_parts(w, cap, touched);  // this view's parts stay until it is drawn
+    batch.push_back(w->parts.front().device_id);
+    batch_bytes += w->parts.front().bytes;
   }
-  RenderOptions options;
-  options.mode = job.request.mode;
-  options.point_size_px = job.request.point_size_px;
-  auto rendered = w->renderer->render_scenes(ids, job.camera, options);
-  evict_parts(w, cap, 0);  // a view whose own parts exceed the cap keeps none of them beyond it
-  if (!rendered) return rendered.error();
+  Status drawn = draw_batch(true);
+  evict_parts(w, cap, 0);
+  if (!drawn) return drawn.error();
   w->heap_dirty = true;
   if (static_cast<long long>(job.camera.width) * job.camera.height > options_.large_view_px) w->rendered_large = true;
-  out.parts_drawn = ids.size();
-  out.color = std::move(rendered->color);
-  out.render_ms = rendered->timings.render_ms;
-  out.readback_ms = rendered->timings.readback_ms;
+  out.render_ms = timings.render_ms;
+  out.readback_ms = timings.readback_ms;
   return out;
 }
 

@@ -11,8 +11,9 @@
 //   keyframes its tileset does not hold yet. A part's key names its content for ever (an immutable tile file, a
 //   keyframe revision), so a resident part is never stale. Each worker keeps its parts in a least-recently-used set
 //   capped at resident_part_bytes / workers (estimated device bytes: vertices, indices, RGBA8 textures), checked
-//   as each part loads and again after each view: a view whose own parts exceed the cap still draws them all, then
-//   the set shrinks back under the cap (such views load their parts again each time: the cap is too small for them).
+//   as each part loads. A view whose own parts exceed the cap still draws them all, in batches that each fit it
+//   (drawn over one another, colour and depth kept), so the set never holds more than the cap plus one part (such
+//   views load their parts again each time: the cap is too small for them).
 //   Renderers do not share device memory (each backend instance has its own device), so the cap is the total over
 //   the workers, not per worker. forget(key) drops the parts whose key starts with key + "/".
 // - append() grows a resident scene in place (a live mission gains a keyframe): each worker that holds the scene
@@ -65,6 +66,8 @@ struct RenderOutput {
   // render_parts(): parts drawn, loaded by this view (misses), and left out because they no longer load (kNotFound:
   // a tile file retired meanwhile).
   size_t parts_drawn = 0, parts_loaded = 0, parts_missing = 0;
+  // render_parts(): the batches the parts were drawn in (more than one when they did not fit the cap together).
+  size_t batches = 0;
 };
 
 using RendererFactory = std::function<Result<std::unique_ptr<Renderer>>()>;

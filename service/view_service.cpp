@@ -293,6 +293,7 @@ void ViewService::Impl::render_and_send(const httplib::Request& req, const ViewR
   if (out->parts_drawn + out->parts_loaded + out->parts_missing > 0) {  // a tiled view (service/mission_view.h)
     res.set_header("X-Parts-Drawn", std::to_string(out->parts_drawn));
     res.set_header("X-Parts-Loaded", std::to_string(out->parts_loaded));
+    res.set_header("X-Render-Batches", std::to_string(out->batches));
     if (out->parts_missing > 0) res.set_header("X-Parts-Missing", std::to_string(out->parts_missing));
   }
   res.set_header("Cache-Control", "no-store");

@@ -53,6 +53,7 @@ class OsmesaRenderer final : public Renderer {
   GLuint program_ = 0, ubo_ = 0, white_ = 0;
   GLuint fbo_ = 0, color_rb_ = 0, depth_rb_ = 0;
   int target_w_ = 0, target_h_ = 0;
+  bool drawn_ = false;  // the target holds a completed view (RenderOptions::keep_targets draws over it)
   std::map<ResidentSceneId, std::vector<GlNode>> scenes_;
   ResidentSceneId next_id_ = 1;
 };
@@ -276,18 +277,23 @@ Result<RenderResult> OsmesaRenderer::render_scenes(std::span<const ResidentScene
   }
   if (Status s = check_camera(camera); !s) return s.error();
   if (Status s = check_options(options); !s) return s.error();
+  if (options.keep_targets && !(drawn_ && target_w_ == camera.width && target_h_ == camera.height))
+    return make_error(ErrorCode::kInvalidArgument, "keep_targets: no previous view of this size to draw over");
   if (!make_current()) return make_error(ErrorCode::kInternal, "OSMesa: cannot make the context current");
   if (Status s = ensure_target(camera.width, camera.height); !s) return s.error();
   const int w = camera.width, h = camera.height;
   RenderResult result;
+  drawn_ = false;  // until this view's draws have completed
 
   const auto t_draw = Clock::now();
   glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
   glViewport(0, 0, w, h);
-  glClearColor(options.background[0] / 255.0f, options.background[1] / 255.0f, options.background[2] / 255.0f, 0.0f);
-  glClearDepth(1.0);
   glDepthMask(GL_TRUE);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  if (!options.keep_targets) {
+    glClearColor(options.background[0] / 255.0f, options.background[1] / 255.0f, options.background[2] / 255.0f, 0.0f);
+    glClearDepth(1.0);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  }
   glUseProgram(program_);
   glBindBufferBase(GL_UNIFORM_BUFFER, 0, ubo_);
   glActiveTexture(GL_TEXTURE1);  // binding = 1 in the shaders
@@ -317,6 +323,8 @@ Result<RenderResult> OsmesaRenderer::render_scenes(std::span<const ResidentScene
   result.timings.render_ms = ms_since(t_draw);
   if (GLenum e = glGetError(); e != GL_NO_ERROR)
     return make_error(ErrorCode::kInternal, "OSMesa: drawing failed (GL error " + std::to_string(e) + ")");
+  drawn_ = true;
+  if (!options.read_back) return result;
 
   // GL rows are bottom-up in memory; with GL_UPPER_LEFT the image's top is the last row: flip to top row first.
   const auto t_read = Clock::now();

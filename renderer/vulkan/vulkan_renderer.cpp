@@ -44,7 +44,32 @@ struct ResidentScene {
 struct Target {
   vk::Image2D color, depth;
   vk::Buffer color_readback, depth_readback;
+  // The layouts the last render_scenes() left the images in (RenderOptions::keep_targets draws over them).
+  bool drawn = false;
+  VkImageLayout color_layout = VK_IMAGE_LAYOUT_UNDEFINED, depth_layout = VK_IMAGE_LAYOUT_UNDEFINED;
 };
+
+// The barrier that makes an attachment ready to draw into: from what the last view left (its content kept) or, for a
+// fresh view, from nothing.
+void to_attachment(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, VkImageLayout from,
+                   VkImageLayout to) {
+  const bool color = aspect == VK_IMAGE_ASPECT_COLOR_BIT;
+  const VkPipelineStageFlags draw_stages =
+      color ? VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT
+            : VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+  const VkAccessFlags draw_access =
+      color ? VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_READ_BIT
+            : VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT;
+  VkPipelineStageFlags src_stage = VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT;
+  VkAccessFlags src_access = 0;
+  if (from == VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL) {
+    src_stage = VK_PIPELINE_STAGE_TRANSFER_BIT;
+  } else if (from != VK_IMAGE_LAYOUT_UNDEFINED) {
+    src_stage = draw_stages;
+    src_access = color ? VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT : VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  }
+  vk::image_barrier(cmd, image, aspect, from, to, src_stage, src_access, draw_stages, draw_access);
+}
 
 class VulkanRenderer final : public Renderer {
  public:
@@ -376,31 +401,35 @@ Result<RenderResult> VulkanRenderer::render_scenes(std::span<const ResidentScene
   }
   if (Status s = check_camera(camera); !s) return s.error();
   if (Status s = check_options(options); !s) return s.error();
+  if (options.keep_targets &&
+      !(target_.drawn && target_.color.width == camera.width && target_.color.height == camera.height))
+    return make_error(ErrorCode::kInvalidArgument, "keep_targets: no previous view of this size to draw over");
   if (Status s = ensure_target(camera.width, camera.height); !s) return s.error();
   const int w = camera.width, h = camera.height;
   const VkExtent2D extent{static_cast<uint32_t>(w), static_cast<uint32_t>(h)};
   RenderResult result;
+  const bool keep = options.keep_targets;
+  target_.drawn = false;  // until this view's draws have completed
 
   Status drawn = ctx_->submit_and_wait(
       [&](VkCommandBuffer cmd) {
-        vk::image_barrier(cmd, target_.color.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                          VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, 0,
-                          VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT);
-        vk::image_barrier(cmd, target_.depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                          VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, 0,
-                          VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT,
-                          VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
+        to_attachment(cmd, target_.color.image, VK_IMAGE_ASPECT_COLOR_BIT,
+                      keep ? target_.color_layout : VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+        to_attachment(cmd, target_.depth.image, VK_IMAGE_ASPECT_DEPTH_BIT,
+                      keep ? target_.depth_layout : VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
         VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
         ca.imageView = target_.color.view;
         ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-        ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+        ca.loadOp = keep ? VK_ATTACHMENT_LOAD_OP_LOAD : VK_ATTACHMENT_LOAD_OP_CLEAR;
         ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
         ca.clearValue.color = {
             {options.background[0] / 255.0f, options.background[1] / 255.0f, options.background[2] / 255.0f, 0.0f}};
         VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
         da.imageView = target_.depth.view;
         da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-        da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+        da.loadOp = keep ? VK_ATTACHMENT_LOAD_OP_LOAD : VK_ATTACHMENT_LOAD_OP_CLEAR;
         da.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
         da.clearValue.depthStencil = {1.0f, 0};
         VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
@@ -419,6 +448,10 @@ Result<RenderResult> VulkanRenderer::render_scenes(std::span<const ResidentScene
       },
       &result.timings.render_ms);
   if (!drawn) return drawn.error();
+  target_.drawn = true;
+  target_.color_layout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  target_.depth_layout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  if (!options.read_back) return result;
 
   const auto t_read = Clock::now();
   Status copied = ctx_->submit_and_wait([&](VkCommandBuffer cmd) {
@@ -446,7 +479,12 @@ Result<RenderResult> VulkanRenderer::render_scenes(std::span<const ResidentScene
     vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &mb, 0, nullptr, 0,
                          nullptr);
   });
-  if (!copied) return copied.error();
+  if (!copied) {
+    target_.drawn = false;
+    return copied.error();
+  }
+  target_.color_layout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  if (options.want_depth) target_.depth_layout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
   result.color = Image::make(w, h, 4);
   std::memcpy(result.color.data.data(), target_.color_readback.mapped, result.color.data.size());
   if (options.want_depth) {

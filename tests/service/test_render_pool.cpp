@@ -2,6 +2,7 @@
 // refuses work at once when full, resident scenes are reused and forgotten, errors pass through.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -19,7 +20,10 @@ namespace {
 struct Counters {
   std::atomic<int> uploads{0}, releases{0}, renders{0}, loads{0}, appended_nodes{0};
   std::atomic<int> render_sleep_ms{0};
-  std::atomic<int> last_ids{0};  // resident scenes the last render drew together
+  std::atomic<int> last_ids{0};           // resident scenes the last render drew together
+  std::atomic<int> live{0}, max_live{0};  // uploaded and not released: now, and at most since the last reset
+  // Batched views: renders that kept the previous targets, and renders that read the image back.
+  std::atomic<int> kept_targets{0}, read_backs{0};
   // A closed gate holds every render until it opens (a GPU busy for as long as the test needs).
   std::mutex gate_mu;
   std::condition_variable gate_cv;
@@ -42,6 +46,7 @@ class StandInRenderer : public Renderer {
   Result<ResidentSceneId> upload(const Scene& scene, double* upload_ms) override {
     if (scene.nodes.empty()) return make_error(ErrorCode::kEmpty, "empty scene");
     ++c_->uploads;
+    c_->max_live = std::max(c_->max_live.load(), ++c_->live);
     if (upload_ms) *upload_ms = 1.0;
     return ++next_;
   }
@@ -51,10 +56,15 @@ class StandInRenderer : public Renderer {
     c_->appended_nodes += static_cast<int>(scene.nodes.size());
     return ok_status();
   }
-  void release(ResidentSceneId) override { ++c_->releases; }
+  void release(ResidentSceneId) override {
+    ++c_->releases;
+    --c_->live;
+  }
   Result<RenderResult> render_scenes(std::span<const ResidentSceneId> ids, const ViewCamera& cam,
-                                     const RenderOptions&) override {
+                                     const RenderOptions& options) override {
     ++c_->renders;
+    c_->kept_targets += options.keep_targets;
+    c_->read_backs += options.read_back;
     const ResidentSceneId id = ids.empty() ? 0 : ids.back();
     c_->last_ids = static_cast<int>(ids.size());
     {
@@ -312,11 +322,22 @@ TEST(ServiceRenderPool, PartsStayResidentUnderTheByteCap) {
     EXPECT_LE(pool->resident_part_bytes(), o.resident_part_bytes) << i;
     EXPECT_EQ(pool->resident_part_bytes(), pool->resident_parts() * 240000u) << i;
   }
-  // Six parts at once are over the cap: all drawn, then the set shrinks back under it.
-  auto wide = pool->render_parts(parts("m/w", 0, 6, &c), camera, capture());
+  // Ten parts at once are over the cap: all drawn, in batches that each fit it, the first clearing the image and
+  // each later one drawn over it, the image read back once; never more than the cap's four parts resident.
+  EXPECT_EQ(first->batches, 1u);
+  c.max_live = c.live.load();
+  const int renders_before = c.renders, kept_before = c.kept_targets, read_before = c.read_backs;
+  auto wide = pool->render_parts(parts("m/w", 0, 10, &c), camera, capture());
   ASSERT_TRUE(wide.ok());
-  EXPECT_EQ(wide->parts_drawn, 6u);
-  EXPECT_EQ(c.last_ids, 6);
+  EXPECT_EQ(wide->parts_drawn, 10u);
+  EXPECT_EQ(wide->parts_loaded, 10u);
+  EXPECT_EQ(wide->batches, 3u);  // 4 + 4 + 2
+  EXPECT_EQ(c.renders - renders_before, 3);
+  EXPECT_EQ(c.kept_targets - kept_before, 2);
+  EXPECT_EQ(c.read_backs - read_before, 1);
+  EXPECT_EQ(c.last_ids, 2);
+  EXPECT_EQ(wide->color.width, camera.width);
+  EXPECT_LE(c.max_live, 4);
   EXPECT_LE(pool->resident_part_bytes(), o.resident_part_bytes);
   EXPECT_GT(pool->resident_parts(), 0u);
   // A part that is gone (a retired tile file) is left out; the rest is drawn.
