@@ -23,8 +23,9 @@ For each size N, variant and binary, a fresh server on loopback (its own data di
   6. LIVE more keyframes at LIVE_RATE a second, each timed from its POST's start to the SSE `event: tileset` whose
      version holds it (the event names only the version: the benchmark reads which keyframes a version holds from
      the server's tiles/<mission>/hierarchy.json in the data dir it owns): p50/p95;
-  7. late join: tileset.json plus the tiles that a 1280x720 overview (the same camera) selects at 16 px screen-space
-     error (bench/tileset_selection.py), fetched, in bytes;
+  7. late join: tileset.json (asked for with Accept-Encoding: gzip, as a browser does) plus the tiles that a 1280x720
+     overview (the same camera) selects at 16 px screen-space error (bench/tileset_selection.py), fetched: the bytes
+     on the wire, and tileset.json's own share of them against its JSON;
   8. storage: bytes under the data dir's tiles/<mission>/ and the whole data dir, against the posted bytes;
   9. model.glb: bytes and seconds.
 A binary whose estimated RSS (--mb-per-keyframe NAME=MB, 3.8 for one named "baseline": it holds every keyframe in
@@ -575,9 +576,21 @@ def live_ingest(server, poster, first_seq, count, rate, timeout_s):
 
 
 def late_join(server, camera_eye_world, width, height, fovy_deg, max_sse):
-    status, body, _ = server.get(f"/v1/missions/{MISSION}/tileset.json")
-    if status != 200:
-        return {"error": f"tileset.json: {status}"}
+    # As a browser asks for it (gzip: Chromium also offers br, which the standard library cannot decode); "bytes"
+    # counts what crossed the wire, "tileset_bytes" the JSON itself.
+    c = server.connect()
+    try:
+        t0 = time.monotonic()
+        c.request("GET", f"/v1/missions/{MISSION}/tileset.json", headers={"Accept-Encoding": "gzip"})
+        res = c.getresponse()
+        wire = res.read()
+        tileset_s = time.monotonic() - t0
+    finally:
+        c.close()
+    if res.status != 200:
+        return {"error": f"tileset.json: {res.status}"}
+    encoding = res.getheader("Content-Encoding", "identity")
+    body = zlib.decompress(wire, 16 + zlib.MAX_WBITS) if encoding == "gzip" else wire
     tileset = json.loads(body)
     eye = tileset_selection.world_to_tileset(camera_eye_world)
     uris = tileset_selection.select_contents(tileset, eye, height, math.radians(fovy_deg), max_sse)
@@ -593,8 +606,9 @@ def late_join(server, camera_eye_world, width, height, fovy_deg, max_sse):
             tile_bytes += len(data)
     finally:
         c.close()
-    return {"tileset_bytes": len(body), "tiles": len(uris), "tile_bytes": tile_bytes,
-            "bytes": len(body) + tile_bytes, "version": tileset["asset"].get("tilesetVersion"), "width": width,
+    return {"tileset_bytes": len(body), "tileset_wire_bytes": len(wire), "tileset_encoding": encoding,
+            "tileset_ms": 1000 * tileset_s, "tiles": len(uris), "tile_bytes": tile_bytes,
+            "bytes": len(wire) + tile_bytes, "version": tileset["asset"].get("tilesetVersion"), "width": width,
             "height": height}
 
 
@@ -693,7 +707,7 @@ def cell(v, f="%.0f"):
 
 COLUMNS = ["N", "binary", "posted MB", "POST p50/p95 ms", "tile lag s", "settled s", "ingest CPU s", "RSS ingest MB (peak)", "RSS views MB (peak)",
            "robot p50 ms", "overview p50 ms", "robot/overview dB vs full, robot/own GLB dB vs frame",
-           "8 clients views/s (p99 ms)", "tileset p50/p95 ms", "late join MB (tiles)",
+           "8 clients views/s (p99 ms)", "tileset p50/p95 ms", "late join MB (tileset.json on the wire / JSON MB; tiles)",
            "tiles/posted", "data/posted", "model.glb MB (s)"]
 
 
@@ -719,7 +733,8 @@ def row(r):
             cell(r.get("ingest_cpu_s"), "%.1f"), f"{r['rss_ingest_mb']:.0f} ({r['hwm_ingest_mb']:.0f})", f"{r['rss_views_mb']:.0f} ({r['hwm_views_mb']:.0f})",
             cell(r["robot_p50_ms"], "%.1f"), cell(r["overview_p50_ms"], "%.1f"), fidelity_cell(r.get("fidelity")),
             f"{t['views_per_s']:.1f} ({cell(t['p99_ms'])})" + (f" {t['failures']} failed" if t["failures"] else ""),
-            live_cell, ("%.2f (%d)" % (lj["bytes"] / mb, lj["tiles"])) if "bytes" in lj else lj.get("error", "-"),
+            live_cell, ("%.2f (%.2f / %.2f; %d)" % (lj["bytes"] / mb, lj["tileset_wire_bytes"] / mb, lj["tileset_bytes"] / mb,
+                                        lj["tiles"])) if "bytes" in lj else lj.get("error", "-"),
             "%.2f" % (r["tiles_bytes"] / r["posted_bytes"]), "%.2f" % (r["data_bytes"] / r["posted_bytes"]),
             "%.1f (%.1f)" % (m["bytes"] / mb, m["s"]) if m["status"] == 200 else f"HTTP {m['status']}"]
 

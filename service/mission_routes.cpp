@@ -10,6 +10,7 @@
 #include "base/stopwatch.h"
 #include "gltf/gltf_io.h"
 #include "service/connection_gate.h"
+#include "service/http_gzip.h"
 #include "service/mission_export.h"
 #include "service/mission_scene.h"
 #include "service/mission_view.h"
@@ -473,6 +474,10 @@ void MissionRoutes::delete_mission(const httplib::Request& req, httplib::Respons
   if (!st) return send_error(res, st.error());
   pool_.forget(mission_scene_key(*name));
   tiles_.forget(*name);
+  {
+    std::lock_guard tileset_lock(tileset_mutex_);
+    gzipped_tilesets_.erase(*name);
+  }
   res.status = 204;
 }
 
@@ -482,13 +487,36 @@ void MissionRoutes::get_tileset(const httplib::Request& req, httplib::Response& 
   if (!req.params.empty()) return send_error(res, 400, "tileset.json takes no parameters");
   if (!missions_.keyframes(*name)) return send_error(res, 404, "no mission " + *name);
   auto snapshot = tiles_.snapshot(*name);
-  // Before the first update commits, an empty tileset of version 0: a client polls or waits for the "tileset" event.
-  const std::string body = snapshot ? snapshot->tileset_json : tiles::make_tileset({}, 1, 0, "tiles/").dump();
-  const std::string etag = "\"tileset-" + std::to_string(snapshot ? snapshot->version : 0) + "\"";
+  const std::uint64_t version = snapshot ? snapshot->version : 0;
+  // Gzipped for clients that accept it, as is for the others; either way sent as made (http_gzip.h). Each
+  // representation has its own strong ETag.
+  const bool gzipped = snapshot && accepts_gzip(req);
+  const std::string etag = "\"tileset-" + std::to_string(version) + (gzipped ? "-gzip" : "") + "\"";
   res.set_header("Cache-Control", "no-cache");
+  res.set_header("Vary", "Accept-Encoding");
   if (answer_not_modified(req, res, etag)) return;
   res.status = 200;
-  res.set_content(body, "application/json");
+  // Before the first update commits, an empty tileset of version 0: a client polls or waits for the "tileset" event.
+  if (!snapshot)
+    return send_shared(res, std::make_shared<const std::string>(tiles::make_tileset({}, 1, 0, "tiles/").dump()),
+                       "application/json");
+  if (!gzipped)
+    return send_shared(res, std::shared_ptr<const std::string>(snapshot, &snapshot->tileset_json), "application/json");
+  std::shared_ptr<const std::string> bytes;
+  {
+    std::lock_guard lock(tileset_mutex_);
+    auto it = gzipped_tilesets_.find(*name);
+    if (it != gzipped_tilesets_.end() && it->second.of.lock() == snapshot) bytes = it->second.bytes;
+  }
+  if (!bytes) {
+    // Level 6: at 9 a long mission's tileset takes several times longer for a few per cent less.
+    bytes = std::make_shared<const std::string>(gzip(snapshot->tileset_json, 6));
+    if (bytes->empty()) return send_error(res, 500, "tileset.json could not be compressed");
+    std::lock_guard lock(tileset_mutex_);
+    gzipped_tilesets_[*name] = {snapshot, bytes};
+  }
+  res.set_header("Content-Encoding", "gzip");
+  send_shared(res, std::move(bytes), "application/json");
 }
 
 void MissionRoutes::get_tile(const httplib::Request& req, httplib::Response& res) {

@@ -93,6 +93,14 @@ class MissionRoutes {
   };
   std::mutex model_mutex_;
   std::map<std::string, CachedModel> models_;
+  // tileset.json gzipped, per mission, for the snapshot last asked for: compressed once per version (it grows with
+  // the tiles, MBs on a long mission) rather than by httplib for every client.
+  struct GzippedTileset {
+    std::weak_ptr<const tiles::TilesetSnapshot> of;  // expired, or another, once the tileset has moved on
+    std::shared_ptr<const std::string> bytes;
+  };
+  std::mutex tileset_mutex_;
+  std::map<std::string, GzippedTileset> gzipped_tilesets_;
   std::atomic<bool> stopping_{false};
 };
 

@@ -1,11 +1,10 @@
 #include "service/web_assets.h"
 
-#include <zlib.h>
-
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 
+#include "service/http_gzip.h"
 #include "service/http_reply.h"
 
 namespace rgbdcast::service {
@@ -31,26 +30,6 @@ bool is_plain_path(const std::string& path) {
     start = end + 1;
   }
   return true;
-}
-
-// gzip of `in` (zlib level 9: a module is compressed once), or "" on failure.
-std::string gzip(const std::string& in) {
-  z_stream z{};
-  if (deflateInit2(&z, 9, Z_DEFLATED, 15 + 16, 9, Z_DEFAULT_STRATEGY) != Z_OK) return "";
-  std::string out(deflateBound(&z, static_cast<uLong>(in.size())), '\0');
-  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
-  z.avail_in = static_cast<uInt>(in.size());
-  z.next_out = reinterpret_cast<Bytef*>(out.data());
-  z.avail_out = static_cast<uInt>(out.size());
-  const int rc = deflate(&z, Z_FINISH);
-  out.resize(z.total_out);
-  deflateEnd(&z);
-  return rc == Z_STREAM_END ? out : "";
-}
-
-bool accepts_gzip(const httplib::Request& req) {
-  const std::string a = req.get_header_value("Accept-Encoding");
-  return a.find("gzip") != std::string::npos;
 }
 
 // Sends the module (gzipped or not) as it is: httplib does not compress a content provider of known length.
@@ -84,7 +63,7 @@ std::shared_ptr<const WebAssets::Module> WebAssets::module(const std::string& pa
   auto m = std::make_shared<Module>();
   m->bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   m->stamp = stamp;
-  m->gzipped = gzip(m->bytes);
+  m->gzipped = gzip(m->bytes, 9);  // once per module: the smallest
   if (m->gzipped.size() >= m->bytes.size()) m->gzipped.clear();
   std::lock_guard lock(mutex_);
   modules_[path] = m;

@@ -18,6 +18,8 @@ int connect_loopback(int port, const char* address = "127.0.0.1");
 bool send_all(int fd, const std::string& bytes);  // false when the peer closed or reset
 // Sends `request` (stops sending if the server closes) and reads one response, within timeout_s.
 RawResponse raw_request(int port, const std::string& request, double timeout_s = 10.0);
+// The bytes a gzip body (Content-Encoding: gzip) holds, or "" when it is not one whole gzip stream.
+std::string gunzip(const std::string& in);
 // Reads one response from a connected socket within timeout_s.
 RawResponse read_response(int fd, double timeout_s);
 // Opens an event stream (GET path, Accept: text/event-stream) and reads until `needle` arrived, the server closed or

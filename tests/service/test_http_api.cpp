@@ -6,7 +6,6 @@
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <unistd.h>
-#include <zlib.h>
 
 #include <gtest/gtest.h>
 
@@ -421,24 +420,6 @@ TEST_F(ServiceHttp, UnknownScenesAndPathTraversal) {
   }
 }
 
-std::string gunzip(const std::string& in) {
-  z_stream z{};
-  if (inflateInit2(&z, 15 + 16) != Z_OK) return "";
-  std::string out;
-  char buf[1 << 16];
-  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
-  z.avail_in = static_cast<uInt>(in.size());
-  int rc = Z_OK;
-  while (rc == Z_OK) {
-    z.next_out = reinterpret_cast<Bytef*>(buf);
-    z.avail_out = sizeof buf;
-    rc = inflate(&z, Z_NO_FLUSH);
-    out.append(buf, sizeof buf - z.avail_out);
-  }
-  inflateEnd(&z);
-  return rc == Z_STREAM_END ? out : "";
-}
-
 // The page's npm modules: gzipped for a client that accepts gzip (whatever else it accepts), as they are for the
 // others, the same bytes as the file either way; only the modules' folders; the page's own files by name.
 TEST_F(ServiceHttp, PageModulesAreTheFilesGzippedOnlyUnderTheirFolders) {
@@ -455,7 +436,7 @@ TEST_F(ServiceHttp, PageModulesAreTheFilesGzippedOnlyUnderTheirFolders) {
   EXPECT_EQ(gz.status, 200);
   EXPECT_EQ(gz.headers.count("content-encoding") ? gz.headers.at("content-encoding") : "", "gzip");
   EXPECT_LT(gz.body.size(), bytes.size() / 3);
-  EXPECT_TRUE(gunzip(gz.body) == bytes) << "the gzipped module is not the file";
+  EXPECT_TRUE(rgbdcast::test::gunzip(gz.body) == bytes) << "the gzipped module is not the file";
   for (const std::string& accept : {std::string("Accept-Encoding: br\r\n"), std::string()}) {
     const auto plain = get("/web/modules/three/build/three.module.js", accept);
     ASSERT_TRUE(plain.ok) << accept;

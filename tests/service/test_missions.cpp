@@ -40,6 +40,12 @@ using rgbdcast::test::ServerProcess;
 
 namespace {
 
+// GET `path` with extra header lines (each ending in CRLF), as sent: no client library decompressing the answer.
+rgbdcast::test::RawResponse raw_get(int port, const std::string& path, const std::string& headers) {
+  return rgbdcast::test::raw_request(port, "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+                                               "\r\nConnection: close\r\n" + headers + "\r\n");
+}
+
 const std::vector<MissionKeyframeFile>& keyframes() {
   static std::string error;
   static const auto k = rgbdcast::test::mission_keyframes({0, 40, 80, 119}, &error);
@@ -844,6 +850,28 @@ TEST(Missions, TheTilesetFollowsTheKeyframesAndItsTilesAreImmutable) {
                           "/v1/missions/floor/tiles/../missions/floor/0.glb", "/v1/missions/floor/tiles/hierarchy.json",
                           "/v1/missions/floor/tiles/0_0_0.v1.glb.tmp", "/v1/missions/floor/tiles/"})
     expect_json_error(c->Get(bad), 400, bad);
+  // tileset.json gzipped for a client that offers gzip, as is for any other (not left to httplib's per-request
+  // brotli); the same JSON either way, each representation with its own ETag, both answering If-None-Match.
+  bool compared = false;
+  for (int attempt = 0; attempt < 20 && !compared; ++attempt) {
+    const auto plain = raw_get(server.port(), "/v1/missions/floor/tileset.json", "Accept-Encoding: br\r\n");
+    const auto gz = raw_get(server.port(), "/v1/missions/floor/tileset.json", "Accept-Encoding: gzip, br\r\n");
+    ASSERT_EQ(plain.status, 200);
+    ASSERT_EQ(gz.status, 200);
+    const std::string plain_tag = plain.headers.at("etag"), gz_tag = gz.headers.at("etag");
+    if (gz_tag != plain_tag.substr(0, plain_tag.size() - 1) + "-gzip\"") continue;  // a commit in between
+    EXPECT_EQ(plain.headers.count("content-encoding"), 0u);
+    EXPECT_EQ(gz.headers.at("content-encoding"), "gzip");
+    EXPECT_EQ(gz.headers.at("vary"), "Accept-Encoding");
+    EXPECT_EQ(json::parse(rgbdcast::test::gunzip(gz.body)), json::parse(plain.body));
+    EXPECT_LT(gz.body.size(), plain.body.size());
+    EXPECT_EQ(raw_get(server.port(), "/v1/missions/floor/tileset.json",
+                      "Accept-Encoding: gzip\r\nIf-None-Match: " + gz_tag + "\r\n")
+                  .status,
+              304);
+    compared = true;
+  }
+  EXPECT_TRUE(compared) << "tileset.json changed between every two reads";
   expect_json_error(c->Get("/v1/missions/floor/tiles/0_0_0.v999999.glb"), 404, "an unknown tile");
   expect_json_error(c->Get("/v1/missions/floor/tileset.json?max-error=1e308"), 400, "a parameter");
   expect_json_error(c->Get("/v1/missions/nope/tileset.json"), 404, "an unknown mission");
