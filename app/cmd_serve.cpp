@@ -90,6 +90,11 @@ void register_serve(CLI::App& app) {
                   "MiB of mission tiles and keyframes kept on the renderers, all together (least recently used go)")
       ->capture_default_str()
       ->check(CLI::Range(16, 1 << 20));
+  cmd->add_option("--max-model-keyframes", opts->max_model_keyframes,
+                  "Longest mission whose model.glb without max-error is assembled in memory; longer ones get 409 "
+                  "and export from their tiles (?max-error=0: full detail, streamed from disk)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 20));
   cmd->add_flag("!--keep-every-surface", opts->supersede,
                 "Tiles keep every keyframe's whole surface (by default newer keyframes supersede the older surface "
                 "they cover)");

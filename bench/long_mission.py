@@ -27,7 +27,8 @@ For each size N, variant and binary, a fresh server on loopback (its own data di
      overview (the same camera) selects at 16 px screen-space error (bench/tileset_selection.py), fetched: the bytes
      on the wire, and tileset.json's own share of them against its JSON;
   8. storage: bytes under the data dir's tiles/<mission>/ and the whole data dir, against the posted bytes;
-  9. model.glb: bytes and seconds.
+  9. model.glb?max-error=0 (full detail, merged from the leaf tiles and streamed from disk; the in-memory
+     whole-mission model.glb is refused past serve --max-model-keyframes): bytes and seconds; RSS at the end.
 A binary whose estimated RSS (--mb-per-keyframe NAME=MB, 3.8 for one named "baseline": it holds every keyframe in
 memory) would pass --max-rss-gb at N is skipped ("skipped: memory"); a server whose RSS passes it at any time is
 killed by a watchdog ("stopped: memory"). A server that dies or fails a request ends its row ("failed at seq K", K the
@@ -675,7 +676,7 @@ def run_one(name, binary, n, variant, workload, a, work):
         r["data_bytes"] = folder_bytes(data)
 
         t0 = time.monotonic()
-        status, body, _ = server.get(f"/v1/missions/{MISSION}/model.glb", timeout=a.model_timeout_s)
+        status, body, _ = server.get(f"/v1/missions/{MISSION}/model.glb?max-error=0", timeout=a.model_timeout_s)
         r["model"] = {"status": status, "bytes": len(body), "s": time.monotonic() - t0}
         del body
         r["rss_end_mb"], r["hwm_end_mb"] = server.memory_mb()
@@ -708,7 +709,7 @@ def cell(v, f="%.0f"):
 COLUMNS = ["N", "binary", "posted MB", "POST p50/p95 ms", "tile lag s", "settled s", "ingest CPU s", "RSS ingest MB (peak)", "RSS views MB (peak)",
            "robot p50 ms", "overview p50 ms", "robot/overview dB vs full, robot/own GLB dB vs frame",
            "8 clients views/s (p99 ms)", "tileset p50/p95 ms", "late join MB (tileset.json on the wire / JSON MB; tiles)",
-           "tiles/posted", "data/posted", "model.glb MB (s)"]
+           "tiles/posted", "data/posted", "model.glb?max-error=0 MB (s)", "RSS end MB (peak)"]
 
 
 def fidelity_cell(f):
@@ -736,7 +737,8 @@ def row(r):
             live_cell, ("%.2f (%.2f / %.2f; %d)" % (lj["bytes"] / mb, lj["tileset_wire_bytes"] / mb, lj["tileset_bytes"] / mb,
                                         lj["tiles"])) if "bytes" in lj else lj.get("error", "-"),
             "%.2f" % (r["tiles_bytes"] / r["posted_bytes"]), "%.2f" % (r["data_bytes"] / r["posted_bytes"]),
-            "%.1f (%.1f)" % (m["bytes"] / mb, m["s"]) if m["status"] == 200 else f"HTTP {m['status']}"]
+            "%.1f (%.1f)" % (m["bytes"] / mb, m["s"]) if m["status"] == 200 else f"HTTP {m['status']}",
+            f"{r['rss_end_mb']:.0f} ({r['hwm_end_mb']:.0f})"]
 
 
 def print_table(variant, results):

@@ -288,6 +288,13 @@ void MissionRoutes::get_model(const httplib::Request& req, httplib::Response& re
       return send_error(res, 400, "max-error exports are compact only (the tiles are stored so); drop flavor=");
     return send_tile_model(req, res, tiles_, *name, *max_error_m);
   }
+  if (keyframes->size() > options_.max_model_keyframes)
+    return send_error(res, 409,
+                      "model.glb without max-error assembles every keyframe in memory, and this mission has " +
+                          std::to_string(keyframes->size()) +
+                          " (serve --max-model-keyframes: " + std::to_string(options_.max_model_keyframes) +
+                          "); ask for ?max-error=0 (full detail from the tiles, streamed from disk) or ?max-error=M "
+                          "(metres, coarser)");
   std::string made_of;
   for (const auto& k : *keyframes) made_of += std::to_string(k.seq) + ":" + k.etag + " ";
   const std::string cache_key = *name + "?" + to_string(flavor);

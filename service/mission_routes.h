@@ -35,6 +35,7 @@ struct MissionRouteOptions {
   int max_event_streams = 4;
   double event_stream_max_s = 300.0;  // one SSE response at most this long
   double keep_alive_s = 15.0;         // a ": keep-alive" comment after this long without an event
+  size_t max_model_keyframes = 300;   // model.glb without max-error: missions longer than this get 409 (view_service.h)
 };
 
 // The key of a mission among the render pool's scenes ("mission/<name>": scene ids are hex, so never one of these).

@@ -591,6 +591,7 @@ Result<std::unique_ptr<ViewService>> ViewService::create(const ServeOptions& opt
   mission_options.max_event_streams = options.max_event_streams;
   mission_options.event_stream_max_s = options.event_stream_max_s;
   mission_options.keep_alive_s = options.keep_alive_s;
+  mission_options.max_model_keyframes = static_cast<size_t>(options.max_model_keyframes);
   Impl* raw = impl.get();
   tiles::TilingOptions tiling;
   tiling.supersede = options.supersede;

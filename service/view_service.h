@@ -40,11 +40,14 @@ struct ServeOptions {
   size_t resident_mb = 512;  // missions' tiles and keyframes resident on the renderers, all together (MiB;
                              // least recently used evicted: service/render_pool.h)
   bool supersede = true;     // newer keyframes supersede the older surface they cover in the tiles (tiles/tile_cover.h)
-  int reducers = 1;          // frame reductions at once
-  int reduce_threads = 0;    // OpenMP threads per reduction (ReductionParams::threads); 0 = max(1, cores /
-                             // reducers), so reductions at once never ask for more threads than cores
-  int reduce_queue = 2;      // frame uploads waiting for a reducer; more get 503
-  int max_uploads = 8;       // request bodies being received at once; more get 503
+  // A mission's model.glb without max-error decodes every keyframe in memory (a few MB each at their peak): longer
+  // missions are answered 409, pointing to the export from their tiles (?max-error=0 streams full detail from disk).
+  int max_model_keyframes = 300;
+  int reducers = 1;        // frame reductions at once
+  int reduce_threads = 0;  // OpenMP threads per reduction (ReductionParams::threads); 0 = max(1, cores /
+                           // reducers), so reductions at once never ask for more threads than cores
+  int reduce_queue = 2;    // frame uploads waiting for a reducer; more get 503
+  int max_uploads = 8;     // request bodies being received at once; more get 503
   int max_frame_width = 1920, max_frame_height = 1080;  // multipart frames, checked from the image headers
   // Access control: a token makes POST and DELETE need "Authorization: Bearer <token>". Binding to a non-loopback
   // address without a token is refused unless insecure_no_auth.

@@ -966,16 +966,23 @@ TEST(Missions, ViewsDrawTheTilesetByScreenSpaceErrorUnderTheResidentCap) {
 
 // A mission's JSON in pages (?after=SEQ&limit=N) with its totals; model.glb?max-error=M merged from the tiles and
 // streamed from disk: M = 0 holds every triangle of the leaves, a large M fewer; hostile parameters are a 4xx with
-// JSON.
+// JSON. A mission longer than --max-model-keyframes has no in-memory model.glb: a 409 that names max-error=0.
 TEST(Missions, TheJsonPagesAndTheTileExportIsBoundedByMaxError) {
   REQUIRE_KEYFRAMES();
   const auto& k = keyframes();
   const TestDir test_dir("missions-export");
   ServerProcess server;
   std::string error;
-  ASSERT_TRUE(server.start(test_dir.path, {}, &error)) << error;
+  ASSERT_TRUE(server.start(test_dir.path, {"--max-model-keyframes", "3"}, &error)) << error;
   auto c = client(server.port());
-  for (int i = 0; i < 4; ++i) ASSERT_EQ(post_keyframe(*c, "long", i, k[static_cast<size_t>(i)])->status, 201);
+  for (int i = 0; i < 3; ++i) ASSERT_EQ(post_keyframe(*c, "long", i, k[static_cast<size_t>(i)])->status, 201);
+  auto whole = c->Get("/v1/missions/long/model.glb");
+  ASSERT_TRUE(whole);
+  EXPECT_EQ(whole->status, 200) << whole->body.substr(0, 300);
+  ASSERT_EQ(post_keyframe(*c, "long", 3, k[3])->status, 201);
+  auto too_long = c->Get("/v1/missions/long/model.glb");
+  expect_json_error(too_long, 409, "model.glb of 4 keyframes over --max-model-keyframes 3");
+  EXPECT_NE(too_long->body.find("max-error=0"), std::string::npos) << too_long->body;
 
   const std::string all_text = c->Get("/v1/missions/long")->body;
   const json all = json::parse(all_text);
