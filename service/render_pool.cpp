@@ -365,13 +365,12 @@ Result<RenderOutput> RenderPool::render_parts_job(Worker* w, Job& job, RenderOut
   // the process, within the cap instead of holding every part at once.
   std::vector<ResidentSceneId> batch;
   size_t batch_bytes = 0;
-  RenderTimings timings;
   auto draw_batch = [&](bool last) -> Status {
     options.read_back = last;
     auto rendered = w->renderer->render_scenes(batch, job.camera, options);
     if (!rendered) return rendered.error();
-    timings.render_ms += rendered->timings.render_ms;
-    timings.readback_ms += rendered->timings.readback_ms;
+    out.render_ms += rendered->timings.render_ms;
+    out.readback_ms += rendered->timings.readback_ms;
     if (last) out.color = std::move(rendered->color);
     options.keep_targets = true;
     ++out.batches;
@@ -419,8 +418,6 @@ Result<RenderOutput> RenderPool::render_parts_job(Worker* w, Job& job, RenderOut
   if (!drawn) return drawn.error();
   w->heap_dirty = true;
   if (static_cast<long long>(job.camera.width) * job.camera.height > options_.large_view_px) w->rendered_large = true;
-  out.render_ms = timings.render_ms;
-  out.readback_ms = timings.readback_ms;
   return out;
 }
 

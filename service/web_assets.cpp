@@ -32,16 +32,6 @@ bool is_plain_path(const std::string& path) {
   return true;
 }
 
-// Sends the module (gzipped or not) as it is: httplib does not compress a content provider of known length.
-void send_bytes(httplib::Response& res, std::shared_ptr<const WebAssets::Module> m, bool gzipped,
-                const std::string& type) {
-  const size_t size = gzipped ? m->gzipped.size() : m->bytes.size();
-  res.set_content_provider(size, type, [m, gzipped](size_t offset, size_t length, httplib::DataSink& sink) {
-    const std::string& b = gzipped ? m->gzipped : m->bytes;
-    return sink.write(b.data() + offset, length);
-  });
-}
-
 }  // namespace
 
 std::shared_ptr<const WebAssets::Module> WebAssets::module(const std::string& path) const {
@@ -114,7 +104,7 @@ void WebAssets::install(httplib::Server& server, const Guard& guard) const {
                res.set_header("Vary", "Accept-Encoding");
                const bool gzipped = !m->gzipped.empty() && accepts_gzip(req);
                if (gzipped) res.set_header("Content-Encoding", "gzip");
-               send_bytes(res, std::move(m), gzipped, type);
+               send_shared(res, std::shared_ptr<const std::string>(m, gzipped ? &m->gzipped : &m->bytes), type);
              }));
 }
 
