@@ -6,23 +6,24 @@
 //   costs about the posted bytes). A leaf's cell (tiles/tile_key.h) is where its surface's centroid lies; its
 //   bounding volume is its own.
 // - an inner tile: the merged surface of its children, welded on a 1 mm grid and simplified with meshoptimizer
-//   (meshopt_simplify). Its error is the simplifier's, in metres, plus the largest of its children's. Open borders
-//   are not locked (a depth mesh is mostly border: locked, a level-2 tile kept 4x what it should; and the leaves,
-//   whole keyframes, overlap rather than meet at cell borders), so a gap between two inner tiles is within their
-//   geometric error, which is what a client's screen-space error bounds. Its texture is baked into one footprint
-//   atlas at the resolution its error needs: texel side = error / InnerBakeOptions::texels_per_error, and at
-//   least twice the children's own texel side (a level up halves the detail along each axis, as for the triangles, so
-//   a tile's texel count does not grow with its level), legs halved until the atlas fits its cap. Colour comes
-//   from the children's surface, not from the simplified one: each texel's point on a simplified triangle is
-//   projected along that triangle's normal onto the children's (welded) triangles, the nearest hit within the
-//   simplifier's error plus two texels (a texture baker's ray cast from the low-resolution surface), or where the
-//   line meets none (beyond a silhouette) onto their nearest point; that triangle's texture (bilinear, at the
-//   barycentric UV) or colours give it. A coarse tile whose triangles would be only a few texels across is
-//   vertex-coloured instead (InnerBakeOptions::min_leg_texels), each vertex the mean colour of the surface around
-//   it. Simplification moves no vertex (meshopt_simplify keeps a subset), but one
-//   simplified triangle spans many children's triangles, their cells and textures; the projection finds whichever of
-//   them lies under it (a bounding volume hierarchy over the children's triangles), and where two layers overlap
-//   (keyframes seen twice) it takes the nearer one.
+//   (meshopt_simplify), or, where those edge collapses stall (pieces that meet only at corners: the top of a long
+//   mission's hierarchy), by vertex clustering (meshopt_simplifySloppy), whose error is measured: the farthest merged
+//   vertex from the clustered surface. Its error is the simplifier's, in metres, plus the largest of its children's.
+//   Open borders are not locked (a depth mesh is mostly border: locked, a level-2 tile kept 4x what it should; and the
+//   leaves, whole keyframes, overlap rather than meet at cell borders), so a gap between two inner tiles is within
+//   their geometric error, which is what a client's screen-space error bounds. Its texture is baked into one footprint
+//   atlas at the resolution its error needs: texel side = error / InnerBakeOptions::texels_per_error, and at least
+//   twice the children's own texel side (a level up halves the detail along each axis, as for the triangles, so a
+//   tile's texel count does not grow with its level), legs halved until the atlas fits its cap. Colour comes from the
+//   children's surface, not from the simplified one: each texel's point on a simplified triangle is projected along
+//   that triangle's normal onto the children's (welded) triangles, the nearest hit within the simplifier's error plus
+//   two texels (a texture baker's ray cast from the low-resolution surface), or where the line meets none (beyond a
+//   silhouette) onto their nearest point; that triangle's texture (bilinear, at the barycentric UV) or colours give it.
+//   A coarse tile whose triangles would be only a few texels across is vertex-coloured instead
+//   (InnerBakeOptions::min_leg_texels), each vertex the mean colour of the surface around it. Simplification moves no
+//   vertex (either simplifier keeps a subset), but one simplified triangle spans many children's triangles, their cells
+//   and textures; the projection finds whichever of them lies under it (a bounding volume hierarchy over the children's
+//   triangles), and where two layers overlap (keyframes seen twice) it takes the nearer one.
 // A tile GLB holds one SceneNode. An inner tile's positions are metres in the mission's world frame (scene/camera.h),
 // its node's to_world identity; a leaf keeps its keyframe's node: positions in the keyframe's frame, to_world its pose
 // (the geometry encodes as compactly as the keyframe GLB did).
@@ -89,6 +90,7 @@ struct InnerTile {
   double layer_error_m = 0.0;     // what keeping one layer where children overlap moved the surface, metres
   size_t merged_triangles = 0;    // the children's
   size_t kept_triangles = 0;      // of those, in the one layer kept (what is simplified)
+  bool clustered = false;         // edge collapses stalled: simplified by vertex clustering (its error measured)
 };
 
 // An inner tile's content from its children's decoded contents (tile GLBs, world coordinates; textured or
