@@ -27,6 +27,7 @@
 // A tile GLB holds one SceneNode. An inner tile's positions are metres in the mission's world frame (scene/camera.h),
 // its node's to_world identity; a leaf keeps its keyframe's node: positions in the keyframe's frame, to_world its pose
 // (the geometry encodes as compactly as the keyframe GLB did).
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -93,11 +94,21 @@ struct InnerTile {
   bool clustered = false;         // edge collapses stalled: simplified by vertex clustering (its error measured)
 };
 
+// How far an inner tile is simplified: toward a quarter of its children's triangles and at most `triangles` (> 0),
+// stopping where the edge collapses' error would pass max_error_m (metres; infinity: no limit). Where they stall
+// (see build_inner), vertex clustering follows meshoptimizer's estimate of that limit, and the tile's error is the
+// clustering's, measured.
+struct SimplifyTarget {
+  size_t triangles = 20000;
+  double max_error_m = INFINITY;
+  bool lock_border = false;
+};
+
 // An inner tile's content from its children's decoded contents (tile GLBs, world coordinates; textured or
-// vertex-coloured) whose largest geometric error is children_error_m. target_triangles > 0.
+// vertex-coloured) whose largest geometric error is children_error_m.
 // kEmpty when the children hold no triangle; kInvalidInput for an inconsistent child mesh.
 Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double children_error_m,
-                              size_t target_triangles, bool lock_border, const InnerBakeOptions& options);
+                              const SimplifyTarget& target, const InnerBakeOptions& options);
 
 // The box of a mesh's positions (world), grown by pad_m on every side.
 Eigen::AlignedBox3d mesh_box(const Mesh& mesh, double pad_m);

@@ -15,14 +15,16 @@
 namespace rgbdcast::tiles {
 namespace {
 
-constexpr int kFormat = 7;  // 2: inner tiles are textured; 3: their texels at least twice their children's;
+constexpr int kFormat = 8;  // 2: inner tiles are textured; 3: their texels at least twice their children's;
                             // 4: records carry render bytes; 5: keyframes are the leaves, inner tiles can be stale;
-                            // 6: inner tiles keep one layer where children overlap; 7: newer keyframes supersede
+                            // 6: inner tiles keep one layer where children overlap; 7: newer keyframes supersede;
+                            // 8: inner tiles' error bounded by their cell, clustered where edge collapses stall
 
 nlohmann::json options_json(const TilingOptions& o) {
   return {{"leaf_size_m", o.leaf_size_m},
           {"top_level", o.top_level},
           {"inner_triangles", o.inner_triangles},
+          {"inner_error_per_side", o.inner_error_per_side},
           {"leaf_max_atlas_side_px", o.leaf.max_atlas_side_px},
           {"leaf_gutter_px", o.leaf.gutter_px},
           {"leaf_jpeg_quality", o.leaf.jpeg_quality},
@@ -549,7 +551,9 @@ Result<TileRecord> TileHierarchy::make_inner(const TileKey& key, const std::vect
   std::vector<const Mesh*> inputs;
   for (const auto& m : children) inputs.push_back(&m);
   if (inputs.empty()) return make_error(ErrorCode::kEmpty, "no child");
-  auto inner = tiles::build_inner(inputs, child_error, options_.inner_triangles, false, options_.inner);
+  const double cell_side_m = options_.leaf_size_m * std::ldexp(1.0, key.level);
+  const SimplifyTarget target{options_.inner_triangles, options_.inner_error_per_side * cell_side_m};
+  auto inner = tiles::build_inner(inputs, child_error, target, options_.inner);
   if (!inner && inner.error().code == ErrorCode::kEmpty) return inner.error();
   if (!inner) return make_error(inner.error().code, "tile " + key.name() + ": " + inner.error().message);
   r.key = key;

@@ -506,15 +506,17 @@ Mesh vertex_coloured(const Welded& w, const std::vector<std::uint32_t>& simplifi
 // vertex clustering instead (meshopt_simplifySloppy), which reaches it.
 constexpr double kStalledRatio = 1.5;
 
-// The first `triangles` welded triangles clustered down to about `target` triangles (their indices), and in
-// *error_m the farthest welded vertex of theirs from the clustered surface, metres: the clustering's error, measured
-// rather than taken from meshoptimizer, whose estimate for the sloppy simplifier is not a distance bound.
-std::vector<std::uint32_t> cluster(const Welded& w, size_t triangles, size_t target, double* error_m) {
+// The first `triangles` welded triangles clustered down to about `target` triangles (their indices; more clusters
+// where meshoptimizer's estimate of the error would pass relative_limit), and in *error_m the farthest welded vertex
+// of theirs from the clustered surface, metres: the clustering's error, measured rather than taken from
+// meshoptimizer, whose estimate for the sloppy simplifier is not a distance bound.
+std::vector<std::uint32_t> cluster(const Welded& w, size_t triangles, size_t target, float relative_limit,
+                                   double* error_m) {
   Welded clustered;
   clustered.indices.resize(3 * triangles);
   const size_t n =
       meshopt_simplifySloppy(clustered.indices.data(), w.indices.data(), 3 * triangles, &w.positions[0].x(),
-                             w.positions.size(), sizeof(Eigen::Vector3f), 3 * target, 1.0f, nullptr);
+                             w.positions.size(), sizeof(Eigen::Vector3f), 3 * target, relative_limit, nullptr);
   clustered.indices.resize(n);
   if (n == 0) return {};
   clustered.positions = w.positions;
@@ -546,7 +548,7 @@ BakeTriangle bake_triangle(const std::array<Eigen::Vector3d, 3>& v, double texel
 }  // namespace
 
 Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double children_error_m,
-                              size_t target_triangles, bool lock_border, const InnerBakeOptions& options) {
+                              const SimplifyTarget& goal, const InnerBakeOptions& options) {
   Welded w;
   for (size_t c = 0; c < children.size(); ++c)
     if (auto st = gather(*children[c], static_cast<std::uint32_t>(c), &w); !st) return st.error();
@@ -561,18 +563,28 @@ Result<InnerTile> build_inner(const std::vector<const Mesh*>& children, double c
   // Where layers were dropped, the colours are their mean along each texel's line (colour_along).
   const double layer_m = dropped.empty() ? 0.0 : layer_voxel_m;
   // A level up halves the detail along each floor axis: a quarter of the triangles, at most target_triangles.
-  const size_t target = std::max<size_t>(1, std::min(target_triangles, (out.kept_triangles + 3) / 4));
+  const size_t target = std::max<size_t>(1, std::min(goal.triangles, (out.kept_triangles + 3) / 4));
   std::vector<std::uint32_t> simplified(3 * out.kept_triangles);
   float relative_error = 0.0f;
-  const size_t kept = meshopt_simplify(simplified.data(), w.indices.data(), 3 * out.kept_triangles, &w.positions[0].x(),
-                                       w.positions.size(), sizeof(Eigen::Vector3f), 3 * target, 1.0f,
-                                       lock_border ? unsigned(meshopt_SimplifyLockBorder) : 0u, &relative_error);
-  simplified.resize(kept);
   const float scale = meshopt_simplifyScale(&w.positions[0].x(), w.positions.size(), sizeof(Eigen::Vector3f));
+  // meshoptimizer's limit is relative to the extent; above 1 it never binds.
+  const float limit = scale > 0.0f ? static_cast<float>(std::min(1.0, goal.max_error_m / scale)) : 1.0f;
+  const size_t kept = meshopt_simplify(simplified.data(), w.indices.data(), 3 * out.kept_triangles, &w.positions[0].x(),
+                                       w.positions.size(), sizeof(Eigen::Vector3f), 3 * target, limit,
+                                       goal.lock_border ? unsigned(meshopt_SimplifyLockBorder) : 0u, &relative_error);
+  simplified.resize(kept);
   out.simplify_error_m = static_cast<double>(relative_error) * scale;
-  if (!lock_border && kept > kStalledRatio * 3 * target) {
-    out.clustered = true;
-    simplified = cluster(w, out.kept_triangles, target, &out.simplify_error_m);
+  // Stalled, or stopped by the limit, far from the target: clustering is kept when it leaves fewer triangles within
+  // the limit (or within the collapses' own error, when that is above it).
+  if (!goal.lock_border && kept > kStalledRatio * 3 * target) {
+    double clustered_error_m = 0.0;
+    auto clustered = cluster(w, out.kept_triangles, target, limit, &clustered_error_m);
+    if (!clustered.empty() && clustered.size() < simplified.size() &&
+        clustered_error_m <= std::max(goal.max_error_m, out.simplify_error_m)) {
+      out.clustered = true;
+      out.simplify_error_m = clustered_error_m;
+      simplified = std::move(clustered);
+    }
   }
   if (simplified.empty()) return make_error(ErrorCode::kEmpty, "inner tile: nothing left after simplification");
 

@@ -671,7 +671,7 @@ TEST(TileInnerTest, WhereEdgeCollapsesStallTheTileIsClusteredToItsTargetAndItsEr
   // Triangles that meet only at corners leave edge collapses nothing to collapse: meshopt_simplify kept 9,999 of
   // such 10,000 triangles against a target of 2,500.
   const Mesh pieces = wavy_grid(60, false);
-  auto inner = build_inner({&pieces}, 0.0, 20000, false, InnerBakeOptions{});
+  auto inner = build_inner({&pieces}, 0.0, SimplifyTarget{}, InnerBakeOptions{});
   ASSERT_TRUE(inner) << inner.error().message;
   const size_t target = (pieces.triangle_count() + 3) / 4;
   EXPECT_TRUE(inner->clustered);
@@ -693,10 +693,25 @@ TEST(TileInnerTest, WhereEdgeCollapsesStallTheTileIsClusteredToItsTargetAndItsEr
   EXPECT_LT(inner->simplify_error_m, 0.5);  // the grid is 3 m across: the clustered tile still follows it
   // A manifold surface of the same shape is simplified by edge collapses, as before.
   const Mesh surface = wavy_grid(60, true);
-  auto collapsed = build_inner({&surface}, 0.0, 20000, false, InnerBakeOptions{});
+  auto collapsed = build_inner({&surface}, 0.0, SimplifyTarget{}, InnerBakeOptions{});
   ASSERT_TRUE(collapsed) << collapsed.error().message;
   EXPECT_FALSE(collapsed->clustered);
   EXPECT_LE(collapsed->mesh.triangle_count(), (surface.triangle_count() + 3) / 4);
+}
+
+TEST(TileInnerTest, EdgeCollapsesStopAtTheErrorLimit) {
+  REQUIRE_KEYFRAMES();
+  const Mesh surface = world_mesh(0, Eigen::Vector3f::Zero(), false);
+  auto free = build_inner({&surface}, 0.0, SimplifyTarget{}, InnerBakeOptions{});
+  ASSERT_TRUE(free) << free.error().message;
+  const double limit_m = free->simplify_error_m / 4;
+  auto bounded = build_inner({&surface}, 0.0, SimplifyTarget{20000, limit_m}, InnerBakeOptions{});
+  ASSERT_TRUE(bounded) << bounded.error().message;
+  std::printf("%zu triangles: a quarter, %zu, at %.4f m; limited to %.4f m, %zu at %.4f m\n", surface.triangle_count(),
+              free->mesh.triangle_count(), free->simplify_error_m, limit_m, bounded->mesh.triangle_count(),
+              bounded->simplify_error_m);
+  EXPECT_LE(bounded->simplify_error_m, limit_m);
+  EXPECT_GT(bounded->mesh.triangle_count(), free->mesh.triangle_count());
 }
 
 TEST(TileHierarchyTest, WhereKeyframesOverlapAnInnerTileKeepsOneLayer) {
@@ -709,7 +724,7 @@ TEST(TileHierarchyTest, WhereKeyframesOverlapAnInnerTileKeepsOneLayer) {
   size_t one = 0;
   double error_m = 0.0;
   const auto kept = [&](const Mesh& other) {
-    auto inner = build_inner({&surface, &other}, 0.0, 100000, false, options);
+    auto inner = build_inner({&surface, &other}, 0.0, SimplifyTarget{100000}, options);
     EXPECT_TRUE(inner) << (inner ? "" : inner.error().message);
     if (!inner) return size_t{0};
     one = inner->merged_triangles / 2;
