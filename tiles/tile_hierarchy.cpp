@@ -18,7 +18,7 @@ namespace {
 constexpr int kFormat = 8;  // 2: inner tiles are textured; 3: their texels at least twice their children's;
                             // 4: records carry render bytes; 5: keyframes are the leaves, inner tiles can be stale;
                             // 6: inner tiles keep one layer where children overlap; 7: newer keyframes supersede;
-                            // 8: inner tiles' error bounded by their cell, clustered where edge collapses stall
+                            // 8: inner tiles clustered where edge collapses stall (and an error limit)
 
 nlohmann::json options_json(const TilingOptions& o) {
   return {{"leaf_size_m", o.leaf_size_m},
@@ -552,7 +552,9 @@ Result<TileRecord> TileHierarchy::make_inner(const TileKey& key, const std::vect
   for (const auto& m : children) inputs.push_back(&m);
   if (inputs.empty()) return make_error(ErrorCode::kEmpty, "no child");
   const double cell_side_m = options_.leaf_size_m * std::ldexp(1.0, key.level);
-  const SimplifyTarget target{options_.inner_triangles, options_.inner_error_per_side * cell_side_m};
+  const SimplifyTarget target{options_.inner_triangles, options_.inner_error_per_side > 0.0
+                                                            ? options_.inner_error_per_side * cell_side_m
+                                                            : INFINITY};
   auto inner = tiles::build_inner(inputs, child_error, target, options_.inner);
   if (!inner && inner.error().code == ErrorCode::kEmpty) return inner.error();
   if (!inner) return make_error(inner.error().code, "tile " + key.name() + ": " + inner.error().message);

@@ -55,10 +55,13 @@ struct TilingOptions {
   double leaf_size_m = 2.0;        // side of a leaf's floor cell
   int top_level = 6;               // the tree's top tiles: cells of leaf_size_m * 2^top_level (128 m by default)
   size_t inner_triangles = 20000;  // an inner tile keeps at most this many (and a quarter of its children's)
-  // An inner tile's simplifier stops where its error would pass this fraction of the tile's cell side, so that errors
-  // grow with the cells, level by level. On the children of four level-3 tiles of a 5,000-keyframe exploration, a
-  // quarter of their triangles took 0.89-0.91 m of error; stopping at 0.16 m (1 % of 16 m) kept 8-10 % more.
-  double inner_error_per_side = 0.01;
+  // When > 0, an inner tile's edge collapses stop where their error would pass this fraction of the tile's cell side,
+  // so that errors grow with the cells level by level. Off by default: on the children of level-3 tiles of a
+  // 5,000-keyframe exploration a quarter of the triangles cost 0.89-0.91 m of error, and 0.01 (0.16 m there) keeps
+  // 8-10 % more; a default overview (1 px) then draws the vertex-coloured level-3 and 4 tiles instead of the textured
+  // level-2 ones, in 67.5 ms instead of 162.5 at 5,000 keyframes, but scores 20.7 dB against full detail instead of
+  // 24.8 (26.7 against 28.3 at 1,000), and the late join grows from 2.05 to 2.84 MB (two runs; BENCHMARKS.md).
+  double inner_error_per_side = 0.0;
   LeafBakeOptions leaf;
   InnerBakeOptions inner;
   // Draco, the keyframes' own codec: a leaf's geometry then takes what its keyframe GLB took (meshopt: 2.4x more on
