@@ -58,7 +58,7 @@ struct TilingOptions {
   // When > 0, an inner tile's edge collapses stop where their error would pass this fraction of the tile's cell side,
   // so that errors grow with the cells level by level. Off by default: on the children of level-3 tiles of a
   // 5,000-keyframe exploration a quarter of the triangles cost 0.89-0.91 m of error, and 0.01 (0.16 m there) keeps
-  // 8-10 % more; a default overview (1 px) then draws the vertex-coloured level-3 and 4 tiles instead of the textured
+  // 8-9 % more; a default overview (1 px) then draws the vertex-coloured level-3 and 4 tiles instead of the textured
   // level-2 ones, in 67.5 ms instead of 162.5 at 5,000 keyframes, but scores 20.7 dB against full detail instead of
   // 24.8 (26.7 against 28.3 at 1,000), and the late join grows from 2.05 to 2.84 MB (two runs; BENCHMARKS.md).
   double inner_error_per_side = 0.0;
