@@ -699,6 +699,33 @@ TEST(TileInnerTest, WhereEdgeCollapsesStallTheTileIsClusteredToItsTargetAndItsEr
   EXPECT_LE(collapsed->mesh.triangle_count(), (surface.triangle_count() + 3) / 4);
 }
 
+TEST(TileInnerTest, AFewTrianglesAreKeptRatherThanSimplifiedAwayOrClusteredToAFew) {
+  // What a level-4 tile of three TUM keyframes was clustered to: one triangle, twice, facing both ways. Simplified
+  // toward one triangle, it collapsed to nothing, and the empty tile took its branch of the tileset (and the two
+  // keyframes under it) away.
+  Mesh two;
+  two.positions = {{-2.0963f, 0.0428f, 2.1115f}, {-1.6352f, 1.0086f, 1.0827f},  {-2.8458f, -0.5731f, 2.7594f},
+                   {-2.0963f, 0.0428f, 2.1115f}, {-2.8458f, -0.5731f, 2.7594f}, {-1.6352f, 1.0086f, 1.0827f}};
+  two.indices = {0, 1, 2, 3, 4, 5};
+  auto inner = build_inner({&two}, 0.0, SimplifyTarget{}, InnerBakeOptions{});
+  ASSERT_TRUE(inner) << inner.error().message;
+  EXPECT_GE(inner->mesh.triangle_count(), 1u);
+  // Forty scattered triangles are not clustered to a few: the clustering is kept only near its target.
+  Mesh forty;
+  for (int i = 0; i < 40; ++i) {
+    const float x = 0.37f * static_cast<float>(i % 8), z = 0.53f * static_cast<float>(i / 8);
+    const auto v = static_cast<std::uint32_t>(forty.positions.size());
+    forty.positions.insert(forty.positions.end(), {{x, 0, z}, {x + 0.1f, 0.02f, z}, {x, 0.01f, z + 0.1f}});
+    forty.indices.insert(forty.indices.end(), {v, v + 2, v + 1});
+  }
+  auto scattered = build_inner({&forty}, 0.0, SimplifyTarget{}, InnerBakeOptions{});
+  ASSERT_TRUE(scattered) << scattered.error().message;
+  std::printf("one triangle both ways -> %zu triangles; 40 -> %zu (clustered %d), error %.3f m\n",
+              inner->mesh.triangle_count(), scattered->mesh.triangle_count(), scattered->clustered,
+              scattered->simplify_error_m);
+  EXPECT_GE(scattered->mesh.triangle_count(), 5u);
+}
+
 TEST(TileInnerTest, EdgeCollapsesStopAtTheErrorLimit) {
   REQUIRE_KEYFRAMES();
   const Mesh surface = world_mesh(0, Eigen::Vector3f::Zero(), false);
