@@ -60,7 +60,7 @@ struct TilingOptions {
   // 5,000-keyframe exploration a quarter of the triangles cost 0.89-0.91 m of error, and 0.01 (0.16 m there) keeps
   // 8-9 % more; a default overview (1 px) then draws the vertex-coloured level-3 and 4 tiles instead of the textured
   // level-2 ones, in 67.5 ms instead of 162.5 at 5,000 keyframes, but scores 20.7 dB against full detail instead of
-  // 24.8 (26.7 against 28.3 at 1,000), and the late join grows from 2.05 to 2.84 MB (two runs; BENCHMARKS.md).
+  // 24.8 (26.7 against 28.3 at 1,000), on code that could still drop a branch of small tiles (BENCHMARKS.md).
   double inner_error_per_side = 0.0;
   LeafBakeOptions leaf;
   InnerBakeOptions inner;
